@@ -1,0 +1,313 @@
+"""Frozen, validated description of a creature: the contract between files and the simulator.
+
+Everything here is in SI units (metres, kilograms, seconds, radians, newtons). Degrees and the
+paper's N·m/deg exist only in the TOML files (see ``sanlab/creature/FORMAT.md``); the loader
+converts them. Instances are immutable and hashable, so a spec can key a compilation cache.
+
+Coordinates: every link has its own frame. For a jointed link the frame's origin is the joint,
+and its x axis is the link's "axis" (the zero of angle sensors, eyes and anisotropic friction).
+A point on a link is written in that link's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+Vec2 = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Outline of a link in its own frame, used for drawing and water drag.
+
+    kind: "segment" (2 points), "polygon" (>= 3 points, closed), or "point" (a point mass; no
+    points, the link frame's origin is the mass).
+    """
+
+    kind: Literal["segment", "polygon", "point"]
+    points: tuple[Vec2, ...] = ()
+
+
+@dataclass(frozen=True)
+class JointSpring:
+    """Passive torsional spring + damper in a joint: T = -k (phi - rest) - c phi_dot."""
+
+    stiffness: float  # N m / rad
+    damping: float  # N m s / rad
+    rest: float = 0.0  # rad
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Per-link friction override, possibly anisotropic.
+
+    Sliding along +axis ("forward") uses ``forward``, along -axis ``backward``; any sliding
+    across the axis uses ``lateral``. The axis is the link's x axis, or, if ``axis`` is given,
+    the direction from the origin of link ``axis[0]`` to the origin of link ``axis[1]`` (this is
+    how point masses, which have no orientation, get a forward direction).
+    """
+
+    forward: float
+    backward: float
+    lateral: float
+    axis: tuple[str, str] | None = None
+
+
+@dataclass(frozen=True)
+class Link:
+    """One rigid link (or point mass).
+
+    A link with ``parent is None`` is a root: a free body with dofs (x, y, angle), or (x, y) for a
+    point mass. Otherwise it hangs from ``parent`` by a revolute joint whose dof is the angle of
+    this link's frame relative to the parent's frame; the joint sits at ``anchor`` (parent frame)
+    and is this link's origin.
+    """
+
+    name: str
+    mass: float  # kg
+    inertia: float  # kg m^2 about the centre of mass (0 for a point mass)
+    com: Vec2  # centre of mass, link frame (m)
+    shape: Shape
+    contacts: tuple[Vec2, ...] = ()  # points that can touch the ground, link frame (m)
+    parent: str | None = None
+    anchor: Vec2 = (0.0, 0.0)  # joint position in the parent's frame (m); unused for roots
+    position: Vec2 = (0.0, 0.0)  # initial origin, world (m); roots only
+    angle: float = 0.0  # initial angle (rad): absolute for roots, relative to parent for joints
+    spring: JointSpring | None = None  # passive joint spring; joints only
+    friction: Friction | None = None  # overrides the world's isotropic friction
+    drag: bool = True  # feels water drag (only if the world has water)
+    fixed: bool = False  # roots only: welded to the world at position/angle (no dofs); for rigs and tests
+
+    @property
+    def is_point(self) -> bool:
+        return self.shape.kind == "point"
+
+
+@dataclass(frozen=True)
+class PointRef:
+    """A point fixed on a link: ``at`` in the link's frame (m)."""
+
+    link: str
+    at: Vec2 = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class TouchSensor:
+    """On (1) while contact point ``contact`` of ``link`` touches the ground."""
+
+    name: str
+    link: str
+    contact: int
+    kind: Literal["touch"] = "touch"
+
+
+@dataclass(frozen=True)
+class AngleSensor:
+    """On while an angle lies in [min, max] (rad, wrapped to [-pi, pi)).
+
+    For a jointed link the angle is its joint angle (relative to its parent); for a root link it
+    is the link's absolute angle.
+    """
+
+    name: str
+    link: str
+    min: float
+    max: float
+    kind: Literal["angle"] = "angle"
+
+
+@dataclass(frozen=True)
+class EyeSensor:
+    """On while the follow point lies in the cone [min, max] (rad, wrapped to [-pi, pi)).
+
+    The direction to the follow point is taken from ``at`` and measured relative to the link's
+    x axis, or, if ``axis`` is given, to the direction from link ``axis[0]``'s origin to link
+    ``axis[1]``'s origin.
+    """
+
+    name: str
+    at: PointRef
+    min: float
+    max: float
+    axis: tuple[str, str] | None = None
+    kind: Literal["eye"] = "eye"
+
+
+@dataclass(frozen=True)
+class LengthSensor:
+    """On while the distance between two points lies in [min, max] (m)."""
+
+    name: str
+    a: PointRef
+    b: PointRef
+    min: float
+    max: float
+    kind: Literal["length"] = "length"
+
+
+Sensor = TouchSensor | AngleSensor | EyeSensor | LengthSensor
+
+
+@dataclass(frozen=True)
+class AngularActuator:
+    """PD servo in the joint of ``joint`` (a link name): T = ks (theta_d - theta) - kd theta_dot.
+
+    The controller's output u in [0, 1] maps to theta_d = min + u (max - min).
+    """
+
+    name: str
+    joint: str
+    min: float  # rad
+    max: float  # rad
+    ks: float  # N m / rad
+    kd: float  # N m s / rad
+    kind: Literal["angular"] = "angular"
+
+
+@dataclass(frozen=True)
+class LinearActuator:
+    """PD servo between two points: F = ks (L_d - L) - kd L_dot, pushing the points apart when > 0."""
+
+    name: str
+    a: PointRef
+    b: PointRef
+    min: float  # m
+    max: float  # m
+    ks: float  # N / m
+    kd: float  # N s / m
+    kind: Literal["linear"] = "linear"
+
+
+Actuator = AngularActuator | LinearActuator
+
+
+@dataclass(frozen=True)
+class LinearSpring:
+    """Passive spring + damper between two points: F = k (rest - L) - c L_dot."""
+
+    name: str
+    a: PointRef
+    b: PointRef
+    stiffness: float  # N / m
+    damping: float  # N s / m
+    rest: float  # m
+
+
+@dataclass(frozen=True)
+class Ground:
+    """Penalty ground: per contact point N = max(0, k d - c v_n) for penetration d > 0.
+
+    Friction is Coulomb with coefficient ``friction``, regularised to viscous below
+    ``slip_speed`` (m/s) so that it is continuous and can be integrated implicitly.
+    """
+
+    stiffness: float = 5.0e3  # N / m
+    damping: float = 50.0  # N s / m
+    friction: float = 0.6
+    slip_speed: float = 0.01  # m/s
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """Ground height y = h(x) (vertical plane only).
+
+    flat: h = 0. slope: h = tan(angle) x. hill: h = height * (1 + cos(pi (x - center) / half
+    width)) / 2 inside |x - center| < half width (a smooth bump). rough: a sum of sinusoids whose
+    phases and amplitudes come from ``seed``, with RMS height ``height`` and shortest wavelength
+    ``wavelength``.
+    """
+
+    kind: Literal["flat", "slope", "hill", "rough"] = "flat"
+    angle: float = 0.0  # rad, slope
+    height: float = 0.0  # m, hill peak / rough RMS
+    width: float = 1.0  # m, hill full width
+    center: float = 1.0  # m, hill centre
+    wavelength: float = 0.5  # m, rough
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Follow:
+    """A follow point moving at ``speed`` (m/s) along a Catmull-Rom spline through ``points``."""
+
+    points: tuple[Vec2, ...]
+    speed: float
+    loop: bool = False
+
+
+@dataclass(frozen=True)
+class World:
+    """Where the creature lives.
+
+    plane "vertical": gravity pulls along -y and the ground is the terrain. plane "horizontal":
+    seen from above, no gravity in the plane; every contact point always rests on the floor and
+    carries an equal share of its link's weight (m g / contacts) as normal load for friction.
+    water_drag k (N s / m^2): each link with ``drag`` feels F = -k ∫ (v·N) N ds along each edge of
+    its outline (paper §3.4; normal component only).
+    """
+
+    plane: Literal["vertical", "horizontal"] = "vertical"
+    gravity: float = 9.81  # m/s^2
+    ground: Ground = field(default_factory=Ground)
+    terrain: Terrain = field(default_factory=Terrain)
+    water_drag: float = 0.0
+    follow: Follow | None = None
+
+
+@dataclass(frozen=True)
+class SanConfig:
+    """Defaults for this creature's sensor-actuator networks (paper §4)."""
+
+    hidden: int | None = None  # None: as many hidden nodes as sensors
+    delay_on: float = 0.1  # s, T_on = 1 / k1
+    delay_off: float = 0.1  # s, T_off = -1 / k2
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """How this creature's gaits are scored (paper §5.1).
+
+    metric: "distance" | "distance_upright" | "hopping" | "pursuit". ``fell_link`` names the link
+    whose angle decides falling: the creature fell when that link's absolute angle leaves
+    [-fell_angle, fell_angle]. ``hop_k`` is the k of the hopping metric.
+    """
+
+    metric: str = "distance"
+    seconds: float = 6.0
+    fell_link: str | None = None
+    fell_angle: float = 1.5707963267948966
+    hop_k: float = 1.0
+
+
+@dataclass(frozen=True)
+class Creature:
+    name: str
+    links: tuple[Link, ...]
+    sensors: tuple[Sensor, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+    springs: tuple[LinearSpring, ...] = ()
+    world: World = field(default_factory=World)
+    san: SanConfig = field(default_factory=SanConfig)
+    evaluation: Evaluation = field(default_factory=Evaluation)
+    dt: float = 1.0e-3  # s
+    description: str = ""
+
+    def link(self, name: str) -> Link:
+        for link in self.links:
+            if link.name == name:
+                return link
+        raise KeyError(name)
+
+    @property
+    def dofs(self) -> int:
+        """Number of generalised coordinates."""
+        n = 0
+        for link in self.links:
+            if link.fixed:
+                continue
+            if link.parent is not None:
+                n += 1
+            else:
+                n += 2 if link.is_point else 3
+        return n
