@@ -1,0 +1,30 @@
+"""The batched planar simulator: compile a creature, step it, roll controllers out.
+
+    model = compile_creature(spec)              # structure static, numbers as arrays
+    state = step(model, state, u)               # one creature, pure
+    result = rollout(model, controller, cparams, seconds=6.0)   # a batch, closed loop
+"""
+
+from sanlab import _jax
+
+_jax.configure()
+
+from sanlab.sim.dynamics import State, advance, follow_point, initial_state, prepare, sense, step  # noqa: E402
+from sanlab.sim.model import Model, Params, Structure, compile_creature  # noqa: E402
+from sanlab.sim.rollout import (  # noqa: E402
+    ConstantController,
+    Frames,
+    ReflexController,
+    Result,
+    SineController,
+    batch_quantum,
+    devices,
+    rollout,
+)
+
+__all__ = [
+    "State", "advance", "follow_point", "initial_state", "prepare", "sense", "step",
+    "Model", "Params", "Structure", "compile_creature",
+    "ConstantController", "Frames", "ReflexController", "Result", "SineController",
+    "batch_quantum", "devices", "rollout",
+]

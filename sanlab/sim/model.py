@@ -1,0 +1,408 @@
+"""Compile a creature spec into a model: static structure plus parameter arrays.
+
+This is the paper's "dynamics compiler" (§3.4). Everything that decides the *shape* of the
+computation (which link hangs from which, which dof moves which point, the kinds of sensors,
+actuators, terrain) goes into :class:`Structure`, a hashable value fixed at trace time, so that
+structural zeros never reach the compiled code. Every number (masses, lengths, gains, ranges,
+friction, terrain heights) goes into :class:`Params`, a pytree of arrays, so that tuning or
+batching over any of them never recompiles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+from sanlab.creature.spec import Creature
+
+ROUGH_TERMS = 8  # sinusoids in rough terrain
+FOLLOW_SAMPLES = 512  # arc-length table of the follow-point spline
+
+
+@dataclass(frozen=True)
+class LinkS:
+    """Static facts about link ``index``.
+
+    dof_x, dof_y: the root translation dofs of its tree (or its own, for a point mass).
+    dof_rot: this link's own rotational dof (root angle or joint angle), -1 for a point mass.
+    All three are -1 for a fixed root (welded to the world).
+    chain: link indices from its root down to itself.
+    """
+
+    index: int
+    parent: int
+    point: bool
+    dof_x: int
+    dof_y: int
+    dof_rot: int
+    chain: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Trace-time structure of a compiled creature (hashable)."""
+
+    name: str
+    ndof: int
+    links: tuple[LinkS, ...]
+    contacts: tuple[int, ...]  # owning link of each contact point
+    edges: tuple[int, ...]  # owning link of each water-drag edge
+    sensors: tuple[tuple[str, int, int], ...]  # (kind, link or -1, index into that kind's params)
+    actuators: tuple[tuple[str, int], ...]  # (kind, joint link index for angular / -1)
+    lin_act: tuple[tuple[int, int], ...]  # (link a, link b) of each linear actuator
+    springs: tuple[tuple[int, int], ...]  # (link a, link b) of each linear spring
+    joint_springs: tuple[int, ...]  # links whose joint has a passive spring
+    aniso: tuple[tuple[int, int, int], ...]  # per link: (has override, axis from, axis to) or (0,-1,-1)
+    eyes: tuple[tuple[int, int, int], ...]  # per eye: (link of eye point, axis from, axis to)
+    lengths: tuple[tuple[int, int], ...]  # per length sensor: (link a, link b)
+    plane: str
+    terrain: str
+    water: bool
+    follow: bool
+    follow_loop: bool
+    dt: float
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.sensors)
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.actuators)
+
+
+def _pytree(cls):
+    """Register a dataclass of arrays as a JAX pytree (all fields are children)."""
+    import jax
+
+    names = [f.name for f in fields(cls)]
+    jax.tree_util.register_pytree_node(
+        cls,
+        lambda p: ([getattr(p, n) for n in names], None),
+        lambda _, ch: cls(*ch),
+    )
+    return cls
+
+
+@dataclass(frozen=True)
+class Params:
+    """Every number of a creature, as arrays (SI). Shapes: L links, C contacts, E edges,
+    A actuators, S sensors, N linear springs, K rough terms, F follow samples."""
+
+    mass: Any  # [L] kg
+    inertia: Any  # [L] kg m^2 about the COM
+    com: Any  # [L, 2] m, link frame
+    anchor: Any  # [L, 2] m, parent frame (zeros for roots)
+    root_pose: Any  # [L, 3] x, y, angle of each root at rest (m, rad); fixed roots stay there
+    contact: Any  # [C, 2] m, link frame
+    contact_load: Any  # [C] N, normal load in the horizontal plane
+    edge: Any  # [E, 2, 2] m, link frame: start and end of each drag edge
+    gravity: Any  # [] m/s^2
+    ground_k: Any  # [] N/m
+    ground_c: Any  # [] N s/m
+    mu: Any  # [L, 3] forward, backward, lateral friction coefficient per link
+    slip: Any  # [] m/s
+    water_k: Any  # [] N s/m^2
+    jspring: Any  # [L, 3] stiffness N m/rad, damping N m s/rad, rest rad
+    act_min: Any  # [A] rad or m
+    act_max: Any  # [A]
+    act_ks: Any  # [A] N m/rad or N/m
+    act_kd: Any  # [A] N m s/rad or N s/m
+    act_pts: Any  # [A, 2, 2] linear actuators' attachment points (link frames); zeros if angular
+    spr_pts: Any  # [N, 2, 2]
+    spr: Any  # [N, 3] stiffness N/m, damping N s/m, rest m
+    sens_min: Any  # [S] rad or m (touch: unused)
+    sens_max: Any  # [S]
+    sens_pts: Any  # [S, 2, 2] eye point / length end points, link frames
+    terrain: Any  # [4] slope tan, hill height, hill half width, hill centre
+    rough: Any  # [K, 3] amplitude m, wavenumber rad/m, phase rad
+    follow: Any  # [F, 2] m, points equally spaced in arc length
+    follow_ds: Any  # [] m, arc length between samples
+    follow_speed: Any  # [] m/s
+    q0: Any  # [D] initial generalised coordinates
+    dt: Any  # [] s
+
+
+_PYTREE_DONE = False
+
+
+def _register() -> None:
+    global _PYTREE_DONE
+    if not _PYTREE_DONE:
+        _pytree(Params)
+        _pytree_model()
+        _PYTREE_DONE = True
+
+
+@dataclass(frozen=True)
+class Model:
+    """A compiled creature: ``structure`` is static, ``params`` are arrays (one creature, or
+    with a leading batch axis on any leaf when tuning)."""
+
+    structure: Structure
+    params: Params
+    spec: Creature
+    dtype: Any
+
+    def with_params(self, **changes) -> "Model":
+        return replace(self, params=replace(self.params, **changes))
+
+
+def _pytree_model() -> None:
+    import jax
+
+    jax.tree_util.register_pytree_node(
+        Model,
+        lambda m: ([m.params], (m.structure, m.spec, m.dtype)),
+        lambda aux, ch: Model(aux[0], ch[0], aux[1], aux[2]),
+    )
+
+
+def _catmull_rom(points: np.ndarray, loop: bool, per_seg: int = 64) -> np.ndarray:
+    pts = np.asarray(points, float)
+    if loop:
+        ext = np.vstack([pts[-1:], pts, pts[:2]])
+    else:
+        ext = np.vstack([2 * pts[:1] - pts[1:2], pts, 2 * pts[-1:] - pts[-2:-1]])
+    out = []
+    for i in range(1, len(ext) - 2):
+        p0, p1, p2, p3 = ext[i - 1], ext[i], ext[i + 1], ext[i + 2]
+        t = np.linspace(0, 1, per_seg, endpoint=False)[:, None]
+        out.append(
+            0.5
+            * (
+                2 * p1
+                + (-p0 + p2) * t
+                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t**2
+                + (-p0 + 3 * p1 - 3 * p2 + p3) * t**3
+            )
+        )
+    out.append(ext[-2 if not loop else 1][None])
+    return np.vstack(out)
+
+
+def follow_table(points, loop: bool, n: int = FOLLOW_SAMPLES) -> tuple[np.ndarray, float]:
+    """Resample a Catmull-Rom spline through ``points`` at ``n`` points equally spaced in arc
+    length. Returns (table [n, 2], spacing in m)."""
+    dense = _catmull_rom(np.asarray(points, float), loop)
+    seg = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    total = max(s[-1], 1e-9)
+    target = np.linspace(0.0, total, n)
+    table = np.stack([np.interp(target, s, dense[:, 0]), np.interp(target, s, dense[:, 1])], 1)
+    return table, total / (n - 1)
+
+
+def rough_terms(height: float, wavelength: float, seed: int) -> np.ndarray:
+    """Amplitudes, wavenumbers and phases of rough terrain with RMS ``height``."""
+    rng = np.random.default_rng(seed)
+    lam = wavelength * 2.0 ** np.linspace(3.0, 0.0, ROUGH_TERMS)  # 8x down to the shortest
+    k = 2 * np.pi / lam
+    amp = lam * rng.uniform(0.5, 1.0, ROUGH_TERMS)  # longer waves are taller
+    amp = amp * (height / math.sqrt(0.5 * float(np.sum(amp**2))))
+    phase = rng.uniform(0, 2 * np.pi, ROUGH_TERMS)
+    return np.stack([amp, k, phase], 1)
+
+
+def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
+    """Build the static structure and parameter arrays of ``spec``.
+
+    dtype: "float32" (default) or "float64".
+    """
+    from sanlab import _jax
+
+    _jax.configure()
+    _register()
+    import jax.numpy as jnp
+
+    dt_np = np.dtype(dtype)
+    names = {l.name: i for i, l in enumerate(spec.links)}
+    links: list[LinkS] = []
+    ndof = 0
+    q0: list[float] = []
+    for i, l in enumerate(spec.links):
+        if l.parent is None and l.fixed:
+            links.append(LinkS(i, -1, False, -1, -1, -1, (i,)))
+        elif l.parent is None:
+            dx, dy = ndof, ndof + 1
+            q0 += [l.position[0], l.position[1]]
+            ndof += 2
+            rot = -1
+            if not l.is_point:
+                rot = ndof
+                q0.append(l.angle)
+                ndof += 1
+            links.append(LinkS(i, -1, l.is_point, dx, dy, rot, (i,)))
+        else:
+            p = links[names[l.parent]]
+            links.append(LinkS(i, p.index, False, p.dof_x, p.dof_y, ndof, p.chain + (i,)))
+            q0.append(l.angle)
+            ndof += 1
+
+    contacts, contact_pts, contact_load = [], [], []
+    for i, l in enumerate(spec.links):
+        for c in l.contacts:
+            contacts.append(i)
+            contact_pts.append(c)
+            contact_load.append(l.mass * spec.world.gravity / max(1, len(l.contacts)))
+    edges, edge_pts = [], []
+    if spec.world.water_drag > 0:
+        for i, l in enumerate(spec.links):
+            if not l.drag or l.shape.kind == "point":
+                continue
+            pts = list(l.shape.points)
+            pairs = [(pts[0], pts[1])] if l.shape.kind == "segment" else list(zip(pts, pts[1:] + pts[:1]))
+            for a, b in pairs:
+                edges.append(i)
+                edge_pts.append((a, b))
+
+    g = spec.world.ground
+    mu, aniso = [], []
+    for l in spec.links:
+        if l.friction is None:
+            mu.append((g.friction, g.friction, g.friction))
+            aniso.append((0, -1, -1))
+        else:
+            f = l.friction
+            mu.append((f.forward, f.backward, f.lateral))
+            ax = (names[f.axis[0]], names[f.axis[1]]) if f.axis else (-1, -1)
+            aniso.append((1, *ax))
+    jspring = []
+    jsl = []
+    for i, l in enumerate(spec.links):
+        if l.spring is not None:
+            jsl.append(i)
+            jspring.append((l.spring.stiffness, l.spring.damping, l.spring.rest))
+        else:
+            jspring.append((0.0, 0.0, 0.0))
+
+    acts, lin_act, amin, amax, aks, akd, apts = [], [], [], [], [], [], []
+    for a in spec.actuators:
+        amin.append(a.min)
+        amax.append(a.max)
+        aks.append(a.ks)
+        akd.append(a.kd)
+        if a.kind == "angular":
+            acts.append(("angular", names[a.joint]))
+            apts.append(((0.0, 0.0), (0.0, 0.0)))
+        else:
+            acts.append(("linear", len(lin_act)))
+            lin_act.append((names[a.a.link], names[a.b.link]))
+            apts.append((a.a.at, a.b.at))
+
+    springs, spts, spr = [], [], []
+    for s in spec.springs:
+        springs.append((names[s.a.link], names[s.b.link]))
+        spts.append((s.a.at, s.b.at))
+        spr.append((s.stiffness, s.damping, s.rest))
+
+    sensors, smin, smax, spoints, eyes, lengths = [], [], [], [], [], []
+    contact_index = {}
+    k = 0
+    for i, l in enumerate(spec.links):
+        for j in range(len(l.contacts)):
+            contact_index[(i, j)] = k
+            k += 1
+    for s in spec.sensors:
+        if s.kind == "touch":
+            sensors.append(("touch", names[s.link], contact_index[(names[s.link], s.contact)]))
+            smin.append(0.0)
+            smax.append(0.0)
+            spoints.append(((0.0, 0.0), (0.0, 0.0)))
+        elif s.kind == "angle":
+            sensors.append(("angle", names[s.link], -1))
+            smin.append(s.min)
+            smax.append(s.max)
+            spoints.append(((0.0, 0.0), (0.0, 0.0)))
+        elif s.kind == "eye":
+            ax = (names[s.axis[0]], names[s.axis[1]]) if s.axis else (-1, -1)
+            sensors.append(("eye", names[s.at.link], len(eyes)))
+            eyes.append((names[s.at.link], *ax))
+            smin.append(s.min)
+            smax.append(s.max)
+            spoints.append((s.at.at, (0.0, 0.0)))
+        else:
+            sensors.append(("length", -1, len(lengths)))
+            lengths.append((names[s.a.link], names[s.b.link]))
+            smin.append(s.min)
+            smax.append(s.max)
+            spoints.append((s.a.at, s.b.at))
+
+    w = spec.world
+    t = w.terrain
+    follow = np.zeros((2, 2))
+    follow_ds, follow_loop = 1.0, False
+    if w.follow is not None:
+        follow, follow_ds = follow_table(w.follow.points, w.follow.loop)
+        follow_loop = w.follow.loop
+    structure = Structure(
+        name=spec.name,
+        ndof=ndof,
+        links=tuple(links),
+        contacts=tuple(contacts),
+        edges=tuple(edges),
+        sensors=tuple(sensors),
+        actuators=tuple(acts),
+        lin_act=tuple(lin_act),
+        springs=tuple(springs),
+        joint_springs=tuple(jsl),
+        aniso=tuple(aniso),
+        eyes=tuple(eyes),
+        lengths=tuple(lengths),
+        plane=w.plane,
+        terrain=t.kind if w.plane == "vertical" else "flat",
+        water=bool(edges),
+        follow=w.follow is not None,
+        follow_loop=follow_loop,
+        dt=spec.dt,
+    )
+
+    def arr(x, shape=None):
+        a = np.asarray(x, dtype=dt_np)
+        if shape is not None:
+            a = a.reshape(shape)
+        return jnp.asarray(a)
+
+    L, C, E, A, S, N = len(links), len(contacts), len(edges), len(acts), len(sensors), len(springs)
+    params = Params(
+        mass=arr([l.mass for l in spec.links]),
+        inertia=arr([l.inertia for l in spec.links]),
+        com=arr([l.com for l in spec.links], (L, 2)),
+        anchor=arr([l.anchor if l.parent else (0.0, 0.0) for l in spec.links], (L, 2)),
+        root_pose=arr([(*l.position, l.angle) if l.parent is None else (0.0, 0.0, 0.0) for l in spec.links], (L, 3)),
+        contact=arr(contact_pts, (C, 2)),
+        contact_load=arr(contact_load, (C,)),
+        edge=arr(edge_pts, (E, 2, 2)),
+        gravity=arr(w.gravity),
+        ground_k=arr(g.stiffness),
+        ground_c=arr(g.damping),
+        mu=arr(mu, (L, 3)),
+        slip=arr(g.slip_speed),
+        water_k=arr(w.water_drag),
+        jspring=arr(jspring, (L, 3)),
+        act_min=arr(amin, (A,)),
+        act_max=arr(amax, (A,)),
+        act_ks=arr(aks, (A,)),
+        act_kd=arr(akd, (A,)),
+        act_pts=arr(apts, (A, 2, 2)),
+        spr_pts=arr(spts, (N, 2, 2)),
+        spr=arr(spr, (N, 3)),
+        sens_min=arr(smin, (S,)),
+        sens_max=arr(smax, (S,)),
+        sens_pts=arr(spoints, (S, 2, 2)),
+        terrain=arr(
+            [math.tan(t.angle), t.height, t.width / 2.0, t.center]
+        ),
+        rough=arr(
+            rough_terms(t.height, t.wavelength, t.seed) if t.kind == "rough" else np.zeros((ROUGH_TERMS, 3))
+        ),
+        follow=arr(follow),
+        follow_ds=arr(follow_ds),
+        follow_speed=arr(w.follow.speed if w.follow else 0.0),
+        q0=arr(q0, (ndof,)),
+        dt=arr(spec.dt),
+    )
+    return Model(structure, params, spec, dt_np)

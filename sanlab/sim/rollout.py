@@ -1,0 +1,228 @@
+"""Closed-loop rollouts: many controllers, one creature, batched with vmap, time with lax.scan.
+
+Each step runs sensors -> controller -> actuator activations -> physics inside one compiled
+program. The batch is sharded over every XLA device (one per CPU core, or the GPU), padded to a
+fixed size so that a search never recompiles.
+
+A controller is any hashable object with
+
+    init(params, model) -> cstate                       (one controller, pure)
+    apply(params, cstate, bits [S], dt) -> (cstate, u [A] in [0, 1])
+
+and its ``params`` pytree carries a leading batch axis when many are rolled out at once.
+An observer (optional, hashable) accumulates quantities along the way (metrics):
+
+    init(model, state) -> acc
+    update(model, acc, state, frame, bits, u) -> acc     (called before every step)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import partial
+from typing import Any, NamedTuple, Protocol
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from sanlab.sim.dynamics import State, advance, initial_state, prepare, sense
+from sanlab.sim.model import Model
+
+
+class Controller(Protocol):
+    def init(self, params: Any, model: Model) -> Any: ...
+
+    def apply(self, params: Any, cstate: Any, bits: Any, dt: Any) -> tuple[Any, Any]: ...
+
+
+class Frames(NamedTuple):
+    """Recorded trajectory, one row per frame (batch axis first when batched)."""
+
+    t: Any  # [F] s
+    q: Any  # [..., F, D]
+    qd: Any  # [..., F, D]
+    bits: Any  # [..., F, S] sensor values
+    u: Any  # [..., F, A] actuator activations
+    cstate: Any  # controller state pytree, [..., F, ...]
+
+
+class Result(NamedTuple):
+    """Outcome of a rollout (batch axis first when batched)."""
+
+    state: State  # final state
+    acc: Any  # observer accumulator (None without observer)
+    max_depth: Any  # [...] largest ground penetration over the run (m)
+    finite: Any  # [...] bool: the state stayed finite and bounded
+    frames: Frames | None
+
+
+def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0):
+    """Roll one controller out for n_steps (static), recording a frame every ``every`` steps."""
+    cstate0 = controller.init(cparams, model)
+    acc0 = observer.init(model, state0) if observer is not None else None
+    zero = jnp.zeros((), state0.q.dtype)
+
+    from sanlab.sim import dynamics as _dyn
+
+    def body(carry, _):
+        state, cstate, acc, deepest = carry
+        _dyn._BARRIER_PRED[:] = [model.params.dt > 0]
+        fr = prepare(model, state)
+        bits = sense(model, fr, state.t)
+        cstate2, u = controller.apply(cparams, cstate, bits, model.params.dt)
+        if observer is not None:
+            acc = observer.update(model, acc, state, fr, bits, u)
+        nxt, depth = advance(model, fr, state, u)
+        out = (state.q, state.qd, bits, u, cstate) if every else None
+        return (nxt, cstate2, acc, jnp.maximum(deepest, depth)), out
+
+    carry = (state0, cstate0, acc0, zero)
+    if not every:
+        carry, _ = jax.lax.scan(body, carry, None, length=n_steps)
+        frames = None
+    else:
+        n_frames = n_steps // every
+
+        def block(carry, _):
+            carry, first = body(carry, None)
+            if every > 1:
+                carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=every - 1)
+            return carry, first
+
+        carry, rec = jax.lax.scan(block, carry, None, length=n_frames)
+        rest = n_steps - n_frames * every
+        if rest:
+            carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=rest)
+        frames = rec
+    state, _, acc, deepest = carry
+    finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4)
+    return state, acc, deepest, finite, frames
+
+
+@partial(jax.jit, static_argnames=("controller", "observer", "n_steps", "every", "params_batched"))
+def _batched(model, controller, observer, n_steps, every, cparams, state0, params_batched):
+    in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
+    fn = jax.vmap(
+        lambda m, c, s: _one(m, controller, observer, n_steps, every, c, s),
+        in_axes=(in_model, 0, 0),
+    )
+    return fn(model, cparams, state0)
+
+
+def devices():
+    """The devices a batch is spread over: the GPU if JAX has one, else every CPU core."""
+    return jax.devices()
+
+
+def batch_quantum() -> int:
+    """Batch sizes are padded to a multiple of this (lanes per device x devices)."""
+    return 8 * len(devices())
+
+
+def _pad(x, n):
+    pad = n - x.shape[0]
+    if pad == 0:
+        return x
+    return jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)], axis=0)
+
+
+def _sharding(ndim: int):
+    devs = devices()
+    mesh = jax.sharding.Mesh(np.array(devs), ("b",))
+    spec = jax.sharding.PartitionSpec("b", *([None] * (ndim - 1)))
+    return jax.sharding.NamedSharding(mesh, spec)
+
+
+def rollout(
+    model: Model,
+    controller,
+    cparams: Any,
+    seconds: float | None = None,
+    *,
+    steps: int | None = None,
+    record_fps: float | None = None,
+    observer=None,
+    state0: State | None = None,
+    params_batched: bool = False,
+    pad_to: int | None = None,
+) -> Result:
+    """Roll out a batch of controllers on ``model``.
+
+    cparams: controller parameters with a leading batch axis [B, ...].
+    seconds / steps: duration (one of them). record_fps: record frames at this rate (None: no
+    recording, and none of its cost). state0: initial state (default: the creature's pose at
+    rest), unbatched or [B, ...]. params_batched: model.params leaves carry the batch axis too
+    (tuning several parameter sets at once). pad_to: pad the batch to this size (default: the
+    next multiple of :func:`batch_quantum`) so that varying batch sizes reuse one compilation.
+    """
+    dt = float(model.structure.dt)
+    if steps is None:
+        if seconds is None:
+            raise ValueError("give seconds or steps")
+        steps = int(round(seconds / dt))
+    every = 0
+    if record_fps:
+        every = max(1, int(round(1.0 / (record_fps * dt))))
+    leaves = jax.tree_util.tree_leaves(cparams)
+    B = leaves[0].shape[0]
+    q = batch_quantum()
+    n = max(pad_to or 0, B)
+    n = int(math.ceil(n / q) * q)
+    if state0 is None:
+        state0 = initial_state(model)
+    if state0.q.ndim == 1:
+        state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), state0)
+    pad = lambda x: jax.device_put(_pad(jnp.asarray(x), n), _sharding(jnp.ndim(x)))
+    cp = jax.tree_util.tree_map(pad, cparams)
+    s0 = jax.tree_util.tree_map(pad, state0)
+    m = model
+    if params_batched:
+        m = jax.tree_util.tree_map(pad, model)
+    state, acc, deepest, finite, frames = _batched(m, controller, observer, steps, every, cp, s0, params_batched)
+    cut = lambda x: x[:B]
+    state, acc, deepest, finite = jax.tree_util.tree_map(cut, (state, acc, deepest, finite))
+    if frames is not None:
+        qf, qdf, bits, u, cs = jax.tree_util.tree_map(cut, frames)
+        t = np.arange(qf.shape[1]) * every * dt
+        frames = Frames(t, qf, qdf, bits, u, cs)
+    return Result(state, acc, deepest, finite, frames)
+
+
+# ------------------------------------------------------------- simple controllers (tests, demos)
+
+
+@dataclass(frozen=True)
+class ConstantController:
+    """Holds every actuator at activations ``params`` [A] (open loop)."""
+
+    def init(self, params, model):
+        return jnp.zeros((), params.dtype)
+
+    def apply(self, params, cstate, bits, dt):
+        return cstate, params
+
+
+@dataclass(frozen=True)
+class SineController:
+    """Open-loop oscillation: u_a = 0.5 + 0.5 sin(2 pi f t + phase_a); params [A + 1] = (phases..., f)."""
+
+    def init(self, params, model):
+        return jnp.zeros((), params.dtype)
+
+    def apply(self, params, t, bits, dt):
+        u = 0.5 + 0.5 * jnp.sin(2 * math.pi * params[-1] * t + params[:-1])
+        return t + dt, u
+
+
+@dataclass(frozen=True)
+class ReflexController:
+    """Closed loop through the sensors: u = clip(W @ bits + b, 0, 1); params (W [A, S], b [A])."""
+
+    def init(self, params, model):
+        return jnp.zeros((), params[1].dtype)
+
+    def apply(self, params, cstate, bits, dt):
+        W, b = params
+        return cstate, jnp.clip(jnp.sum(W * bits[None, :], axis=1) + b, 0.0, 1.0)
