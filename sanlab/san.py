@@ -13,9 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+import jax
 import jax.numpy as jnp
 
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
+MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
 
 
 class SanParams(NamedTuple):
@@ -29,6 +31,8 @@ class SanParams(NamedTuple):
 class SanState(NamedTuple):
     istate: Any  # [N] integrator state in [0, 1]
     out: Any  # [N] binary outputs
+    planes: Any  # [3, N] int32 bit planes of (weights + 2), one bit per input (constant); None
+    # when there are too many inputs to pack, and the sum is a float dot product instead
 
 
 @dataclass(frozen=True)
@@ -49,13 +53,33 @@ class San:
 
     def init(self, params: SanParams, model) -> SanState:
         z = jnp.zeros((self.n_nodes,), params.k1.dtype)
-        return SanState(z, z)
+        planes = bit_planes(params.weights) if self.n_inputs <= MAX_PACKED_INPUTS else None
+        return SanState(z, z, planes)
 
     def apply(self, params: SanParams, s: SanState, bits, dt):
-        x = jnp.concatenate([bits.astype(params.k1.dtype), s.out])
-        total = jnp.sum(params.weights * x[None, :], axis=1)
+        # Every input is binary, so sum_i w_i x_i = sum_k 2^k popcount(x & plane_k) - 2 popcount(x)
+        # with x the inputs packed into one integer and plane_k bit k of (w + 2) per input:
+        # ~40 integer operations per node instead of a 20-wide float dot product per node.
+        p = s.planes
+        if p is None:
+            x = jnp.concatenate([bits.astype(params.k1.dtype), s.out])
+            total = jnp.sum(params.weights * x[None, :], axis=1)
+        else:
+            inputs = jnp.concatenate([bits.astype(jnp.int32), s.out.astype(jnp.int32)])
+            x = jnp.sum(inputs << jnp.arange(self.n_inputs, dtype=jnp.int32))
+            pc = jax.lax.population_count
+            total = pc(x & p[0]) + 2 * pc(x & p[1]) + 4 * pc(x & p[2]) - 2 * pc(x)
+            total = total.astype(params.k1.dtype)
         istate = jnp.clip(s.istate + jnp.where(total > 0, params.k1, params.k2) * dt, 0.0, 1.0)
         out = jnp.where((s.out == 1) & (istate == 0.0), 0.0, s.out)
         out = jnp.where((out == 0) & (istate == 1.0), 1.0, out)
         u = (jnp.clip(total[self.n_hidden :], -2.0, 2.0) + 2.0) * 0.25
-        return SanState(istate, out), u
+        return SanState(istate, out, p), u
+
+
+def bit_planes(weights) -> Any:
+    """[N, I] integer weights in [-2, 2] -> [3, N] int32: bit k of (w + 2) for each input i at
+    bit position i. Needs I <= 31."""
+    w = jnp.round(weights).astype(jnp.int32) + 2
+    shifts = jnp.arange(w.shape[-1], dtype=jnp.int32)
+    return jnp.stack([jnp.sum(((w >> k) & 1) << shifts, axis=-1) for k in range(3)])

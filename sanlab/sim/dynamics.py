@@ -51,6 +51,7 @@ class Frame(NamedTuple):
     depth: list  # per contact: penetration (m, > 0 when touching); horizontal plane: 1.0
     terrain: list  # per contact: (h, dh/dx) of the ground under it
     qd: list  # per dof velocity
+    gate: Any = None  # unbatched runtime-true boolean that fences XLA fusion (see _barrier)
 
 
 def initial_state(model: Model) -> State:
@@ -174,8 +175,12 @@ def sincos(a) -> Vec:
     return cos, sin
 
 
-def prepare(model: Model, state: State) -> Frame:
-    """Forward kinematics of links and contact points."""
+def prepare(model: Model, state: State, gate=None) -> Frame:
+    """Forward kinematics of links and contact points.
+
+    gate: optional traced boolean, true at run time and not batched, used to keep XLA from
+    recomputing shared intermediates (see :func:`_barrier`); rollouts pass one.
+    """
     st, p = model.structure, model.params
     q = [state.q[i] for i in range(st.ndof)]
     qd = [state.qd[i] for i in range(st.ndof)]
@@ -195,7 +200,7 @@ def prepare(model: Model, state: State) -> Frame:
         else:
             th.append(th[ls.parent] + q[ls.dof_rot])
             w.append(add(w[ls.parent], qd[ls.dof_rot]))
-    cs = _barrier([(1.0, 0.0) if isinstance(a, float) else sincos(a) for a in th])
+    cs = _barrier([(1.0, 0.0) if isinstance(a, float) else sincos(a) for a in th], gate)
     X, V = [], []
     for ls in st.links:
         if ls.parent < 0 and ls.dof_x < 0:
@@ -209,8 +214,8 @@ def prepare(model: Model, state: State) -> Frame:
             r = _rot(cs[j], (p.anchor[ls.index, 0], p.anchor[ls.index, 1]))
             X.append((X[j][0] + r[0], X[j][1] + r[1]))
             V.append((sub(V[j][0], mul(w[j], r[1])), add(V[j][1], mul(w[j], r[0]))))
-    X, V = _barrier((X, V))
-    fr = Frame(X, V, cs, th, w, [], [], [], [], qd)
+    X, V = _barrier((X, V), gate)
+    fr = Frame(X, V, cs, th, w, [], [], [], [], qd, gate)
     for c, i in enumerate(st.contacts):
         pt = _point(fr, i, (p.contact[c, 0], p.contact[c, 1]))
         fr.cp.append(pt)
@@ -223,11 +228,11 @@ def prepare(model: Model, state: State) -> Frame:
         else:
             fr.terrain.append((0.0, 0.0))
             fr.depth.append(1.0)
-    cp, cv, depth, terrain = _barrier((fr.cp, fr.cv, fr.depth, fr.terrain))
+    cp, cv, depth, terrain = _barrier((fr.cp, fr.cv, fr.depth, fr.terrain), gate)
     return fr._replace(cp=cp, cv=cv, depth=depth, terrain=terrain)
 
 
-def _barrier(tree):
+def _barrier(tree, gate):
     """Force XLA to compute ``tree``'s traced leaves once and keep them in memory.
 
     XLA's CPU fusion otherwise re-derives shared intermediates (trig, kinematics) inside every
@@ -238,17 +243,13 @@ def _barrier(tree):
     idx = [i for i, x in enumerate(leaves) if not isinstance(x, (int, float))]
     if idx:
         vals = [leaves[i] for i in idx]
-        pred = _BARRIER_PRED[-1] if _BARRIER_PRED else None
-        if pred is not None:
-            vals = jax.lax.cond(pred, lambda v: v, lambda v: [x * 1 for x in v], vals)
+        if gate is not None:
+            vals = jax.lax.cond(gate, lambda v: v, lambda v: [x * 1 for x in v], vals)
         else:
             vals = jax.lax.optimization_barrier(vals)
         for i, x in zip(idx, vals):
             leaves[i] = x
     return jax.tree_util.tree_unflatten(treedef, leaves)
-
-
-_BARRIER_PRED: list = []
 
 
 # ---------------------------------------------------------------- sensors
@@ -454,10 +455,10 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         T.force(neg(add(mul(c1, vn), mul(c2, w))), gn)
         T.force(neg(add(mul(c2, vn), mul(c3, w))), gw)
 
-    M, Q = T.assemble(_elimination_order(st))
+    M, Q = T.assemble(_elimination_order(st), fr.gate)
     rhs = {d: mul(h, v) for d, v in Q.items()}
-    M.a, rhs = _barrier((M.a, rhs))
-    dv = _barrier(M.solve(rhs))
+    M.a, rhs = _barrier((M.a, rhs), fr.gate)
+    dv = _barrier(M.solve(rhs), fr.gate)
     qd_new = jnp.stack([add(qd[d], dv[d]) for d in range(st.ndof)])
     q_new = state.q + h * qd_new
     if deepest is None:
@@ -482,8 +483,8 @@ class _Terms:
         if not (isinstance(f, float) and f == 0.0) and g:
             self.vec.append((f, g))
 
-    def assemble(self, order: list[int]) -> tuple[SymMatrix, dict]:
-        mat, vec = _barrier((self.mat, self.vec))
+    def assemble(self, order: list[int], gate) -> tuple[SymMatrix, dict]:
+        mat, vec = _barrier((self.mat, self.vec), gate)
         M = SymMatrix(order)
         for coef, g, h in mat:
             M.add_outer(coef, g, h)
@@ -518,3 +519,30 @@ def _friction(element, g: dict, v, muN, eps) -> None:
 def step(model: Model, state: State, u) -> State:
     """Advance one creature by dt with actuator activations u [A] in [0, 1]."""
     return advance(model, prepare(model, state), state, u)[0]
+
+
+def energy(model: Model, state: State) -> dict:
+    """Mechanical energy of one creature (J): kinetic, gravitational (m g y of each centre of
+    mass), and elastic (passive joint and linear springs; actuators and ground excluded)."""
+    st, p = model.structure, model.params
+    fr = prepare(model, state)
+    kin, grav, elastic = 0.0, 0.0, 0.0
+    for ls in st.links:
+        i = ls.index
+        if ls.parent < 0 and ls.dof_x < 0:
+            continue
+        com = _point(fr, i, (p.com[i, 0], p.com[i, 1]))
+        v = _point_vel(fr, i, com)
+        kin = kin + 0.5 * p.mass[i] * (v[0] * v[0] + v[1] * v[1]) + 0.5 * p.inertia[i] * fr.w[i] * fr.w[i]
+        if st.plane == "vertical":
+            grav = grav + p.mass[i] * p.gravity * com[1]
+    for i in st.joint_springs:
+        phi = fr.th[i] - fr.th[st.links[i].parent]
+        elastic = elastic + 0.5 * p.jspring[i, 0] * (phi - p.jspring[i, 2]) ** 2
+    for n, (la, lb) in enumerate(st.springs):
+        pa = _point(fr, la, (p.spr_pts[n, 0, 0], p.spr_pts[n, 0, 1]))
+        pb = _point(fr, lb, (p.spr_pts[n, 1, 0], p.spr_pts[n, 1, 1]))
+        L = jnp.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2)
+        elastic = elastic + 0.5 * p.spr[n, 0] * (L - p.spr[n, 2]) ** 2
+    z = jnp.zeros((), p.q0.dtype)
+    return {"kinetic": kin + z, "gravity": grav + z, "elastic": elastic + z}

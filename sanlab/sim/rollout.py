@@ -58,18 +58,17 @@ class Result(NamedTuple):
     frames: Frames | None
 
 
-def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0):
-    """Roll one controller out for n_steps (static), recording a frame every ``every`` steps."""
+def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0, gate):
+    """Roll one controller out for n_steps (static), recording a frame every ``every`` steps.
+
+    gate: an unbatched boolean that is true at run time (see dynamics._barrier)."""
     cstate0 = controller.init(cparams, model)
     acc0 = observer.init(model, state0) if observer is not None else None
     zero = jnp.zeros((), state0.q.dtype)
 
-    from sanlab.sim import dynamics as _dyn
-
     def body(carry, _):
         state, cstate, acc, deepest = carry
-        _dyn._BARRIER_PRED[:] = [model.params.dt > 0]
-        fr = prepare(model, state)
+        fr = prepare(model, state, gate)
         bits = sense(model, fr, state.t)
         cstate2, u = controller.apply(cparams, cstate, bits, model.params.dt)
         if observer is not None:
@@ -102,13 +101,13 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
 
 
 @partial(jax.jit, static_argnames=("controller", "observer", "n_steps", "every", "params_batched"))
-def _batched(model, controller, observer, n_steps, every, cparams, state0, params_batched):
+def _batched(model, controller, observer, n_steps, every, cparams, state0, params_batched, one):
     in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
     fn = jax.vmap(
-        lambda m, c, s: _one(m, controller, observer, n_steps, every, c, s),
-        in_axes=(in_model, 0, 0),
+        lambda m, c, s, g: _one(m, controller, observer, n_steps, every, c, s, g > 0),
+        in_axes=(in_model, 0, 0, None),
     )
-    return fn(model, cparams, state0)
+    return fn(model, cparams, state0, one)
 
 
 def devices():
@@ -174,13 +173,21 @@ def rollout(
         state0 = initial_state(model)
     if state0.q.ndim == 1:
         state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), state0)
-    pad = lambda x: jax.device_put(_pad(jnp.asarray(x), n), _sharding(jnp.ndim(x)))
+    def pad(x):
+        x = jnp.asarray(x)
+        if jnp.issubdtype(x.dtype, jnp.floating):
+            x = x.astype(model.dtype)  # float64 inputs would otherwise promote a float32 model
+        return jax.device_put(_pad(x, n), _sharding(x.ndim))
+
     cp = jax.tree_util.tree_map(pad, cparams)
     s0 = jax.tree_util.tree_map(pad, state0)
     m = model
     if params_batched:
         m = jax.tree_util.tree_map(pad, model)
-    state, acc, deepest, finite, frames = _batched(m, controller, observer, steps, every, cp, s0, params_batched)
+    one = jnp.ones((), model.dtype)
+    state, acc, deepest, finite, frames = _batched(
+        m, controller, observer, steps, every, cp, s0, params_batched, one
+    )
     cut = lambda x: x[:B]
     state, acc, deepest, finite = jax.tree_util.tree_map(cut, (state, acc, deepest, finite))
     if frames is not None:

@@ -1,0 +1,286 @@
+"""The MuJoCo route of the benchmark: how many creature-steps per second MuJoCo + NumPy reach.
+
+The same job as sanlab's batched simulator: evaluate many sensor-actuator networks on the bounder,
+dt = 1 ms, with ground contact, the network closed around the physics every step:
+
+* the bounder (``sanlab.creature.load("bounder")``) converted by the one MJCF converter,
+  ``tests/mujoco_model.py``: a plane and a 1 mm sphere at every contact point (feet, knees, hips,
+  body corners), friction 0.6, MuJoCo's default soft contacts, semi-implicit ``Euler`` at 1 ms;
+* every step, for every creature, in NumPy: 8 binary sensors (2 foot touches: the foot's contact
+  point at or below the ground, z < 1 mm; 6 joint-angle range checks, angles wrapped to
+  [-pi, pi)), then the SAN of Figure 7 (12 threshold nodes x 20 integer weights in [-2, 2] over
+  8 sensors + 12 node outputs; istate += k1 dt if the sum > 0 else k2 dt, clamped to [0, 1],
+  output on at 1 and off at 0), then the 4 actuator nodes' sums clipped to [-2, 2] and mapped
+  onto each actuator's [min, max] as a target angle, then the PD torque
+  ks (target - angle) - kd angle' written to ``data.ctrl`` (motor actuators), then ``mj_step``;
+* each episode lasts the creature's evaluation time (6 s); then that creature restarts from its
+  initial pose with fresh random weights, as in a search.
+
+Each worker process (one per CPU core) steps ``creatures`` copies (one ``MjData`` each, the SAN
+arithmetic vectorised over them) for a fixed wall time; the result is the sum over workers of
+creature-steps per second. Setup (imports, model compilation) is not timed.
+
+    python benchmarks/mujoco_route.py [seconds]       # prints the number
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+_ROOT = Path(__file__).resolve().parent.parent
+TOUCH_HEIGHT = 1.0e-3  # m: a contact point below this height counts as touching
+
+
+def _converter():
+    """``tests/mujoco_model.py`` (the only copy of the converter), loaded by path."""
+    name = "mujoco_model"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, _ROOT / "tests" / "mujoco_model.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def bounder_spec():
+    """The built-in bounder (sanlab.creature.load)."""
+    if str(_ROOT) not in sys.path:
+        sys.path.insert(0, str(_ROOT))
+    from sanlab.creature import load
+
+    return load("bounder")
+
+
+def job(spec=None) -> dict:
+    """Everything a worker needs, as plain picklable values (the worker imports no sanlab)."""
+    mm = _converter()
+    spec = bounder_spec() if spec is None else spec
+    if spec.dt != 1e-3:
+        raise ValueError(f"the benchmark runs at dt = 1 ms, {spec.name} has {spec.dt}")
+    xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="Euler")
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_string(xml)
+    idx = [int(i) for i in mm.qpos_index(spec, m)]
+    names = {l.name: i for i, l in enumerate(spec.links)}
+    rot_dof = {name: idx[k] for name, k in mm.rotation_dofs(spec).items()}
+    # per link: (parent index or -1, anchor or fixed position, qpos address of its angle, of its
+    # x, of its y (roots; -1 otherwise), fixed root's angle)
+    links = []
+    for l in spec.links:
+        if l.parent is None and l.fixed:
+            links.append((-1, tuple(l.position), -1, -1, -1, l.angle))
+        elif l.parent is None:
+            x, y = (int(m.joint(f"{l.name}:{c}").qposadr[0]) for c in "xy")
+            links.append((-1, (0.0, 0.0), rot_dof[l.name], x, y, 0.0))
+        else:
+            links.append((names[l.parent], tuple(l.anchor), rot_dof[l.name], -1, -1, 0.0))
+    touch, angle_dofs, angle_min, angle_max = [], [], [], []
+    for s in spec.sensors:
+        if s.kind == "touch":
+            touch.append((names[s.link], tuple(spec.link(s.link).contacts[s.contact])))
+        elif s.kind == "angle":
+            angle_dofs.append(rot_dof[s.link])  # relative joint angle, or a root's absolute angle
+            angle_min.append(s.min)
+            angle_max.append(s.max)
+        else:
+            raise NotImplementedError(f"sensor kind {s.kind!r}")
+    qpos0 = [0.0] * m.nq
+    for d, v in zip(idx, mm.initial_q(spec)):
+        qpos0[d] = float(v)
+    hidden = spec.san.hidden if spec.san.hidden is not None else len(spec.sensors)
+    return dict(
+        xml=xml,
+        qpos0=qpos0,
+        links=links,
+        touch=touch,
+        angle_dofs=angle_dofs,
+        angle_min=angle_min,
+        angle_max=angle_max,
+        act_dofs=[rot_dof[a.joint] for a in spec.actuators],
+        act_min=[a.min for a in spec.actuators],
+        act_max=[a.max for a in spec.actuators],
+        act_ks=[a.ks for a in spec.actuators],
+        act_kd=[a.kd for a in spec.actuators],
+        hidden=hidden,
+        k1=1.0 / spec.san.delay_on,
+        k2=-1.0 / spec.san.delay_off,
+        episode_steps=int(round(spec.evaluation.seconds / spec.dt)),
+        dt=spec.dt,
+    )
+
+
+class _Batch:
+    """``n`` creatures, each with its own MjData and SAN, stepped in lock step."""
+
+    def __init__(self, job: dict, n: int, seed: int):
+        import mujoco
+        import numpy as np
+
+        self.mj, self.np = mujoco, np
+        self.model = m = mujoco.MjModel.from_xml_string(job["xml"])
+        self.data = [mujoco.MjData(m) for _ in range(n)]
+        self.n = n
+        self.rng = np.random.default_rng(seed)
+        self.qpos0 = np.asarray(job["qpos0"])
+        self.links, self.touch = job["links"], job["touch"]
+        self.adofs = np.asarray(job["angle_dofs"], int)
+        self.amin, self.amax = np.asarray(job["angle_min"]), np.asarray(job["angle_max"])
+        self.jdofs = np.asarray(job["act_dofs"], int)
+        self.tmin = np.asarray(job["act_min"])
+        self.tspan = np.asarray(job["act_max"]) - self.tmin
+        self.ks, self.kd = np.asarray(job["act_ks"]), np.asarray(job["act_kd"])
+        self.H, self.A = job["hidden"], len(job["act_dofs"])
+        self.S = len(self.touch) + len(self.adofs)
+        self.N = self.H + self.A
+        self.k1, self.k2, self.dt = job["k1"], job["k2"], job["dt"]
+        self.episode = job["episode_steps"]
+        self.W = np.zeros((n, self.N, self.S + self.N))
+        self.istate = np.zeros((n, self.N))
+        self.out = np.zeros((n, self.N))
+        self.x = np.zeros((n, self.S + self.N))
+        # state rows [qpos | qvel] and control rows, bound once: one C call each per creature
+        self.sig_state = mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL
+        self.sig_ctrl = mujoco.mjtState.mjSTATE_CTRL
+        self.state = np.zeros((n, m.nq + m.nv))
+        self.ctrl = np.zeros((n, m.nu))
+        self.state_rows = [self.state[i] for i in range(n)]
+        self.ctrl_rows = [self.ctrl[i] for i in range(n)]
+        self.t = 0
+        for i in range(n):
+            self._restart(i)
+
+    def _restart(self, i: int) -> None:
+        d = self.data[i]
+        self.mj.mj_resetData(self.model, d)
+        d.qpos[:] = self.qpos0
+        self.mj.mj_forward(self.model, d)
+        self.W[i] = self.rng.integers(-2, 3, size=self.W.shape[1:])
+        self.istate[i] = 0.0
+        self.out[i] = 0.0
+
+    def _touch(self, qpos):
+        """Heights of the touch sensors' contact points [n, T]: planar forward kinematics."""
+        np = self.np
+        th, X, Y = [], [], []
+        for parent, (ax, ay), rot, dx, dy, th0 in self.links:
+            if parent < 0:
+                a = qpos[:, rot] if rot >= 0 else th0
+                x = qpos[:, dx] if dx >= 0 else ax
+                y = qpos[:, dy] if dy >= 0 else ay
+            else:
+                c, s = np.cos(th[parent]), np.sin(th[parent])
+                x = X[parent] + c * ax - s * ay
+                y = Y[parent] + s * ax + c * ay
+                a = th[parent] + qpos[:, rot]
+            th.append(a)
+            X.append(x)
+            Y.append(y)
+        heights = [Y[i] + np.sin(th[i]) * px + np.cos(th[i]) * py for i, (px, py) in self.touch]
+        return np.stack(heights, 1)
+
+    def step(self) -> None:
+        np, mj, m = self.np, self.mj, self.model
+        get, sig = mj.mj_getState, self.sig_state
+        for d, row in zip(self.data, self.state_rows):
+            get(m, d, row, sig)
+        qpos, qvel = self.state[:, : m.nq], self.state[:, m.nq :]
+        # sensors
+        ang = qpos[:, self.adofs]
+        ang = ang - 2 * math.pi * np.floor((ang + math.pi) / (2 * math.pi))
+        ns = len(self.touch)
+        self.x[:, :ns] = self._touch(qpos) < TOUCH_HEIGHT
+        self.x[:, ns : self.S] = (ang >= self.amin) & (ang <= self.amax)
+        self.x[:, self.S :] = self.out
+        # the SAN (Figure 7)
+        total = np.einsum("bni,bi->bn", self.W, self.x)
+        rate = np.where(total > 0, self.k1, self.k2)
+        self.istate = np.clip(self.istate + rate * self.dt, 0.0, 1.0)
+        self.out = np.where((self.out == 1) & (self.istate == 0.0), 0.0, self.out)
+        self.out = np.where((self.out == 0) & (self.istate == 1.0), 1.0, self.out)
+        u = (np.clip(total[:, self.H :], -2.0, 2.0) + 2.0) * 0.25
+        # PD servos
+        target = self.tmin + u * self.tspan
+        self.ctrl[:] = self.ks * (target - qpos[:, self.jdofs]) - self.kd * qvel[:, self.jdofs]
+        put, sig, step = mj.mj_setState, self.sig_ctrl, mj.mj_step
+        for d, row in zip(self.data, self.ctrl_rows):
+            put(m, d, row, sig)
+            step(m, d)
+        self.t += 1
+        if self.t % self.episode == 0:
+            for i in range(self.n):
+                self._restart(i)
+
+
+def _worker(job: dict, creatures: int, seconds: float, seed: int, barrier, queue) -> None:
+    batch = _Batch(job, creatures, seed)
+    for _ in range(20):  # warm up caches
+        batch.step()
+    if barrier is not None:
+        barrier.wait()
+    steps = 0
+    t0 = time.perf_counter()
+    end = t0 + seconds
+    while True:
+        for _ in range(50):
+            batch.step()
+        steps += 50 * creatures
+        now = time.perf_counter()
+        if now >= end:
+            break
+    warnings = int(sum(d.warning.number.sum() for d in batch.data))
+    queue.put((steps, now - t0, warnings))
+
+
+def _cores() -> int:
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def mujoco_steps_per_s(
+    seconds_budget: float = 5.0, *, workers: int | None = None, creatures: int = 32, seed: int = 0,
+    details: bool = False,
+):
+    """Creature-steps per second of the MuJoCo route on the bounder (see the module docstring).
+
+    seconds_budget: wall time each worker steps for (setup excluded). workers: processes (default:
+    one per CPU core). creatures: MjData copies per worker, stepped in lock step with the SAN
+    vectorised over them. details: also return a dict with per-worker numbers and MuJoCo's
+    warning count (instabilities would show there).
+    """
+    import multiprocessing as mp
+
+    workers = workers or _cores()
+    jb = job()
+    ctx = mp.get_context("spawn")  # no fork of a process that may have started JAX threads
+    barrier = ctx.Barrier(workers)
+    queue = ctx.Queue()
+    procs = [
+        ctx.Process(target=_worker, args=(jb, creatures, seconds_budget, seed + w, barrier, queue))
+        for w in range(workers)
+    ]
+    for p in procs:
+        p.start()
+    results = [queue.get(timeout=seconds_budget + 300) for _ in procs]
+    for p in procs:
+        p.join()
+    rate = sum(steps / wall for steps, wall, _ in results)
+    if details:
+        return rate, dict(
+            workers=workers, creatures=creatures,
+            per_worker=[steps / wall for steps, wall, _ in results],
+            warnings=sum(w for _, _, w in results),
+        )  # fmt: skip
+    return rate
+
+
+if __name__ == "__main__":
+    budget = float(sys.argv[1]) if len(sys.argv) > 1 else 5.0
+    print(f"{mujoco_steps_per_s(budget):.0f}")
