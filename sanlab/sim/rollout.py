@@ -170,7 +170,8 @@ def rollout(
     n = max(pad_to or 0, B)
     n = int(math.ceil(n / q) * q)
     if state0 is None:
-        state0 = initial_state(model)
+        q0 = model.params.q0
+        state0 = State(q0, jnp.zeros_like(q0), jnp.zeros(q0.shape[:-1], q0.dtype))
     if state0.q.ndim == 1:
         state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), state0)
     def pad(x):

@@ -1,0 +1,261 @@
+"""The engine against analytic cases, and its contracts (determinism, recording, batching)."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sanlab import creature, sim
+from sanlab.creature.spec import (
+    AngleSensor,
+    AngularActuator,
+    Creature,
+    Ground,
+    Link,
+    Shape,
+    World,
+)
+from sanlab.san import San, SanParams
+
+G = 9.81
+
+
+def rod(name, L, m, **kw):
+    return Link(name, m, m * L * L / 12, (L / 2, 0.0), Shape("segment", ((0.0, 0.0), (L, 0.0))), **kw)
+
+
+def box(name, w, h, m, **kw):
+    pts = ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2))
+    return Link(name, m, m * (w * w + h * h) / 12, (0.0, 0.0), Shape("polygon", pts), contacts=pts[:2], **kw)
+
+
+def run(spec, cparams, dtype="float64", **kw):
+    return sim.rollout(sim.compile_creature(spec, dtype), sim.ConstantController(), cparams, **kw)
+
+
+def no_act(B=1):
+    return jnp.zeros((B, 0))
+
+
+def test_free_fall_matches_the_integrator_and_the_analytic_parabola():
+    dt, n = 1e-3, 1000
+    # a rod centred on its frame origin, so that q = (x, y) is its centre of mass
+    bar = Link("b", 2.0, 2.0 / 12, (0.0, 0.0), Shape("segment", ((-0.5, 0.0), (0.5, 0.0))), position=(0.0, 10.0))
+    spec = Creature("ff", (bar,), dt=dt)
+    m = sim.compile_creature(spec, "float64")
+    s0 = sim.State(jnp.array([0.0, 10.0, 0.3]), jnp.array([1.5, 2.0, 4.0]), jnp.zeros(()))
+    r = sim.rollout(m, sim.ConstantController(), no_act(), steps=n, state0=s0)
+    x, y, a = np.asarray(r.state.q[0])
+    T = n * dt
+    # semi-implicit Euler is exact for constant acceleration up to the known O(dt) drift:
+    # y_n = y0 + v0 T - g dt^2 n (n + 1) / 2
+    assert y == pytest.approx(10.0 + 2.0 * T - G * dt * dt * n * (n + 1) / 2, abs=1e-9)
+    assert abs(y - (10.0 + 2.0 * T - 0.5 * G * T * T)) <= G * dt * T  # the continuous answer
+    assert x == pytest.approx(1.5 * T, abs=1e-9)
+    assert a == pytest.approx(0.3 + 4.0 * T, abs=1e-9)  # free spin keeps its rate
+
+
+def test_pendulum_period_matches_the_analytic_value():
+    L, m, th0 = 0.8, 1.3, 0.05
+    base = Link("base", 1.0, 0.0, (0.0, 0.0), Shape("point"), fixed=True)
+    arm = rod("arm", L, m, parent="base", angle=-math.pi / 2 + th0)
+    spec = Creature("pendulum", (base, arm), dt=1e-4)
+    r = run(spec, no_act(), seconds=4.0, record_fps=2000)
+    q = np.asarray(r.frames.q[0, :, 0]) + math.pi / 2
+    t = r.frames.t
+    up = [t[i] - q[i] * (t[i + 1] - t[i]) / (q[i + 1] - q[i]) for i in range(len(q) - 1) if q[i] < 0 <= q[i + 1]]
+    period = float(np.mean(np.diff(up)))
+    I = m * L * L / 3  # about the pivot
+    T0 = 2 * math.pi * math.sqrt(I / (m * G * L / 2))
+    expected = T0 * (1 + th0 * th0 / 16)  # first finite-amplitude correction
+    assert period == pytest.approx(expected, rel=1e-3)
+
+
+def test_sliding_block_decelerates_at_mu_g_then_sticks():
+    mu, k = 0.4, 5.0e4
+    m = 2.0
+    blk = box("block", 0.4, 0.1, m, position=(0.0, 0.05 - m * G / (2 * k)))
+    spec = Creature("block", (blk,), world=World(ground=Ground(stiffness=k, damping=300.0, friction=mu)))
+    mdl = sim.compile_creature(spec, "float64")
+    s0 = sim.State(mdl.params.q0, jnp.array([2.0, 0.0, 0.0]), jnp.zeros(()))
+    r = sim.rollout(mdl, sim.ConstantController(), no_act(), seconds=1.0, record_fps=1000, state0=s0)
+    v = np.asarray(r.frames.qd[0, :, 0])
+    t = r.frames.t
+    sliding = (t > 0.05) & (t < 0.4)
+    slope = np.polyfit(t[sliding], v[sliding], 1)[0]
+    assert slope == pytest.approx(-mu * G, rel=0.02)
+    stop = 2.0 / (mu * G)
+    assert abs(v[t > stop + 0.05]).max() < 1e-3  # static friction holds it
+    assert float(r.state.q[0, 0]) == pytest.approx(2.0**2 / (2 * mu * G), rel=0.03)
+
+
+def double_pendulum(dt=1e-4):
+    base = Link("base", 1.0, 0.0, (0.0, 0.0), Shape("point"), fixed=True)
+    a = rod("a", 0.5, 1.0, parent="base", angle=0.3)
+    b = rod("b", 0.4, 0.6, parent="a", anchor=(0.5, 0.0), angle=-0.8)
+    return Creature("double", (base, a, b), dt=dt)
+
+
+def test_energy_is_conserved_without_damping_or_contact():
+    spec = double_pendulum()
+    m = sim.compile_creature(spec, "float64")
+    r = sim.rollout(m, sim.ConstantController(), no_act(), seconds=1.0, record_fps=100)
+    e = jax.vmap(lambda q, qd: sim.energy(m, sim.State(q, qd, jnp.zeros(()))))(r.frames.q[0], r.frames.qd[0])
+    E = np.asarray(e["kinetic"] + e["gravity"])
+    swing = np.ptp(np.asarray(e["kinetic"]))
+    assert swing > 1.0  # it really moved: kinetic energy swings by joules
+    assert np.abs(E - E[0]).max() / swing < 1e-3
+
+
+def test_energy_function_against_hand_formulas():
+    spec = double_pendulum()
+    m = sim.compile_creature(spec, "float64")
+    q, qd = jnp.array([0.4, -0.7]), jnp.array([1.1, -2.3])
+    e = sim.energy(m, sim.State(q, qd, jnp.zeros(())))
+    t1, t2 = 0.4, 0.4 - 0.7
+    w1, w2 = 1.1, 1.1 - 2.3
+    c1 = np.array([0.25 * math.cos(t1), 0.25 * math.sin(t1)])
+    j = np.array([0.5 * math.cos(t1), 0.5 * math.sin(t1)])
+    c2 = j + np.array([0.2 * math.cos(t2), 0.2 * math.sin(t2)])
+    v1 = w1 * np.array([-c1[1], c1[0]])
+    v2 = w1 * np.array([-j[1], j[0]]) + w2 * np.array([-(c2 - j)[1], (c2 - j)[0]])
+    ke = 0.5 * 1.0 * v1 @ v1 + 0.5 * (1.0 * 0.25 / 12) * w1**2 + 0.5 * 0.6 * v2 @ v2 + 0.5 * (0.6 * 0.16 / 12) * w2**2
+    pe = G * (1.0 * c1[1] + 0.6 * c2[1])
+    assert float(e["kinetic"]) == pytest.approx(ke, rel=1e-12)
+    assert float(e["gravity"]) == pytest.approx(pe, rel=1e-12)
+
+
+def random_sans(spec, B, seed):
+    S, A = len(spec.sensors), len(spec.actuators)
+    H = spec.san.hidden or S
+    rng = np.random.default_rng(seed)
+    W = rng.integers(-2, 3, (B, H + A, S + H + A)).astype(np.float32)
+    k1 = np.full((B, H + A), 1 / spec.san.delay_on, np.float32)
+    return San(S, H, A), SanParams(jnp.asarray(W), jnp.asarray(k1), jnp.asarray(-k1))
+
+
+def take(p, idx):
+    return jax.tree_util.tree_map(lambda x: x[np.asarray(idx)], p)
+
+
+def test_one_controller_is_bit_identical_alone_and_anywhere_in_any_batch():
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 37, seed=3)
+    full = sim.rollout(m, san, p, seconds=0.5, record_fps=100)
+    for i in (0, 17, 36):
+        alone = sim.rollout(m, san, take(p, [i]), seconds=0.5, record_fps=100)
+        np.testing.assert_array_equal(np.asarray(alone.frames.q[0]), np.asarray(full.frames.q[i]))
+        np.testing.assert_array_equal(np.asarray(alone.state.qd[0]), np.asarray(full.state.qd[i]))
+    # and in a differently sized, shuffled batch
+    order = np.random.default_rng(0).permutation(37)[:20]
+    other = sim.rollout(m, san, take(p, order), seconds=0.5, record_fps=100)
+    for j, i in enumerate(order):
+        np.testing.assert_array_equal(np.asarray(other.frames.q[j]), np.asarray(full.frames.q[i]))
+    assert np.ptp(np.asarray(full.state.q[:, 0])) > 1e-3  # the controllers really differ
+
+
+def test_recording_costs_nothing_in_the_result_and_has_the_right_frames():
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 5, seed=1)
+    plain = sim.rollout(m, san, p, seconds=1.0)
+    rec = sim.rollout(m, san, p, seconds=1.0, record_fps=50)
+    assert plain.frames is None
+    assert rec.frames.q.shape == (5, 50, m.structure.ndof)
+    assert rec.frames.bits.shape == (5, 50, 6) and rec.frames.u.shape == (5, 50, 1)
+    np.testing.assert_allclose(rec.frames.t[:3], [0.0, 0.02, 0.04])
+    np.testing.assert_array_equal(np.asarray(plain.state.q), np.asarray(rec.state.q))
+
+
+def test_closed_loop_hook_runs_sensors_controller_and_physics_each_step():
+    """A bang-bang reflex through an angle sensor makes the cart's joint oscillate between the
+    sensor's edge and the actuator's far limit; the same actuator held open-loop just settles."""
+    base = Link("base", 1.0, 0.0, (0.0, 0.0), Shape("point"), fixed=True)
+    arm = rod("arm", 0.3, 0.2, parent="base")
+    spec = Creature(
+        "flapper",
+        (base, arm),
+        sensors=(AngleSensor("up", "arm", math.radians(30), math.radians(180)),),
+        actuators=(AngularActuator("A", "arm", math.radians(-60), math.radians(60), 2.0, 0.05),),
+        world=World(plane="horizontal"),
+    )
+    m = sim.compile_creature(spec, "float64")
+    # u = 1 - sensor: drive up until the arm passes 30 deg, then down, then up again ...
+    W, b = jnp.array([[[-1.0]]]), jnp.array([[1.0]])
+    r = sim.rollout(m, sim.ReflexController(), (W, b), seconds=3.0, record_fps=200)
+    phi = np.degrees(np.asarray(r.frames.q[0, :, 0]))
+    bits = np.asarray(r.frames.bits[0, :, 0])
+    crossings = np.count_nonzero(np.diff(bits) != 0)
+    assert crossings >= 6  # a sustained limit cycle
+    assert phi[100:].max() > 30 and phi[100:].min() < 29  # it swings about the sensor's edge
+    held = sim.rollout(m, sim.ConstantController(), jnp.ones((1, 1)), seconds=3.0, record_fps=200)
+    assert np.ptp(np.degrees(np.asarray(held.frames.q[0, 400:, 0]))) < 0.1
+    assert np.degrees(float(held.state.q[0, 0])) == pytest.approx(60.0, abs=0.1)
+
+
+def test_float32_and_float64_agree_and_keep_their_dtype():
+    spec = double_pendulum(dt=1e-3)
+    r32 = run(spec, no_act(), dtype="float32", seconds=1.0)
+    r64 = run(spec, no_act(), dtype="float64", seconds=1.0)
+    assert r32.state.q.dtype == jnp.float32 and r64.state.q.dtype == jnp.float64
+    np.testing.assert_allclose(np.asarray(r32.state.q), np.asarray(r64.state.q), atol=1e-4)
+    assert abs(float(r64.state.q[0, 0]) - 0.3) > 0.1  # it swung
+
+
+def test_parameters_are_batched_arrays_and_never_recompile():
+    """Every number is an array input: a batch of different masses runs in one compiled
+    program, and each member equals the unbatched run with that mass."""
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 1, seed=5)
+    p3 = jax.tree_util.tree_map(lambda x: jnp.repeat(x, 3, axis=0), p)
+    masses = jnp.array([[0.1, 0.1], [0.1, 0.2], [0.05, 0.1]], jnp.float32)
+    mb = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (3,) + x.shape), m)
+    mb = mb.with_params(mass=masses)
+    batched = sim.rollout(mb, san, p3, seconds=0.5, params_batched=True)
+    for i in range(3):
+        single = sim.rollout(m.with_params(mass=masses[i]), san, p, seconds=0.5)
+        np.testing.assert_allclose(np.asarray(batched.state.q[i]), np.asarray(single.state.q[0]), atol=1e-5)
+    assert np.ptp(np.asarray(batched.state.q[:, 1])) > 1e-4  # the masses matter
+
+
+@pytest.mark.parametrize("name", creature.builtin_names())
+def test_no_nan_in_1000_random_closed_loop_runs_of_6_s(name):
+    spec = creature.load(name)
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 1000, seed=11)
+    r = sim.rollout(m, san, p, seconds=6.0)
+    assert bool(np.all(np.asarray(r.finite)))
+    assert np.isfinite(np.asarray(r.state.q)).all()
+    assert float(np.max(r.max_depth)) < 0.05  # the ground stays stiff under every gait
+
+
+def test_bad_runs_are_flagged_not_fatal():
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    s0 = sim.initial_state(m)
+    bad = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), s0)
+    bad = bad._replace(qd=bad.qd.at[1, 1].set(jnp.nan))
+    r = sim.rollout(m, sim.ConstantController(), jnp.full((2, 1), 0.5), seconds=0.1, state0=bad)
+    assert list(np.asarray(r.finite)) == [True, False]
+
+
+def test_persistent_compile_cache_is_written(tmp_path):
+    code = (
+        "from sanlab import creature, sim; import jax.numpy as jnp;"
+        "m = sim.compile_creature(creature.load('cart'));"
+        "sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 1)), steps=3)"
+    )
+    env = dict(os.environ, SANLAB_CACHE=str(tmp_path))
+    env.pop("SANLAB_NO_COMPILE_CACHE", None)
+    subprocess.run([sys.executable, "-c", code], check=True, env=env, timeout=300)
+    entries = list((tmp_path / "jax").iterdir())
+    assert entries, "no compiled program was cached"
