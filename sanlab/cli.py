@@ -138,3 +138,196 @@ def simulate(
         f"largest ground penetration {rep['max_penetration_m'] * 100:.2f} cm, "
         f"{rep['non_finite']} non-finite"
     )
+
+
+# ------------------------------------------------------------------ search and the gait library
+
+DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")]
+
+
+def open_library(path: str):
+    from sanlab.library import Library, LibraryError
+
+    try:
+        return Library(path)
+    except LibraryError as e:
+        raise fail(str(e)) from None
+
+
+def _library_call(fn, *args):
+    from sanlab.library import LibraryError
+
+    try:
+        return fn(*args)
+    except LibraryError as e:
+        raise fail(str(e)) from None
+
+
+def _top_rows(lib, run_id: str, n: int) -> list[dict]:
+    return [
+        {
+            "gait": f"{run_id}/{rank}",
+            "score": e.score,
+            "speed_cm_s": e.speed_cm_s,
+            "fell": e.fell,
+            "nonfinite": e.nonfinite,
+            "encoding": e.encoding,
+        }
+        for rank, e in enumerate(lib.top(run_id, n), 1)
+    ]
+
+
+def _print_top(rows: list[dict], title: str) -> None:
+    table = Table("rank", "gait", "score", "speed (cm/s)", "flags", title=title)
+    for rank, r in enumerate(rows, 1):
+        flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"])) if on)
+        table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{r['speed_cm_s']:.1f}", flags or "-")
+    console.print(table)
+
+
+def _print_distribution(scores: list[float]) -> None:
+    import numpy as np
+
+    if not scores:
+        return
+    s = np.sort(np.asarray(scores))[::-1]
+    qs = ", ".join(f"{p}%: {np.percentile(s, 100 - p):.3f}" for p in (1, 5, 10, 50))
+    console.print(f"score distribution over {len(s)} controllers (best first) — top {qs}; best {s[0]:.3f}")
+
+
+@app.command()
+def search(
+    creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
+    controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
+    seconds: Annotated[float | None, typer.Option(min=0.001, help="Evaluation time (s); default: the creature file's.")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
+    metric: Annotated[str | None, typer.Option(help="distance | distance_upright | hopping | pursuit; default: the creature file's.")] = None,
+    batch: Annotated[int, typer.Option(min=1, help="Controllers simulated (and committed) together.")] = 256,
+    dtype: Annotated[str, typer.Option(help="float32 or float64.")] = "float32",
+    db: DbOpt = "sanlab.db",
+    resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
+    top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
+    as_json: JsonOpt = False,
+) -> None:
+    """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sanlab.search import run_search
+
+    if dtype not in ("float32", "float64"):
+        raise fail(f"--dtype: expected float32 or float64, got {dtype!r}")
+    if (creature is None) == (resume is None):
+        raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
+    text = where = ""
+    if creature is not None:
+        load_or_exit(creature)
+        text, where = read_source(creature)
+    lib = open_library(db)
+    show = console.is_terminal and not as_json
+    progress = Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]:.0f} eval/s"), TextColumn("best {task.fields[best]:.3f}"),
+        TimeElapsedColumn(), console=console, disable=not show, transient=False,
+    )
+    task = None
+
+    def report(p) -> None:
+        nonlocal task
+        if task is None:
+            task = progress.add_task(f"search {p.run_id}", total=p.total, rate=0.0, best=p.best)
+        progress.update(task, completed=p.evaluated, rate=p.rate, best=p.best)
+
+    run_id = resume
+    try:
+        with progress:
+            run_id = _library_call(
+                lambda: run_search(
+                    lib, text, where, controllers=controllers, seconds=seconds, seed=seed,
+                    metric=metric, batch=batch, dtype=dtype, reporter=report, resume=resume,
+                )
+            )
+    except KeyboardInterrupt:
+        rid = lib.runs()[0].run_id if run_id is None else run_id
+        typer.echo(f"interrupted; resume with: sanlab search --resume {rid} --db {db}", err=True)
+        raise typer.Exit(130) from None
+    except ValueError as e:
+        raise fail(f"search: {e}") from None
+    rows = _top_rows(lib, run_id, top)
+    if as_json:
+        typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
+        return
+    run = lib.get_run(run_id)
+    _print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.params['metric']}")
+    _print_distribution(lib.scores(run_id))
+
+
+@app.command()
+def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
+    """List the runs in the gait library, newest first."""
+    lib = open_library(db)
+    rows = [
+        {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
+         "evaluated": lib.count(r.run_id), "total": r.total, "created": r.created}
+        for r in lib.runs()
+    ]
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+        return
+    table = Table("run", "kind", "creature", "status", "evaluated", "created")
+    for r in rows:
+        table.add_row(r["run_id"], r["kind"], r["creature"], r["status"], f"{r['evaluated']}/{r['total']}", r["created"])
+    console.print(table)
+
+
+@app.command()
+def show(
+    run_id: Annotated[str, typer.Argument(help="A run id (or an unambiguous prefix).")],
+    top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
+    db: DbOpt = "sanlab.db",
+    as_json: JsonOpt = False,
+) -> None:
+    """Show a run's best gaits: rank, score, speed and flags."""
+    lib = open_library(db)
+    run = _library_call(lib.get_run, run_id)
+    rows = _top_rows(lib, run.run_id, top)
+    if as_json:
+        out = {"run_id": run.run_id, "kind": run.kind, "creature": run.creature, "status": run.status,
+               "evaluated": lib.count(run.run_id), "params": run.params, "top": rows}
+        typer.echo(json.dumps(out, indent=2))
+        return
+    _print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {run.params.get('metric', '?')}")
+    _print_distribution(lib.scores(run.run_id))
+
+
+@app.command("export")
+def export_(
+    gait: Annotated[str, typer.Argument(help="RUN_ID/RANK, e.g. 3fa1c2d0/1.")],
+    out: Annotated[str | None, typer.Option("--out", "-o", help="Write to this file instead of stdout.")] = None,
+    db: DbOpt = "sanlab.db",
+) -> None:
+    """Export a gait (creature, encoding, parameters, score) as JSON."""
+    lib = open_library(db)
+    data = json.dumps(_library_call(lib.export_gait, gait), indent=2)
+    if out:
+        with open(out, "w") as f:
+            f.write(data + "\n")
+    else:
+        typer.echo(data)
+
+
+@app.command("import")
+def import_(
+    file: Annotated[str, typer.Argument(help="A JSON file written by `sanlab export`.")],
+    db: DbOpt = "sanlab.db",
+) -> None:
+    """Import a gait exported by `sanlab export`; prints its new gait id."""
+    try:
+        with open(file) as f:
+            data = json.load(f)
+    except OSError as e:
+        raise fail(f"{file}: {e.strerror}") from None
+    except json.JSONDecodeError as e:
+        raise fail(f"{file}: expected JSON, got a syntax error at line {e.lineno}") from None
+    lib = open_library(db)
+    typer.echo(_library_call(lib.import_gait, data))

@@ -10,14 +10,24 @@ bounded to [-2, 2] and mapped linearly onto [0, 1] (the actuator's [min, max]).
 
 from __future__ import annotations
 
+import base64
+import math
+import re
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import jax
-import jax.numpy as jnp
+import numpy as np
+
+from sanlab import _jax
+
+_jax.configure()
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
 
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
 MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
+_ENCODING = re.compile(r"san1-(\d+)-(\d+)-(\d+)-([A-Za-z0-9_-]+)")
 
 
 class SanParams(NamedTuple):
@@ -50,6 +60,81 @@ class San:
     @property
     def n_inputs(self) -> int:
         return self.n_sensors + self.n_nodes
+
+    @property
+    def n_weights(self) -> int:
+        return self.n_nodes * self.n_inputs
+
+    @classmethod
+    def for_creature(cls, spec) -> "San":
+        """The topology of ``spec``'s networks: hidden nodes as its file says, else one per sensor."""
+        S = len(spec.sensors)
+        H = spec.san.hidden if spec.san.hidden is not None else S
+        return cls(S, H, len(spec.actuators))
+
+    def random_weights(self, seed: int, index: int) -> np.ndarray:
+        """Weights [N, I] (int8, uniform in [-2, 2]) of controller ``index`` of a run seeded
+        ``seed``: each controller has its own stream, so any subset can be (re)generated alone."""
+        rng = np.random.default_rng([seed, index])
+        return rng.integers(WEIGHT_MIN, WEIGHT_MAX + 1, (self.n_nodes, self.n_inputs), dtype=np.int8)
+
+    def params(self, weights, delay_on, delay_off, dtype="float32") -> SanParams:
+        """SanParams for weights [..., N, I] with delays T_on, T_off (s): scalars or [..., N]."""
+        w = np.asarray(weights)
+        batch = w.shape[:-2]
+        k1 = np.broadcast_to(1.0 / np.asarray(delay_on, float), batch + (self.n_nodes,))
+        k2 = np.broadcast_to(-1.0 / np.asarray(delay_off, float), batch + (self.n_nodes,))
+        return SanParams(jnp.asarray(w, dtype), jnp.asarray(k1, dtype), jnp.asarray(k2, dtype))
+
+    # ---- encoding: the paper's "240 weights that can take on 5 values ... in 70 bytes" ----
+
+    @property
+    def n_bytes(self) -> int:
+        """Bytes of a packed weight matrix: ceil(n_weights * log2(5) / 8) (bounder: 70)."""
+        return max(1, math.ceil(self.n_weights * math.log2(5) / 8 - 1e-12))
+
+    def pack(self, weights) -> bytes:
+        """Weights [N, I] in [-2, 2] -> bytes: the base-5 digits (w + 2), row-major, as one
+        big-endian integer."""
+        w = np.asarray(weights).reshape(-1)
+        if w.size != self.n_weights:
+            raise ValueError(f"expected {self.n_weights} weights, got {w.size}")
+        if w.min(initial=0) < WEIGHT_MIN or w.max(initial=0) > WEIGHT_MAX or np.any(w != np.round(w)):
+            raise ValueError("weights must be integers in [-2, 2]")
+        value = 0
+        for d in (w.astype(int) + 2).tolist():
+            value = value * 5 + d
+        return value.to_bytes(self.n_bytes, "big")
+
+    def unpack(self, data: bytes) -> np.ndarray:
+        """Inverse of :meth:`pack`: bytes -> int8 weights [N, I]."""
+        if len(data) != self.n_bytes:
+            raise ValueError(f"expected {self.n_bytes} bytes, got {len(data)}")
+        value = int.from_bytes(data, "big")
+        if value >= 5**self.n_weights:
+            raise ValueError("not a packed weight matrix (value out of range)")
+        digits = []
+        for _ in range(self.n_weights):
+            value, d = divmod(value, 5)
+            digits.append(d - 2)
+        return np.array(digits[::-1], np.int8).reshape(self.n_nodes, self.n_inputs)
+
+    def encode(self, weights) -> str:
+        """A printable, pasteable controller: ``san1-S-H-A-<base64url of the packed bytes>``."""
+        b64 = base64.urlsafe_b64encode(self.pack(weights)).decode().rstrip("=")
+        return f"san1-{self.n_sensors}-{self.n_hidden}-{self.n_actuators}-{b64}"
+
+    def decode(self, text: str) -> np.ndarray:
+        """Inverse of :meth:`encode`; checks that the sizes match this topology."""
+        m = _ENCODING.fullmatch(text.strip())
+        if not m:
+            raise ValueError("expected an encoding like san1-8-8-4-<base64>, got " + repr(text[:40]))
+        sizes = tuple(int(g) for g in m.groups()[:3])
+        mine = (self.n_sensors, self.n_hidden, self.n_actuators)
+        if sizes != mine:
+            raise ValueError(f"encoding is for sensors/hidden/actuators {sizes}, this creature has {mine}")
+        b64 = m.group(4)
+        return self.unpack(base64.urlsafe_b64decode(b64 + "=" * (-len(b64) % 4)))
 
     def init(self, params: SanParams, model) -> SanState:
         z = jnp.zeros((self.n_nodes,), params.k1.dtype)

@@ -9,7 +9,7 @@ from sanlab import _jax
 
 _jax.configure()
 
-from sanlab.sim.dynamics import State, advance, energy, follow_point, initial_state, prepare, sense, step  # noqa: E402
+from sanlab.sim.dynamics import State, advance, centre_of_mass, energy, follow_point, initial_state, prepare, sense, step  # noqa: E402
 from sanlab.sim.model import Model, Params, Structure, compile_creature  # noqa: E402
 from sanlab.sim.rollout import (  # noqa: E402
     ConstantController,
@@ -23,7 +23,7 @@ from sanlab.sim.rollout import (  # noqa: E402
 )
 
 __all__ = [
-    "State", "advance", "energy", "follow_point", "initial_state", "prepare", "sense", "step",
+    "State", "advance", "centre_of_mass", "energy", "follow_point", "initial_state", "prepare", "sense", "step",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
     "batch_quantum", "devices", "rollout",

@@ -546,3 +546,22 @@ def energy(model: Model, state: State) -> dict:
         elastic = elastic + 0.5 * p.spr[n, 0] * (L - p.spr[n, 2]) ** 2
     z = jnp.zeros((), p.q0.dtype)
     return {"kinetic": kin + z, "gravity": grav + z, "elastic": elastic + z}
+
+
+def centre_of_mass(model: Model, fr: Frame) -> tuple[Vec, Vec]:
+    """Whole-creature centre of mass and its velocity from a prepared frame (m, m/s)."""
+    st, p = model.structure, model.params
+    mx = my = vx = vy = 0.0
+    total = 0.0
+    for ls in st.links:
+        i = ls.index
+        if ls.parent < 0 and ls.dof_x < 0:
+            continue  # a fixed base is part of the world
+        m = p.mass[i]
+        c = _point(fr, i, (p.com[i, 0], p.com[i, 1]))
+        v = _point_vel(fr, i, c)
+        mx, my = mx + m * c[0], my + m * c[1]
+        vx, vy = add(vx, mul(m, v[0])), add(vy, mul(m, v[1]))
+        total = total + m
+    inv = 1.0 / total
+    return (mx * inv, my * inv), (mul(vx, inv), mul(vy, inv))

@@ -14,6 +14,7 @@ An observer (optional, hashable) accumulates quantities along the way (metrics):
 
     init(model, state) -> acc
     update(model, acc, state, frame, bits, u) -> acc     (called before every step)
+    finish(model, acc, final_state) -> acc               (optional)
 """
 
 from __future__ import annotations
@@ -96,6 +97,8 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
             carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=rest)
         frames = rec
     state, _, acc, deepest = carry
+    if observer is not None and hasattr(observer, "finish"):
+        acc = observer.finish(model, acc, state)
     finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4)
     return state, acc, deepest, finite, frames
 

@@ -1,0 +1,175 @@
+"""The SAN controller: Figure 7's node, topology sizes, encoding."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sanlab import creature
+from sanlab.san import San, SanParams
+
+DT = 1e-3
+
+
+def figure7(weights, k1, k2, sensor_seq, n_hidden):
+    """Plain transcription of the paper's Figure 7 (and §4's actuator mapping), float64."""
+    N, I = len(weights), len(weights[0])
+    istate = [0.0] * N
+    out = [0] * N
+    us = []
+    for bits in sensor_seq:
+        inputs = list(bits) + out
+        sums = [sum(inputs[i] * weights[j][i] for i in range(I)) for j in range(N)]
+        new_out = list(out)
+        for j in range(N):
+            istate[j] += (k1[j] if sums[j] > 0 else k2[j]) * DT
+            istate[j] = min(1.0, max(0.0, istate[j]))
+            if new_out[j] == 1 and istate[j] == 0.0:
+                new_out[j] = 0
+            if new_out[j] == 0 and istate[j] == 1.0:
+                new_out[j] = 1
+        out = new_out
+        us.append([(min(2, max(-2, s)) + 2) / 4 for s in sums[n_hidden:]])
+    return np.array(us)
+
+
+def run_san(san, params, sensor_seq):
+    step = jax.jit(san.apply)
+    s = san.init(params, None)
+    us, outs = [], []
+    for bits in sensor_seq:
+        s, u = step(params, s, jnp.asarray(bits, jnp.float64), DT)
+        us.append(np.asarray(u))
+        outs.append(np.asarray(s.out))
+    return np.array(us), np.array(outs)
+
+
+def single_node(delay_on=0.1, delay_off=0.05):
+    """One sensor feeding one actuator node (weight +1), no hidden nodes."""
+    san = San(1, 0, 1)
+    w = np.array([[1, 0]])
+    return san, san.params(w, delay_on, delay_off, "float64")
+
+
+def test_node_turns_on_after_t_on_and_off_after_t_off():
+    san, p = single_node(0.1, 0.05)
+    seq = [[1]] * 300 + [[0]] * 300
+    _, out = run_san(san, p, seq)
+    on = np.flatnonzero(out[:, 0] == 1)
+    assert on[0] + 1 == pytest.approx(100, abs=1)  # T_on = 1 / k1 = 0.1 s = 100 steps
+    off = np.flatnonzero((out[:, 0] == 0) & (np.arange(600) >= 300))
+    assert off[0] + 1 - 300 == pytest.approx(50, abs=1)  # T_off = -1 / k2 = 0.05 s
+
+
+def test_node_does_not_chatter_under_momentary_contact():
+    san, p = single_node(0.1, 0.1)
+    # 20 ms touches every 60 ms never accumulate to T_on ...
+    blips = ([[1]] * 20 + [[0]] * 40) * 10
+    _, out = run_san(san, p, blips)
+    assert out.max() == 0
+    # ... and once on, 20 ms gaps do not switch it off (hysteresis), though a long one does
+    seq = [[1]] * 150 + ([[0]] * 20 + [[1]] * 30) * 6 + [[0]] * 200
+    _, out = run_san(san, p, seq)
+    assert np.all(out[100:450, 0] == 1)
+    assert out[-1, 0] == 0
+    assert np.count_nonzero(np.diff(out[:, 0])) == 2  # exactly one on and one off
+
+
+def test_network_matches_figure_7_transcription():
+    spec = creature.load("bounder")
+    san = San.for_creature(spec)
+    rng = np.random.default_rng(7)
+    for trial in range(3):
+        w = san.random_weights(seed=trial, index=0)
+        k1 = rng.uniform(7, 14, san.n_nodes)
+        k2 = -rng.uniform(7, 14, san.n_nodes)
+        p = SanParams(jnp.asarray(w, jnp.float64), jnp.asarray(k1), jnp.asarray(k2))
+        seq = rng.integers(0, 2, (400, san.n_sensors))
+        seq[100:200] = 1  # held inputs let the delays play out
+        u, _ = run_san(san, p, seq.tolist())
+        ref = figure7(w.astype(int).tolist(), k1.tolist(), k2.tolist(), seq.tolist(), san.n_hidden)
+        np.testing.assert_array_equal(u, ref)
+        assert len(np.unique(u)) > 2  # the actuators really move
+
+
+def test_packed_popcount_sum_equals_the_dot_product():
+    san = San(8, 8, 4)
+    w = np.stack([san.random_weights(0, i) for i in range(50)])
+    bits = np.random.default_rng(1).integers(0, 2, (50, 8)).astype(np.float32)
+    out = np.random.default_rng(2).integers(0, 2, (50, 12)).astype(np.float32)
+    p = san.params(w, 0.1, 0.1)
+    wide = San(8, 8, 4)
+    for b in range(50):
+        pb = jax.tree_util.tree_map(lambda x: x[b], p)
+        s = wide.init(pb, None)._replace(out=jnp.asarray(out[b]), istate=jnp.full(12, 0.5, jnp.float32))
+        _, u = wide.apply(pb, s, jnp.asarray(bits[b]), DT)
+        x = np.concatenate([bits[b], out[b]])
+        expected = (np.clip(w[b].astype(float) @ x, -2, 2)[8:] + 2) / 4
+        np.testing.assert_array_equal(np.asarray(u), expected)
+
+
+def test_too_many_inputs_fall_back_to_the_float_sum():
+    san = San(20, 10, 3)  # 33 inputs do not fit one int32
+    w = san.random_weights(0, 0)
+    p = san.params(w, 0.1, 0.1, "float64")
+    s = san.init(p, None)
+    assert s.planes is None
+    bits = np.random.default_rng(0).integers(0, 2, 20).astype(float)
+    _, u = san.apply(p, s, jnp.asarray(bits), DT)
+    x = np.concatenate([bits, np.zeros(13)])
+    np.testing.assert_allclose(np.asarray(u), (np.clip(w.astype(float) @ x, -2, 2)[10:] + 2) / 4)
+
+
+@pytest.mark.parametrize("name", creature.builtin_names())
+def test_topology_sizes_of_every_builtin(name):
+    spec = creature.load(name)
+    san = San.for_creature(spec)
+    S, A = len(spec.sensors), len(spec.actuators)
+    H = spec.san.hidden if spec.san.hidden is not None else S
+    assert (san.n_sensors, san.n_hidden, san.n_actuators) == (S, H, A)
+    assert san.n_weights == (H + A) * (S + H + A)
+    assert san.random_weights(0, 0).shape == (H + A, S + H + A)
+
+
+def test_bounder_has_240_weights_in_70_bytes():
+    san = San.for_creature(creature.load("bounder"))
+    assert san.n_weights == 240  # 12 nodes x 20 inputs, as the paper says
+    assert san.n_bytes == 70
+    assert len(san.pack(san.random_weights(0, 0))) == 70
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_encoding_round_trips(seed):
+    san = San.for_creature(creature.load("bounder"))
+    w = san.random_weights(seed, 3)
+    text = san.encode(w)
+    assert text.startswith("san1-8-8-4-") and text.isascii() and " " not in text
+    np.testing.assert_array_equal(san.decode(text), w)
+    np.testing.assert_array_equal(san.unpack(san.pack(w)), w)
+    extremes = np.full_like(w, 2), np.full_like(w, -2)
+    for e in extremes:
+        np.testing.assert_array_equal(san.decode(san.encode(e)), e)
+
+
+def test_encoding_rejects_other_topologies_and_garbage():
+    bounder = San.for_creature(creature.load("bounder"))
+    cart = San.for_creature(creature.load("cart"))
+    text = cart.encode(cart.random_weights(0, 0))
+    with pytest.raises(ValueError, match="sensors/hidden/actuators"):
+        bounder.decode(text)
+    with pytest.raises(ValueError, match="expected an encoding"):
+        bounder.decode("hello")
+    with pytest.raises(ValueError):
+        bounder.pack(np.full((12, 20), 3))
+
+
+def test_random_weights_are_per_index_streams():
+    san = San(8, 8, 4)
+    a = san.random_weights(1, 5)
+    assert np.array_equal(a, san.random_weights(1, 5))
+    assert not np.array_equal(a, san.random_weights(1, 6))
+    assert not np.array_equal(a, san.random_weights(2, 5))
+    allw = np.stack([san.random_weights(0, i) for i in range(200)])
+    assert set(np.unique(allw)) == {-2, -1, 0, 1, 2}
