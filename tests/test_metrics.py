@@ -1,0 +1,117 @@
+"""Evaluation metrics (paper §5.1) against cases with known answers."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from sanlab import creature, sim
+from sanlab.creature.spec import Creature, Evaluation, Follow, Ground, Link, Shape, World
+from sanlab.evaluate import Evaluator
+from sanlab.metrics import Metric, scores
+
+G = 9.81
+
+
+def box(name="box", w=0.4, h=0.1, m=2.0, **kw):
+    pts = ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2))
+    return Link(name, m, m * (w * w + h * h) / 12, (0.0, 0.0), Shape("polygon", pts), contacts=pts, **kw)
+
+
+def evaluate(spec, kind, qd0=None, q0=None, seconds=1.0):
+    m = sim.compile_creature(spec, "float64")
+    metric = Metric.for_creature(spec, kind)
+    q = m.params.q0 if q0 is None else jnp.asarray(q0, jnp.float64)
+    qd = jnp.zeros_like(q) if qd0 is None else jnp.asarray(qd0, jnp.float64)
+    s0 = sim.State(q, qd, jnp.zeros(()))
+    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), seconds, observer=metric, state0=s0)
+    return {k: v[0] for k, v in scores(metric, r.acc, r.finite, seconds, spec.world.plane).items()}
+
+
+def resting_box(mu=0.5, **ev):
+    k = 5.0e4
+    link = box(position=(0.0, 0.05 - 2.0 * G / (2 * k)))
+    world = World(ground=Ground(stiffness=k, damping=300.0, friction=mu))
+    return Creature("box", (link,), world=world, evaluation=Evaluation(**ev))
+
+
+def test_distance_is_how_far_the_centre_of_mass_got_either_way():
+    mu = 0.5
+    for v0 in (1.5, -1.5):
+        r = evaluate(resting_box(mu), "distance", qd0=[v0, 0, 0], seconds=1.0)
+        expected = v0 * v0 / (2 * mu * G)  # slides to a stop
+        assert r["score"] == pytest.approx(expected, rel=0.03)
+        assert r["speed_cm_s"] == pytest.approx(expected * 100, rel=0.03)
+        assert not r["fell"] and not r["nonfinite"]
+
+
+def test_distance_upright_is_zero_once_the_creature_fell():
+    spec = resting_box(0.5, metric="distance_upright", fell_link="box", fell_angle=math.radians(60))
+    ok = evaluate(spec, None, qd0=[1.0, 0, 0])
+    assert ok["score"] > 0.05 and not ok["fell"]
+    # thrown into a somersault: it moves, but it fell
+    flipped = evaluate(spec, None, q0=[0.0, 0.3, 0.0], qd0=[1.0, 2.0, 15.0])
+    assert flipped["fell"] and flipped["score"] == 0.0 and flipped["speed_cm_s"] > 0
+
+
+def test_hopping_adds_the_integral_of_squared_height_above_the_start():
+    spec = resting_box(0.5, metric="hopping", hop_k=3.0)
+    v0 = 2.0
+    r = evaluate(spec, None, qd0=[0.0, v0, 0.0], seconds=1.0)
+    t = np.linspace(0, 2 * v0 / G, 20001)
+    hop = np.trapezoid((v0 * t - G * t * t / 2) ** 2, t)  # in the air until it lands again
+    assert r["score"] == pytest.approx(3.0 * hop, rel=0.03)
+    assert r["distance_m"] < 1e-3
+
+
+def test_pursuit_integrates_velocity_towards_the_follow_point():
+    dot = Link("dot", 1.0, 0.0, (0.0, 0.0), Shape("point"), contacts=())
+    spec = Creature(
+        "dot",
+        (dot,),
+        world=World(plane="horizontal", ground=Ground(friction=0.0), follow=Follow(((10.0, 0.0), (10.0, 1.0)), 0.0)),
+        evaluation=Evaluation(metric="pursuit"),
+    )
+    towards = evaluate(spec, None, qd0=[0.5, 0.0], seconds=2.0)
+    assert towards["score"] == pytest.approx(1.0, rel=1e-3)  # 0.5 m/s straight at it for 2 s
+    # for a still target the integral is the decrease of the distance to it
+    across = evaluate(spec, None, qd0=[0.0, 0.5], seconds=2.0)
+    assert across["score"] == pytest.approx(10.0 - math.hypot(10.0, 1.0), rel=1e-3)
+    away = evaluate(spec, None, qd0=[-0.5, 0.0], seconds=2.0)
+    assert away["score"] == pytest.approx(-1.0, rel=1e-3)
+
+
+def test_a_run_that_blows_up_scores_zero_and_is_flagged():
+    spec = resting_box()
+    m = sim.compile_creature(spec)
+    metric = Metric.for_creature(spec, "distance")
+    q = jnp.stack([m.params.q0, m.params.q0])
+    qd = jnp.array([[1.0, 0.0, 0.0], [jnp.nan, 0.0, 0.0]], jnp.float32)
+    s0 = sim.State(q, qd, jnp.zeros(2))
+    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((2, 0)), 0.5, observer=metric, state0=s0)
+    out = scores(metric, r.acc, r.finite, 0.5, "vertical")
+    assert list(out["nonfinite"]) == [False, True]
+    assert out["score"][1] == 0.0 and out["score"][0] > 0
+
+
+def test_unknown_metric_and_missing_follow_point_are_clear_errors():
+    spec = creature.load("cart")
+    with pytest.raises(ValueError, match="expected one of"):
+        Metric.for_creature(spec, "speediness")
+    with pytest.raises(ValueError, match="follow point"):
+        Metric.for_creature(spec, "pursuit")
+
+
+def test_evaluator_scores_do_not_depend_on_batch_composition():
+    spec = creature.load("bounder")
+    ev = Evaluator(spec, seconds=1.0, batch=64)
+    W = np.stack([ev.san.random_weights(0, i) for i in range(40)])
+    a = ev(W)
+    b = ev(W[::-1])
+    np.testing.assert_array_equal(a["score"], b["score"][::-1])
+    assert np.ptp(a["score"]) > 0
