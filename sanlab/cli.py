@@ -268,7 +268,7 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     lib = open_library(db)
     rows = [
         {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
-         "evaluated": lib.count(r.run_id), "total": r.total, "created": r.created}
+         "evaluated": r.count, "total": r.total, "created": r.created}
         for r in lib.runs()
     ]
     if as_json:
@@ -276,7 +276,8 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
         return
     table = Table("run", "kind", "creature", "status", "evaluated", "created")
     for r in rows:
-        table.add_row(r["run_id"], r["kind"], r["creature"], r["status"], f"{r['evaluated']}/{r['total']}", r["created"])
+        created = r["created"][:19].replace("T", " ")
+        table.add_row(r["run_id"], r["kind"], r["creature"], r["status"], f"{r['evaluated']}/{r['total']}", created)
     console.print(table)
 
 

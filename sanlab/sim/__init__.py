@@ -9,7 +9,18 @@ from sanlab import _jax
 
 _jax.configure()
 
-from sanlab.sim.dynamics import State, advance, centre_of_mass, energy, follow_point, initial_state, prepare, sense, step  # noqa: E402
+from sanlab.sim.dynamics import (  # noqa: E402
+    State,
+    advance,
+    centre_of_mass,
+    energy,
+    follow_point,
+    initial_state,
+    poses,
+    prepare,
+    sense,
+    step,
+)
 from sanlab.sim.model import Model, Params, Structure, compile_creature  # noqa: E402
 from sanlab.sim.rollout import (  # noqa: E402
     ConstantController,
@@ -23,7 +34,7 @@ from sanlab.sim.rollout import (  # noqa: E402
 )
 
 __all__ = [
-    "State", "advance", "centre_of_mass", "energy", "follow_point", "initial_state", "prepare", "sense", "step",
+    "State", "advance", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "prepare", "sense", "step",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
     "batch_quantum", "devices", "rollout",

@@ -565,3 +565,18 @@ def centre_of_mass(model: Model, fr: Frame) -> tuple[Vec, Vec]:
         total = total + m
     inv = 1.0 / total
     return (mx * inv, my * inv), (mul(vx, inv), mul(vy, inv))
+
+
+def poses(model: Model, q) -> dict:
+    """World placement of one configuration q [D] (for drawing and analysis): ``links`` [L, 3]
+    (origin x, y and absolute angle of each link frame), ``contacts`` [C, 2] (contact points),
+    ``depth`` [C] (penetration, > 0 when touching; horizontal plane: 1), ``com`` [2]."""
+    state = State(q, jnp.zeros_like(q), jnp.zeros((), q.dtype))
+    fr = prepare(model, state)
+    z = jnp.zeros((), q.dtype)
+    links = jnp.stack([jnp.stack([x[0] + z, x[1] + z, a + z]) for x, a in zip(fr.X, fr.th)])
+    C = len(model.structure.contacts)
+    contacts = jnp.stack([jnp.stack([p[0] + z, p[1] + z]) for p in fr.cp]) if C else jnp.zeros((0, 2), q.dtype)
+    depth = jnp.stack([d + z for d in fr.depth]) if C else jnp.zeros((0,), q.dtype)
+    com, _ = centre_of_mass(model, fr)
+    return {"links": links, "contacts": contacts, "depth": depth, "com": jnp.stack([com[0] + z, com[1] + z])}

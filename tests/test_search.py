@@ -1,0 +1,151 @@
+"""Phase-1 search end to end: determinism, interruption and resume, the CLI around it."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import pytest
+
+from sanlab.creature import read_source
+from sanlab.library import Library
+from sanlab.search import run_search
+
+SANLAB = [sys.executable, "-m", "sanlab"]
+
+
+def search(db, n=96, seed=3, batch=32, **kw):
+    text, where = read_source("cart")
+    with Library(str(db)) as lib:
+        run_id = run_search(lib, text, where, controllers=n, seconds=1.0, seed=seed, batch=batch, **kw)
+        return run_id, [(e.encoding, e.score) for e in lib.top(run_id, 10)], lib.scores(run_id)
+
+
+def test_a_seeded_search_is_deterministic(tmp_path):
+    a_id, a_top, a_scores = search(tmp_path / "a.db")
+    b_id, b_top, b_scores = search(tmp_path / "b.db")
+    assert a_id != b_id
+    assert a_top == b_top and a_scores == b_scores
+    _, c_top, _ = search(tmp_path / "c.db", seed=4)
+    assert c_top != a_top
+    assert len(a_scores) == 96 and max(a_scores) > 0
+
+
+def test_the_batch_size_does_not_change_the_result(tmp_path):
+    _, a_top, a_scores = search(tmp_path / "a.db", batch=32)
+    _, b_top, b_scores = search(tmp_path / "b.db", batch=40)
+    assert a_top == b_top and a_scores == b_scores
+
+
+def test_progress_reaches_the_reporter(tmp_path):
+    seen = []
+    search(tmp_path / "a.db", n=64, reporter=seen.append)
+    assert [p.evaluated for p in seen] == [0, 32, 64, 64]
+    assert seen[-1].done and seen[-1].best == max(p.best for p in seen)
+
+
+def _count(db) -> int:
+    try:
+        with sqlite3.connect(db, timeout=5) as c:
+            return c.execute("select count(*) from evaluations").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
+    db = tmp_path / "gaits.db"
+    args = ["search", "cart", "-n", "640", "--batch", "64", "--seconds", "1", "--seed", "9", "--db", str(db)]
+    proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 240
+    while _count(db) < 64 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    stored = _count(db)
+    assert 64 <= stored < 640, "the search should have been stopped part-way"
+    assert stored % 64 == 0  # at most the batch in flight is lost
+    with Library(str(db)) as lib:
+        run = lib.runs()[0]
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130
+        assert f"--resume {run.run_id}" in err and "Traceback" not in err
+        assert run.status == "interrupted"
+    resumed = subprocess.run(SANLAB + ["search", "--resume", run.run_id, "--db", str(db), "--json"],
+                             capture_output=True, text=True, check=True)
+    out = json.loads(resumed.stdout)
+    ref = subprocess.run(SANLAB + args[:-1] + [str(tmp_path / "ref.db"), "--json"],
+                         capture_output=True, text=True, check=True)
+    expected = json.loads(ref.stdout)
+    assert out["evaluated"] == 640
+    strip = lambda rows: [(r["encoding"], r["score"], r["speed_cm_s"]) for r in rows]
+    assert strip(out["top"]) == strip(expected["top"])
+    assert [r["gait"].split("/")[1] for r in out["top"]] == [str(i) for i in range(1, 11)]
+
+
+def test_search_json_has_the_documented_shape(tmp_path):
+    db = str(tmp_path / "g.db")
+    r = subprocess.run(SANLAB + ["search", "cart", "-n", "20", "--seconds", "0.5", "--db", db, "--json"],
+                       capture_output=True, text=True, check=True)
+    out = json.loads(r.stdout)
+    assert set(out) == {"run_id", "evaluated", "top"} and out["evaluated"] == 20
+    first = out["top"][0]
+    assert {"gait", "score", "speed_cm_s", "fell", "encoding"} <= set(first)
+    assert first["gait"] == f"{out['run_id']}/1"
+    runs = json.loads(subprocess.run(SANLAB + ["runs", "--db", db, "--json"], capture_output=True,
+                                     text=True, check=True).stdout)
+    assert runs[0]["run_id"] == out["run_id"] and runs[0]["status"] == "done"
+    assert runs[0]["creature"] == "cart" and runs[0]["evaluated"] == 20
+    shown = json.loads(subprocess.run(SANLAB + ["show", out["run_id"][:5], "--db", db, "--json"],
+                                      capture_output=True, text=True, check=True).stdout)
+    assert shown["top"] == out["top"]
+
+
+def test_export_then_import_round_trips(tmp_path):
+    db, other = str(tmp_path / "g.db"), str(tmp_path / "other.db")
+    out = json.loads(subprocess.run(SANLAB + ["search", "cart", "-n", "10", "--seconds", "0.5", "--db", db, "--json"],
+                                    capture_output=True, text=True, check=True).stdout)
+    gait = out["top"][0]["gait"]
+    path = tmp_path / "gait.json"
+    subprocess.run(SANLAB + ["export", gait, "--db", db, "-o", str(path)], check=True)
+    data = json.loads(path.read_text())
+    assert data["encoding"] == out["top"][0]["encoding"] and data["creature"] == "cart"
+    new = subprocess.run(SANLAB + ["import", str(path), "--db", other], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    with Library(other) as lib:
+        e = lib.gait(new)
+    assert e.encoding == data["encoding"] and e.score == pytest.approx(data["score"])
+
+
+@pytest.mark.parametrize("content", [b"hello, this is not a database\n", os.urandom(4096)])
+def test_a_corrupt_or_foreign_database_is_a_clear_error(tmp_path, content):
+    bad = tmp_path / "bad.db"
+    bad.write_bytes(content)
+    r = subprocess.run(SANLAB + ["runs", "--db", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "bad.db" in r.stderr
+
+
+def test_a_foreign_sqlite_database_is_refused_and_left_alone(tmp_path):
+    path = tmp_path / "other.db"
+    with sqlite3.connect(path) as c:
+        c.execute("create table recipes (name text)")
+    before = path.read_bytes()
+    r = subprocess.run(SANLAB + ["search", "cart", "-n", "5", "--db", str(path)], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "other.db" in r.stderr
+    assert path.read_bytes() == before
+
+
+def test_missing_run_and_bad_gait_ids_are_clear_errors(tmp_path):
+    db = str(tmp_path / "g.db")
+    for args in (["show", "deadbeef"], ["export", "nonsense"], ["search"]):
+        r = subprocess.run(SANLAB + args + ["--db", db], capture_output=True, text=True)
+        assert r.returncode == 2, args
+        assert "Traceback" not in r.stderr and r.stderr.strip(), args
