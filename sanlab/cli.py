@@ -332,3 +332,61 @@ def import_(
         raise fail(f"{file}: expected JSON, got a syntax error at line {e.lineno}") from None
     lib = open_library(db)
     typer.echo(_library_call(lib.import_gait, data))
+
+
+@app.command()
+def tune(
+    gait: Annotated[str, typer.Argument(help="RUN/RANK or RUN#IDX; or a run id with --top K.")],
+    method: Annotated[str, typer.Option(help="sa (simulated annealing) or sga (stochastic gradient ascent).")] = "sa",
+    trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
+    seed: Annotated[int, typer.Option(help="Seed of the perturbations.")] = 0,
+    top: Annotated[int | None, typer.Option(min=1, help="Tune a run's top K gaits as parallel chains.")] = None,
+    morphology: Annotated[bool, typer.Option("--morphology", help="Also tune link lengths (and so masses).")] = False,
+    terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
+    batch: Annotated[int, typer.Option(min=1, help="Evaluations simulated together per round.")] = 128,
+    db: DbOpt = "sanlab.db",
+    as_json: JsonOpt = False,
+) -> None:
+    """Phase 2 (paper §5.3): fine-tune a gait's sensor, actuator and delay parameters."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sanlab.search.tune import tune as run_tune
+
+    lib = open_library(db)
+    if top is not None:
+        run = _library_call(lib.get_run, gait)
+        gaits = [f"{run.run_id}/{k}" for k in range(1, min(top, run.count) + 1)]
+    else:
+        _library_call(lib.gait, gait)
+        gaits = [gait]
+    show = console.is_terminal and not as_json
+    progress = Progress(
+        TextColumn(f"[bold]tune ({method})"), BarColumn(), MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]:.0f} eval/s"), TextColumn("best {task.fields[best]:.3f}"),
+        TimeElapsedColumn(), console=console, disable=not show,
+    )
+    task = None
+
+    def report(p) -> None:
+        nonlocal task
+        if task is None:
+            task = progress.add_task("tune", total=p.total, rate=0.0, best=p.best)
+        progress.update(task, completed=p.trials, rate=p.rate, best=p.best)
+
+    try:
+        with progress:
+            results = run_tune(lib, gaits, method=method, trials=trials, seed=seed, morphology=morphology,
+                               terrain=terrain, batch=batch, reporter=report)
+    except ValueError as e:
+        raise fail(f"tune: {e}") from None
+    rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials}
+            for r in results]
+    if as_json:
+        typer.echo(json.dumps(rows[0] if top is None else rows, indent=2))
+        return
+    table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
+    for r in results:
+        table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
+                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
+    console.print(table)
+    console.print(f"{len(results)} chain(s) x {trials} trials ({method}) in {results[0].seconds:.0f} s")

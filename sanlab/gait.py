@@ -29,6 +29,7 @@ class Gait:
     run_params: dict = field(default_factory=dict)  # the run's settings: seconds, metric, ...
     score: float = float("nan")
     speed_cm_s: float = float("nan")
+    creature_text: str = ""  # the creature file, verbatim, as stored with its run
 
     @property
     def san(self) -> San:
@@ -49,7 +50,8 @@ class Gait:
         run = library.get_run(e.run_id)
         spec = loads(run.creature_text, source=run.params.get("source", run.creature))
         san = San.for_creature(spec)
-        return cls(e.gait_id, spec, san.decode(e.encoding), dict(e.params), dict(run.params), e.score, e.speed_cm_s)
+        return cls(e.gait_id, spec, san.decode(e.encoding), dict(e.params), dict(run.params), e.score,
+                   e.speed_cm_s, run.creature_text)
 
     def san_params(self, dtype: str = "float32") -> SanParams:
         """The controller's parameters with a leading batch axis of 1."""

@@ -1,0 +1,94 @@
+"""Plots of runs (matplotlib, Agg backend, PNG).
+
+- :func:`plot_scores`: a run's scores sorted best first against rank (log rank axis: the paper's
+  long tail, a few good controllers among many that go nowhere), with a histogram beside it.
+- :func:`plot_trace`: a tuning run's score against trial, accepted trials highlighted and joined
+  (the best-so-far staircase), rejected ones as small grey dots.
+
+PNG files are deterministic (no software/date metadata).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_METADATA = {"Software": None}
+
+
+def _figure(w: float, h: float, ncols: int = 1, **kw):
+    from matplotlib.figure import Figure  # no pyplot: rendered by Agg, no global backend change
+
+    fig = Figure(figsize=(w, h), dpi=100, layout="constrained")
+    axes = fig.subplots(1, ncols, **kw)
+    return fig, axes
+
+
+def _style(ax) -> None:
+    ax.grid(True, which="major", color="#dddddd", linewidth=0.8)
+    ax.set_axisbelow(True)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
+
+
+def plot_scores(library, run_id: str, path: str, top: int = 10) -> dict:
+    """Sorted phase-1 scores of ``run_id`` -> PNG at ``path``; returns a summary."""
+    run = library.get_run(run_id)
+    scores = np.asarray(library.scores(run.run_id), float)
+    finite = scores[np.isfinite(scores)]
+    if finite.size == 0:
+        raise ValueError(f"run {run.run_id} has no finite scores to plot")
+    s = np.sort(finite)[::-1]
+    rank = np.arange(1, s.size + 1)
+    fig, (ax, hx) = _figure(9.0, 3.8, 2, width_ratios=[2.2, 1])
+    ax.plot(rank, s, color="#2e75cc", linewidth=1.6)
+    k = min(top, s.size)
+    ax.scatter(rank[:k], s[:k], s=18, color="#f58014", zorder=3, label=f"top {k}")
+    ax.set_xscale("log")
+    ax.set_xlabel("rank (best first)")
+    metric = run.params.get("metric", "score")
+    ax.set_ylabel(f"score ({metric})")
+    ax.set_title(f"run {run.run_id}: {run.creature}, {scores.size} controllers", loc="left", fontsize=11)
+    for q in (1, 10, 50):
+        if s.size >= 10:
+            v = float(np.percentile(finite, 100 - q))
+            ax.axhline(v, color="#999999", linewidth=0.8, linestyle=":")
+            ax.annotate(f"top {q}%", (rank[-1], v), xytext=(-2, 2), textcoords="offset points",
+                        ha="right", va="bottom", fontsize=8, color="#666666")
+    ax.legend(loc="upper right", frameon=False, fontsize=9)
+    _style(ax)
+    hx.hist(finite, bins=min(40, max(5, int(np.sqrt(finite.size)))), color="#2e75cc", alpha=0.85)
+    hx.set_yscale("log")
+    hx.set_xlabel(f"score ({metric})")
+    hx.set_ylabel("controllers")
+    nonfinite = scores.size - finite.size
+    hx.set_title(f"{nonfinite} non-finite left out" if nonfinite else "distribution", loc="left", fontsize=10)
+    _style(hx)
+    fig.savefig(path, format="png", metadata=_METADATA)
+    return {"path": path, "points": int(finite.size), "best": float(s[0])}
+
+
+def plot_trace(library, run_id: str, path: str) -> dict:
+    """A tuning run's score against trial -> PNG at ``path``; returns a summary."""
+    run = library.get_run(run_id)
+    trace = library.trace(run.run_id)
+    if not trace:
+        raise ValueError(f"run {run.run_id} ({run.kind}) has no tuning trace to plot")
+    trial = np.array([p.trial for p in trace], float)
+    score = np.array([p.score for p in trace], float)
+    acc = np.array([p.accepted for p in trace], bool)
+    fig, ax = _figure(8.0, 4.0)
+    ok = np.isfinite(score)
+    ax.scatter(trial[ok & ~acc], score[ok & ~acc], s=8, color="#b5b5b5", label="rejected", zorder=2)
+    if acc.any():
+        ax.step(trial[acc & ok], score[acc & ok], where="post", color="#2e75cc", linewidth=1.4, zorder=3)
+        ax.scatter(trial[acc & ok], score[acc & ok], s=26, color="#f58014", edgecolor="#7a3d00", linewidth=0.5,
+                   label="accepted", zorder=4)
+    ax.set_xlabel("trial")
+    ax.set_ylabel(f"score ({run.params.get('metric', 'score')})")
+    parent = f" from {run.parent_gait}" if run.parent_gait else ""
+    ax.set_title(f"run {run.run_id}: tuning {run.creature}{parent}: {int(acc.sum())} of {len(trace)} accepted",
+                 loc="left", fontsize=11)
+    ax.legend(loc="lower right", frameon=False, fontsize=9)
+    _style(ax)
+    fig.savefig(path, format="png", metadata=_METADATA)
+    return {"path": path, "points": len(trace), "accepted": int(acc.sum())}

@@ -1,0 +1,177 @@
+"""A replayed gait as plain arrays: everything the drawing code needs, computed once.
+
+:func:`scene` replays a gait with the same compiled step as the search (``Gait.replay``) and turns
+each recorded frame into world placements through ``sim.poses`` (one jitted, vmapped call), so
+what is drawn is exactly what was simulated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Scene:
+    """One recorded rollout of one creature. F frames, L links, C contacts."""
+
+    spec: Any  # Creature
+    model: Any  # sim.Model (the gait's, with its parameter overrides)
+    t: np.ndarray  # [F] s
+    links: np.ndarray  # [F, L, 3] origin x, y and absolute angle of each link frame
+    contacts: np.ndarray  # [F, C, 2]
+    depth: np.ndarray  # [F, C] > 0: touching
+    com: np.ndarray  # [F, 2]
+    u: np.ndarray  # [F, A] actuator activations
+    bits: np.ndarray  # [F, S] sensor values
+    nodes: np.ndarray  # [F, H + A] SAN node outputs (hidden first, then actuator nodes)
+    n_hidden: int
+    fps: float  # requested frame rate
+    title: str = ""  # e.g. "3fa1c2d0/1  cart  7.3 cm/s"
+    follow: np.ndarray | None = None  # [F, 2] the follow point at each frame
+    follow_path: np.ndarray | None = None  # [P, 2] the whole follow spline
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def plane(self) -> str:
+        return self.spec.world.plane
+
+    # -- geometry ------------------------------------------------------------------------------
+
+    def to_world(self, frame: int, link: int, pts) -> np.ndarray:
+        """Points [K, 2] in ``link``'s frame -> world, at ``frame``."""
+        x, y, a = self.links[frame, link]
+        c, s = np.cos(a), np.sin(a)
+        p = np.asarray(pts, float).reshape(-1, 2)
+        return np.stack([x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]], 1)
+
+    def outline_points(self) -> np.ndarray:
+        """Every shape point of every link, in world coordinates, per frame: [F, K, 2]."""
+        if "outline" not in self._cache:
+            self._cache["outline"] = self._outline_points()
+        return self._cache["outline"]
+
+    def _outline_points(self) -> np.ndarray:
+        parts = []
+        for i, link in enumerate(self.spec.links):
+            pts = np.asarray(link.shape.points if link.shape.kind != "point" else [(0.0, 0.0)], float)
+            x, y, a = (self.links[:, i, k][:, None] for k in range(3))
+            c, s = np.cos(a), np.sin(a)
+            parts.append(np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], -1))
+        if self.contacts.shape[1]:
+            parts.append(self.contacts)
+        return np.concatenate(parts, 1)
+
+    def bounds(self, frames=None) -> tuple[float, float, float, float]:
+        """(x0, y0, x1, y1) of the creature over ``frames`` (default: all)."""
+        p = self.outline_points()
+        if frames is not None:
+            p = p[frames]
+        return float(p[..., 0].min()), float(p[..., 1].min()), float(p[..., 0].max()), float(p[..., 1].max())
+
+    def size(self) -> float:
+        """The creature's size (m): the largest width or height of its outline in any frame."""
+        if "size" not in self._cache:
+            p = self.outline_points()
+            ext = p.max(1) - p.min(1)
+            self._cache["size"] = float(max(ext.max(), 0.05))
+        return self._cache["size"]
+
+    def extent(self) -> tuple[float, float]:
+        """The creature's largest width and largest height (m) over all frames."""
+        if "extent" not in self._cache:
+            p = self.outline_points()
+            ext = np.maximum(p.max(1) - p.min(1), 0.02)
+            self._cache["extent"] = (float(ext[:, 0].max()), float(ext[:, 1].max()))
+        return self._cache["extent"]
+
+    def terrain(self, x: np.ndarray) -> np.ndarray:
+        """Ground height at ``x`` (vertical plane)."""
+        from sanlab.sim.dynamics import terrain_height
+
+        h, _ = terrain_height(self.model.structure, self.model.params, np.asarray(x, np.float64))
+        return np.broadcast_to(np.asarray(h, float), np.shape(x)).copy()
+
+
+def _poses_fn():
+    import jax
+
+    from sanlab import sim
+
+    @jax.jit
+    def poses(model, q):
+        return jax.vmap(lambda qq: sim.poses(model, qq))(q)
+
+    return poses
+
+
+_POSES = None
+
+
+def poses(model, q):
+    """``sim.poses`` over frames [F, D] -> dict of numpy arrays (compiled once per structure)."""
+    global _POSES
+    import jax
+
+    if _POSES is None:
+        _POSES = _poses_fn()
+    return jax.tree_util.tree_map(np.asarray, _POSES(model, q))
+
+
+def follow_samples(model, t: np.ndarray) -> np.ndarray:
+    """The follow point at times ``t`` [F] -> [F, 2]."""
+    import jax
+    import jax.numpy as jnp
+
+    from sanlab import sim
+
+    fx, fy = jax.vmap(lambda tt: sim.follow_point(model, tt))(jnp.asarray(t, model.dtype))
+    return np.stack([np.asarray(fx, float), np.asarray(fy, float)], 1)
+
+
+def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
+    """A scene from a recorded ``sim.Result`` (batch 1) of ``gait``."""
+    fr = result.frames
+    q = fr.q[0]
+    P = poses(model, q)
+    spec = gait.spec
+    follow = path = None
+    if model.structure.follow:
+        follow = follow_samples(model, np.asarray(fr.t))
+        path = np.asarray(model.params.follow, float)
+    san = gait.san
+    return Scene(
+        spec=spec,
+        model=model,
+        t=np.asarray(fr.t, float),
+        links=np.asarray(P["links"], float),
+        contacts=np.asarray(P["contacts"], float),
+        depth=np.asarray(P["depth"], float),
+        com=np.asarray(P["com"], float),
+        u=np.asarray(fr.u[0], float),
+        bits=np.asarray(fr.bits[0], float),
+        nodes=np.asarray(fr.cstate.out[0], float),
+        n_hidden=san.n_hidden,
+        fps=float(fps),
+        title=title,
+        follow=follow,
+        follow_path=path,
+    )
+
+
+def gait_title(gait) -> str:
+    speed = "" if not np.isfinite(gait.speed_cm_s) else f"  {gait.speed_cm_s:.1f} cm/s"
+    return f"{gait.gait_id}  {gait.spec.name}{speed}"
+
+
+def scene(gait, seconds: float | None = None, fps: float = 30.0, title: str | None = None) -> Scene:
+    """Replay ``gait`` for ``seconds`` (default: its run's), recording ``fps`` frames per second."""
+    model = gait.model()
+    result = gait.replay(seconds, fps=fps, model=model)
+    return from_result(gait, model, result, fps, gait_title(gait) if title is None else title)

@@ -1,0 +1,149 @@
+"""Strobe pictures (multi-exposure, like the paper's Figures 10-15) and contact sheets.
+
+A strobe picture shows the whole trajectory in one fixed view: the creature drawn every Δt,
+older poses fainter (their colours mixed towards the background), the newest one in full with
+its centre of mass; the centre of mass's path as a thin line; the ground with distance ticks;
+a scale bar. Δt is chosen so that successive poses are about 0.4 creature widths apart along
+the path (8 to 24 exposures over the run), rounded to whole recorded frames.
+
+A contact sheet puts one strobe tile per gait on a grid (:func:`sheet_layout`), each labelled
+with its rank, gait id and speed. Tiles share one scale (so that distances compare at a
+glance) unless a trajectory does not fit at it, or the common scale would shrink most tiles more
+than twofold: then that tile is fitted on its own; every tile has its scale bar.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sanlab.render import draw
+from sanlab.render.canvas import PillowCanvas, View
+from sanlab.render.film import even, fixed_view
+
+MIN_EXPOSURES, MAX_EXPOSURES = 8, 24
+FADE_OLDEST = 0.78  # the first exposure's colours are this far towards the background
+
+
+def exposures(scene, n: int | None = None) -> list[int]:
+    """Frame indices of the exposures: every k-th frame, first and last included."""
+    F = scene.n_frames
+    if F <= 1:
+        return [0]
+    if n is None:
+        cw, _ = scene.extent()
+        d = scene.com[-1] - scene.com[0]
+        travel = float(np.hypot(*d)) if scene.plane != "vertical" else abs(float(d[0]))
+        n = int(np.clip(math.ceil(travel / (0.4 * cw)) + 1, MIN_EXPOSURES, MAX_EXPOSURES))
+    k = max(1, int(round((F - 1) / max(n - 1, 1))))
+    idx = list(range(0, F, k))
+    if idx[-1] != F - 1:
+        if F - 1 - idx[-1] < 0.5 * k:
+            idx[-1] = F - 1
+        else:
+            idx.append(F - 1)
+    return idx
+
+
+def strobe_height(scene, width: int) -> int:
+    """A picture height that fits the trajectory's box at ``width`` (28%..80% of the width)."""
+    s = scene.size()
+    m = 0.15 * s
+    x0, y0, x1, y1 = scene.bounds()
+    bw = x1 - x0 + 2 * m
+    bh = y1 - y0 + 2 * m
+    if scene.plane == "vertical":
+        bh = bh / (1 - 0.2)
+    return even(int(np.clip(width * bh / bw, 0.28 * width, 0.8 * width)))
+
+
+def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, overlays: bool = True) -> None:
+    """Multi-exposure of ``scene`` at frames ``idx`` on ``canvas`` through ``view``."""
+    canvas.view = view
+    sizes = draw.Sizes.for_view(view, scene.size())
+    draw.draw_ground(canvas, scene, view, labels=labels)
+    draw.draw_follow_path(canvas, scene)
+    draw.draw_trail(canvas, scene, scene.n_frames - 1)
+    n = len(idx)
+    for j, f in enumerate(idx):
+        fade = 0.0 if j == n - 1 else FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8
+        draw.draw_follow_point(canvas, scene, f, sizes, fade)
+        draw.draw_pose(canvas, scene, f, sizes, fade=fade, detail=True, com=j == n - 1)
+    if overlays:
+        step = scene.t[idx[1]] - scene.t[idx[0]] if n > 1 else 0.0
+        span = scene.t[-1] + (scene.t[1] - scene.t[0] if scene.n_frames > 1 else 0.0)
+        draw.draw_label(canvas, view, f"Δt = {step:.2f} s  ({n} exposures over {span:.1f} s)", "tl", 13)
+        draw.draw_label(canvas, view, scene.title, "tr", 12, draw.MUTED)
+    draw.draw_scale_bar(canvas, view)
+
+
+def strobe(scene, width: int = 1000, n: int | None = None, nodes: bool = False):
+    """The strobe picture of ``scene`` (a PIL image)."""
+    w = even(width)
+    h = strobe_height(scene, w)
+    view = fixed_view(scene, w, h)
+    idx = exposures(scene, n)
+    total = h + (even(draw.panel_height(scene, w)) if nodes else 0)
+    canvas = PillowCanvas(w, total, draw.BACKGROUND, view)
+    draw_strobe(canvas, scene, view, idx)
+    if nodes:
+        draw.draw_panel(canvas, scene, (0, h, w, total), idx)
+    return canvas.image()
+
+
+def write_strobe(scene, path: str, width: int = 1000, n: int | None = None, nodes: bool = False) -> dict:
+    im = strobe(scene, width, n, nodes)
+    im.save(path, format="PNG", optimize=False)
+    return {"path": path, "size": im.size, "exposures": len(exposures(scene, n))}
+
+
+# ------------------------------------------------------------------------------ contact sheet
+
+HEADER = 34
+LABEL = 22
+GAP = 2
+
+
+def sheet_layout(n: int, width: int = 1200) -> dict:
+    """Grid of a contact sheet of ``n`` tiles: cols, rows, tile size (label strip included),
+    the header's height, and each tile's pixel box (x0, y0, x1, y1)."""
+    cols = 1 if n <= 1 else 2 if n <= 8 else 3
+    rows = max(1, math.ceil(n / cols))
+    tw = (width - GAP * (cols + 1)) // cols
+    th = LABEL + even(int(0.42 * tw))
+    boxes = []
+    for k in range(n):
+        r, c = divmod(k, cols)
+        x0 = GAP + c * (tw + GAP)
+        y0 = HEADER + GAP + r * (th + GAP)
+        boxes.append((x0, y0, x0 + tw, y0 + th))
+    height = HEADER + GAP + rows * (th + GAP)
+    return {"cols": cols, "rows": rows, "tile": (tw, th), "header": HEADER, "label": LABEL, "size": (width, height), "boxes": boxes}
+
+
+def contact_sheet(tiles: list[tuple[str, object]], title: str = "", width: int = 1200):
+    """One strobe tile per (label, scene), in order, on a grid; returns a PIL image."""
+    from PIL import Image
+
+    lay = sheet_layout(len(tiles), width)
+    W, H = lay["size"]
+    sheet = Image.new("RGB", (W, H), draw.GRID)
+    head = PillowCanvas(W, HEADER, draw.BACKGROUND)
+    head.text((10, HEADER / 2), title, draw.TEXT, 15, anchor="lm")
+    sheet.paste(head.image(), (0, 0))
+    tw, th = lay["tile"]
+    fits = [fixed_view(sc, tw, th - LABEL).scale for _, sc in tiles]
+    common = max(min(fits), 0.5 * float(np.median(fits))) if fits else 1.0
+    for (label, sc), (x0, y0, _, _) in zip(tiles, lay["boxes"]):
+        pic = fixed_view(sc, tw, th - LABEL, scale=common)
+        # the tile's view: the picture's, extended up over the label strip
+        inner = View(pic.x0, pic.y0, pic.x1, pic.y1 + LABEL / pic.scale, tw, th)
+        canvas = PillowCanvas(tw, th, draw.BACKGROUND, inner)
+        draw_strobe(canvas, sc, inner, exposures(sc), labels=False, overlays=False)
+        canvas.view = View.screen(tw, th)
+        canvas.rect((0, 0, tw, LABEL), draw.BACKGROUND, True)
+        canvas.segment((0, LABEL - 0.5), (tw, LABEL - 0.5), 1.0, draw.GRID)
+        canvas.text((8, LABEL / 2 + 1), label, draw.TEXT, 12, anchor="lm")
+        sheet.paste(canvas.image(), (x0, y0))
+    return sheet

@@ -1,0 +1,261 @@
+"""The parameters phase 2 tunes (paper §5.3, Figure 8), as one flat vector per controller.
+
+For a creature with H hidden nodes, A actuators and R range sensors (angle, eye, length; touch
+sensors have no range) the vector holds, in this order:
+
+    k1, k2 of each hidden node               2 H   (stored as the delays T_on = 1/k1, T_off = -1/k2)
+    Amin, Amax, ks, kd of each actuator       4 A
+    Smin, Smax of each range sensor           2 R
+
+(the bounder: 2x8 + 4x4 + 2x6 = 44, the paper's count). With ``morphology`` it also holds one
+length scale per link (§6.3): the link's outline, contact points, centre of mass and the points
+attached to it (children's joints, actuator, spring and sensor attachments) scale with it; its
+mass scales with its length and with the square root of the strength (ks) of the actuator
+driving its joint (a stronger muscle is heavier), and its inertia with mass x length^2.
+
+Perturbation sizes (delta, the paper's "+delta or -delta"):
+
+- node delays: 0.01 s (about 10 % of the paper's 0.07-0.15 s);
+- actuator and sensor range ends: 5 % of the nominal range width (max - min);
+- ks and kd: 10 % of the nominal value;
+- link length scale: 0.05 (5 %).
+
+Validity is kept by projection after every perturbation: delays stay within [0.01, 1] s,
+ks, kd >= 0, every range keeps min < max (by at least 1 % of its nominal width), angle ranges (actuator targets and sensor
+ranges) stay within [-180, 180] deg, length ranges >= 0, length scales within [0.5, 1.5].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sanlab.creature.spec import Creature
+from sanlab.san import San
+
+
+@dataclass(frozen=True)
+class Param:
+    name: str  # e.g. "H3.T_on", "A1.min", "S4.max", "L2.scale"
+    kind: str  # t_on, t_off, amin, amax, ks, kd, smin, smax, scale
+    index: int  # node, actuator, sensor or link index
+    delta: float
+    lo: float
+    hi: float
+    partner: int = -1  # index in the vector of the other end of a range (min < max)
+    gap: float = 0.0  # smallest allowed max - min
+
+
+class Space:
+    """Tunable parameters of one creature; maps vectors to controller and model parameters."""
+
+    def __init__(self, spec: Creature, morphology: bool = False):
+        self.spec = spec
+        self.san = San.for_creature(spec)
+        self.morphology = morphology
+        params: list[Param] = []
+        for h in range(self.san.n_hidden):
+            params.append(Param(f"H{h + 1}.T_on", "t_on", h, 0.01, 0.01, 1.0))
+            params.append(Param(f"H{h + 1}.T_off", "t_off", h, 0.01, 0.01, 1.0))
+        for a, act in enumerate(spec.actuators):
+            width = act.max - act.min
+            lo, hi = (-math.pi, math.pi) if act.kind == "angular" else (0.0, math.inf)
+            n = len(params)
+            params.append(Param(f"{act.name}.min", "amin", a, 0.05 * width, lo, hi, n + 1, 0.01 * width))
+            params.append(Param(f"{act.name}.max", "amax", a, 0.05 * width, lo, hi, n, 0.01 * width))
+            params.append(Param(f"{act.name}.ks", "ks", a, 0.1 * act.ks, 0.0, math.inf))
+            params.append(Param(f"{act.name}.kd", "kd", a, 0.1 * act.kd, 0.0, math.inf))
+        for s, sen in enumerate(spec.sensors):
+            if sen.kind == "touch":
+                continue
+            width = sen.max - sen.min
+            lo, hi = (0.0, math.inf) if sen.kind == "length" else (-math.pi, math.pi)
+            n = len(params)
+            params.append(Param(f"{sen.name}.min", "smin", s, 0.05 * width, lo, hi, n + 1, 0.01 * width))
+            params.append(Param(f"{sen.name}.max", "smax", s, 0.05 * width, lo, hi, n, 0.01 * width))
+        if morphology:
+            for i, link in enumerate(spec.links):
+                params.append(Param(f"{link.name}.scale", "scale", i, 0.05, 0.5, 1.5))
+        self.params = tuple(params)
+
+    def __len__(self) -> int:
+        return len(self.params)
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.params]
+
+    def nominal(self, gait_params: dict | None = None) -> np.ndarray:
+        """The starting vector: the creature file's values, or a tuned gait's own values."""
+        gp = gait_params or {}
+        model = gp.get("model") or {}
+        s = self.spec
+        H = self.san.n_hidden
+        k1 = np.asarray(gp["k1"], float) if "k1" in gp else np.full(self.san.n_nodes, 1 / gp.get("delay_on", s.san.delay_on))
+        k2 = np.asarray(gp["k2"], float) if "k2" in gp else np.full(self.san.n_nodes, -1 / gp.get("delay_off", s.san.delay_off))
+        arr = {
+            "amin": np.asarray(model.get("act_min", [a.min for a in s.actuators]), float),
+            "amax": np.asarray(model.get("act_max", [a.max for a in s.actuators]), float),
+            "ks": np.asarray(model.get("act_ks", [a.ks for a in s.actuators]), float),
+            "kd": np.asarray(model.get("act_kd", [a.kd for a in s.actuators]), float),
+            "smin": np.asarray(model.get("sens_min", [getattr(x, "min", 0.0) for x in s.sensors]), float),
+            "smax": np.asarray(model.get("sens_max", [getattr(x, "max", 0.0) for x in s.sensors]), float),
+            "scale": np.asarray(gp.get("scale", [1.0] * len(s.links)), float),
+            "t_on": 1.0 / k1[:H],
+            "t_off": -1.0 / k2[:H],
+        }
+        return np.array([arr[p.kind][p.index] for p in self.params], float)
+
+    def perturb(self, theta: np.ndarray, which: int, sign: float) -> np.ndarray:
+        """theta with parameter ``which`` moved by sign x delta, projected back to validity."""
+        out = np.array(theta, float)
+        p = self.params[which]
+        v = out[which] + sign * p.delta
+        lo, hi = p.lo, p.hi
+        if p.partner >= 0:  # keep min < max
+            if p.kind in ("amin", "smin"):
+                hi = min(hi, out[p.partner] - p.gap)
+            else:
+                lo = max(lo, out[p.partner] + p.gap)
+        out[which] = min(max(v, lo), hi)
+        return out
+
+    def valid(self, theta: np.ndarray) -> bool:
+        for i, p in enumerate(self.params):
+            if not (p.lo <= theta[i] <= p.hi):
+                return False
+            if p.partner >= 0 and p.kind in ("amin", "smin") and not theta[i] < theta[p.partner]:
+                return False
+        return True
+
+    def gait_params(self, theta: np.ndarray, model) -> dict:
+        """What a tuned gait stores (see ``sanlab.gait``): per-node k1, k2 and model overrides
+        (``model`` is the nominal compiled creature, needed to re-seat a reshaped one)."""
+        k1, k2, over = self._arrays(theta)
+        over = {k: np.asarray(v).tolist() for k, v in over.items()}
+        out = {"k1": k1.tolist(), "k2": k2.tolist(), "model": over}
+        if self.morphology:
+            out["scale"] = [float(theta[i]) for i, p in enumerate(self.params) if p.kind == "scale"]
+            over["q0"] = np.asarray(self.batch(theta[None], model)[2].params.q0[0]).tolist()
+        return out
+
+    def _arrays(self, theta: np.ndarray):
+        s = self.spec
+        H = self.san.n_hidden
+        k1 = np.full(self.san.n_nodes, 1 / s.san.delay_on)
+        k2 = np.full(self.san.n_nodes, -1 / s.san.delay_off)
+        over = {
+            "act_min": np.array([a.min for a in s.actuators], float),
+            "act_max": np.array([a.max for a in s.actuators], float),
+            "act_ks": np.array([a.ks for a in s.actuators], float),
+            "act_kd": np.array([a.kd for a in s.actuators], float),
+            "sens_min": np.array([getattr(x, "min", 0.0) for x in s.sensors], float),
+            "sens_max": np.array([getattr(x, "max", 0.0) for x in s.sensors], float),
+        }
+        key = {"amin": "act_min", "amax": "act_max", "ks": "act_ks", "kd": "act_kd", "smin": "sens_min", "smax": "sens_max"}
+        scale = np.ones(len(s.links))
+        for v, p in zip(theta, self.params):
+            if p.kind == "t_on":
+                k1[p.index] = 1.0 / v
+            elif p.kind == "t_off":
+                k2[p.index] = -1.0 / v
+            elif p.kind == "scale":
+                scale[p.index] = v
+            else:
+                over[key[p.kind]][p.index] = v
+        del H
+        if self.morphology:
+            over.update(self._morphology(scale, over["act_ks"]))
+        return k1, k2, over
+
+    def _morphology(self, scale: np.ndarray, ks: np.ndarray) -> dict:
+        """Model arrays for link length scales (see the module docstring)."""
+        s = self.spec
+        names = {l.name: i for i, l in enumerate(s.links)}
+        strength = np.ones(len(s.links))
+        for a, act in enumerate(s.actuators):
+            if act.kind == "angular" and act.ks > 0:
+                strength[names[act.joint]] = math.sqrt(max(ks[a], 0.0) / act.ks)
+        mass = np.array([l.mass for l in s.links]) * scale * strength
+        inertia = np.array([l.inertia for l in s.links]) * (mass / np.array([l.mass for l in s.links])) * scale**2
+        com = np.array([l.com for l in s.links]) * scale[:, None]
+        anchor = np.array([(l.anchor if l.parent else (0.0, 0.0)) for l in s.links], float)
+        for i, l in enumerate(s.links):
+            if l.parent:
+                anchor[i] *= scale[names[l.parent]]
+        contact = np.array([c for l in s.links for c in l.contacts], float).reshape(-1, 2)
+        owners = [i for i, l in enumerate(s.links) for _ in l.contacts]
+        contact *= scale[owners][:, None] if owners else 1.0
+
+        def pts(refs):
+            out = np.array([[r.at for r in pair] for pair in refs], float).reshape(-1, 2, 2)
+            for n, pair in enumerate(refs):
+                for e, r in enumerate(pair):
+                    out[n, e] *= scale[names[r.link]]
+            return out
+
+        lin = [(a.a, a.b) if a.kind == "linear" else None for a in s.actuators]
+        act_pts = np.zeros((len(lin), 2, 2))
+        for n, pair in enumerate(lin):
+            if pair:
+                act_pts[n] = pts([pair])[0]
+        sens_pts = np.zeros((len(s.sensors), 2, 2))
+        for n, x in enumerate(s.sensors):
+            if x.kind == "eye":
+                sens_pts[n, 0] = np.array(x.at.at) * scale[names[x.at.link]]
+            elif x.kind == "length":
+                sens_pts[n] = pts([(x.a, x.b)])[0]
+        out = {"mass": mass, "inertia": inertia, "com": com, "anchor": anchor, "contact": contact,
+               "act_pts": act_pts, "sens_pts": sens_pts}
+        if s.springs:
+            out["spr_pts"] = pts([(x.a, x.b) for x in s.springs])
+        edges = []
+        if s.world.water_drag > 0:
+            for i, l in enumerate(s.links):
+                if not l.drag or l.shape.kind == "point":
+                    continue
+                p = list(l.shape.points)
+                pairs = [(p[0], p[1])] if l.shape.kind == "segment" else list(zip(p, p[1:] + p[:1]))
+                edges += [(np.array(a) * scale[i], np.array(b) * scale[i]) for a, b in pairs]
+            out["edge"] = np.array(edges, float).reshape(-1, 2, 2)
+        return out
+
+    def batch(self, thetas: np.ndarray, model):
+        """Controller rates and a model whose parameters carry a leading batch axis, one row per
+        vector: (k1 [B, N], k2 [B, N], model)."""
+        import jax
+        import jax.numpy as jnp
+
+        rows = [self._arrays(t) for t in thetas]
+        k1 = np.stack([r[0] for r in rows])
+        k2 = np.stack([r[1] for r in rows])
+        B = len(rows)
+        base = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), model)
+        over = {k: jnp.asarray(np.stack([r[2][k] for r in rows]), model.dtype) for k in rows[0][2]}
+        m = base.with_params(**over)
+        if self.morphology and self.spec.world.plane == "vertical" and model.structure.contacts:
+            m = m.with_params(q0=_rest_on_ground(m, model))
+        return k1, k2, m
+
+
+def _lowest_contact(model):
+    from sanlab.sim import poses
+
+    return poses(model, model.params.q0)["contacts"][:, 1].min()
+
+
+def _rest_on_ground(batched, nominal):
+    """q0 [B, D] with the roots shifted vertically so that the lowest contact starts where it did
+    nominally (a longer leg must not start inside the ground)."""
+    import jax
+    import jax.numpy as jnp
+
+    low = jax.jit(jax.vmap(_lowest_contact, in_axes=(jax.tree_util.tree_map(lambda _: 0, batched),)))
+    shift = _lowest_contact(nominal) - low(batched)
+    q0 = batched.params.q0
+    for ls in batched.structure.links:
+        if ls.parent < 0 and ls.dof_y >= 0:
+            q0 = q0.at[:, ls.dof_y].add(shift)
+    return jnp.asarray(q0)
