@@ -1,0 +1,220 @@
+"""Phase 2: the tunable parameters, SGA, simulated annealing, and tuning end to end."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sanlab import creature
+from sanlab.creature import read_source
+from sanlab.gait import Gait
+from sanlab.library import Library
+from sanlab.search import run_search
+from sanlab.search.anneal import Anneal
+from sanlab.search.sga import SGA
+from sanlab.search.space import Space
+from sanlab.search.tune import TuneEvaluator, tune
+
+SANLAB = [sys.executable, "-m", "sanlab"]
+
+
+def test_the_bounder_has_the_papers_44_tunable_parameters():
+    space = Space(creature.load("bounder"))
+    assert len(space) == 44  # 4 x 4 actuator + 8 x 2 hidden-node + 6 x 2 sensor parameters
+    kinds = [p.kind for p in space.params]
+    assert kinds.count("t_on") == kinds.count("t_off") == 8
+    assert sum(k in ("amin", "amax", "ks", "kd") for k in kinds) == 16
+    assert sum(k in ("smin", "smax") for k in kinds) == 12  # touch sensors have no range
+    assert len(Space(creature.load("bounder"), morphology=True)) == 49  # + one length per link
+
+
+def test_perturbations_keep_parameters_valid():
+    space = Space(creature.load("bounder"))
+    rng = np.random.default_rng(0)
+    theta = space.nominal()
+    assert space.valid(theta)
+    for _ in range(5000):
+        theta = space.perturb(theta, int(rng.integers(len(space))), float(rng.choice([-1, 1])))
+        assert space.valid(theta)
+    k1, k2, over = space._arrays(theta)
+    assert (k1 > 0).all() and (k2 < 0).all()
+    assert (over["act_min"] < over["act_max"]).all()
+    assert (over["act_ks"] >= 0).all() and (over["act_kd"] >= 0).all()
+    ranged = [i for i, s in enumerate(space.spec.sensors) if s.kind != "touch"]
+    assert (over["sens_min"][ranged] < over["sens_max"][ranged]).all()
+    assert np.abs(theta - space.nominal()).max() > 0.1  # it really wandered
+
+
+def test_nominal_values_come_from_the_creature_file():
+    spec = creature.load("cart")
+    space = Space(spec)
+    theta = dict(zip(space.names, space.nominal()))
+    assert theta["A1.min"] == pytest.approx(math.radians(-140))
+    assert theta["A1.ks"] == pytest.approx(0.002 * 180 / math.pi)
+    assert theta["S6.max"] == pytest.approx(math.pi)
+    assert theta["H1.T_on"] == pytest.approx(spec.san.delay_on)
+
+
+class Synthetic:
+    """A cheap deterministic score of a parameter vector: a bumpy hill."""
+
+    def __init__(self, space):
+        self.target = space.nominal() + 0.05
+
+    def __call__(self, thetas):
+        d = thetas - self.target
+        score = -np.sum(d * d, axis=1) + 0.002 * np.sin(40 * thetas).sum(axis=1)
+        return {"score": score, "nonfinite": np.zeros(len(thetas), bool)}
+
+
+def drive(chain, evaluate, window):
+    while not chain.done:
+        cands = chain.ask(window)
+        chain.tell(cands, evaluate(np.stack([c.params["theta"] for c in cands])))
+    return chain
+
+
+@pytest.mark.parametrize("cls", [SGA, Anneal])
+def test_speculative_batches_do_exactly_what_one_trial_at_a_time_does(cls):
+    space = Space(creature.load("bounder"))
+    f = Synthetic(space)
+    start = space.nominal()
+    s0 = float(f(start[None])["score"][0])
+    one = drive(cls(space, None, start, s0, 300, seed=4), f, 1)
+    many = drive(cls(space, None, start, s0, 300, seed=4), f, 37)
+    assert one.trace == many.trace
+    np.testing.assert_array_equal(one.best_theta, many.best_theta)
+    assert one.accepted > 5 and many.wasted > 0
+
+
+def test_sga_never_accepts_a_worse_score():
+    space = Space(creature.load("bounder"))
+    f = Synthetic(space)
+    start = space.nominal()
+    chain = drive(SGA(space, None, start, float(f(start[None])["score"][0]), 400, seed=1), f, 16)
+    current = float(f(start[None])["score"][0])
+    for _, score, accepted in chain.trace:
+        if accepted:
+            assert score > current
+            current = score
+        else:
+            assert score <= current
+    assert chain.best == current and chain.accepted > 0
+
+
+def test_annealing_schedule_is_65_trials_per_temperature_times_0_75():
+    space = Space(creature.load("cart"))
+    chain = Anneal(space, None, space.nominal(), 2.0, 1000, seed=0)
+    assert chain.t0 == pytest.approx(0.05 * 2.0)
+    assert chain.temperature(0) == chain.temperature(64) == pytest.approx(0.1)
+    assert chain.temperature(65) == pytest.approx(0.075)
+    assert chain.temperature(130) == pytest.approx(0.1 * 0.75**2)
+    assert chain.temperature(999) == pytest.approx(0.1 * 0.75 ** (999 // 65))
+    # worse scores are accepted with probability exp(delta / T)
+    chain.uniform[:] = 0.5
+    assert chain.accept(0, 2.0 - 0.1 * math.log(2) + 1e-9)  # exp(...) just above 0.5
+    assert not chain.accept(0, 2.0 - 0.1 * math.log(2) - 1e-6)
+    assert chain.accept(65, 2.0 + 1e-12)  # better is always accepted
+
+
+def test_annealing_accepts_some_worse_changes_and_keeps_the_best():
+    space = Space(creature.load("bounder"))
+    f = Synthetic(space)
+    start = space.nominal()
+    s0 = float(f(start[None])["score"][0])
+    chain = drive(Anneal(space, None, start, s0, 600, seed=2, t0_fraction=0.5), f, 16)
+    worse = [s for i, (_, s, a) in enumerate(chain.trace) if a and i > 0 and s < chain.trace[i - 1][1]]
+    assert chain.best >= max(s for _, s, a in chain.trace if a)
+    accepted_scores = [s for _, s, a in chain.trace if a]
+    assert any(b < a for a, b in zip(accepted_scores, accepted_scores[1:]))  # went downhill at times
+    assert worse is not None
+
+
+@pytest.fixture(scope="module")
+def bounder_run(tmp_path_factory):
+    db = tmp_path_factory.mktemp("tune") / "gaits.db"
+    text, where = read_source("bounder")
+    with Library(str(db)) as lib:
+        run_id = run_search(lib, text, where, controllers=64, seconds=2.0, seed=1, batch=64)
+    return db, run_id
+
+
+def test_tuning_a_phase1_gait_improves_it_and_is_stored_with_its_parent(bounder_run):
+    db, run_id = bounder_run
+    with Library(str(db)) as lib:
+        [r] = tune(lib, [f"{run_id}/1"], method="sga", trials=30, seed=0, batch=64)
+        assert r.after["score"] > r.before["score"]
+        tuned = lib.get_run(r.run_id)
+        assert tuned.kind == "tune" and tuned.parent_gait == lib.gait(f"{run_id}/1").gait_id
+        trace = lib.trace(r.run_id)
+        assert [t.trial for t in trace] == list(range(30))
+        assert sum(t.accepted for t in trace) == r.accepted > 0
+        g = Gait.from_library(lib, r.tuned_gait)
+        assert (np.asarray(g.params["k1"]) > 0).all() and (np.asarray(g.params["k2"]) < 0).all()
+        m = g.params["model"]
+        assert (np.asarray(m["act_min"]) < np.asarray(m["act_max"])).all()
+        assert (g.weights == Gait.from_library(lib, f"{run_id}/1").weights).all()  # weights untouched
+        # the stored tuned gait replays to its stored score
+        ev = TuneEvaluator(g.spec, Space(g.spec), metric=g.metric, seconds=g.seconds, batch=64)
+        again = ev(g.weights[None], Space(g.spec).nominal(g.params)[None])
+        assert again["score"][0] == pytest.approx(r.after["score"], rel=1e-6)
+
+
+def test_a_seeded_tuning_run_is_reproducible(bounder_run):
+    db, run_id = bounder_run
+    with Library(str(db)) as lib:
+        a = tune(lib, [f"{run_id}/2", f"{run_id}/3"], method="sa", trials=10, seed=5, batch=64)
+        b = tune(lib, [f"{run_id}/2", f"{run_id}/3"], method="sa", trials=10, seed=5, batch=64)
+        for x, y in zip(a, b):
+            assert x.after == y.after and x.accepted == y.accepted
+            assert lib.gait(x.tuned_gait).params == lib.gait(y.tuned_gait).params
+            assert [(t.trial, t.score, t.accepted) for t in lib.trace(x.run_id)] == \
+                   [(t.trial, t.score, t.accepted) for t in lib.trace(y.run_id)]
+
+
+def test_morphology_and_terrain_options(bounder_run):
+    db, run_id = bounder_run
+    with Library(str(db)) as lib:
+        [r] = tune(lib, [f"{run_id}/1"], method="sga", trials=6, seed=0, morphology=True, terrain="hill", batch=16)
+        g = Gait.from_library(lib, r.tuned_gait)
+        assert len(g.params["scale"]) == 5
+        m = g.model()
+        scale = np.asarray(g.params["scale"])
+        strength = np.ones(5)
+        # a link's mass follows its length (and the strength of the actuator that drives it)
+        nominal = np.array([l.mass for l in g.spec.links])
+        assert np.all(np.asarray(m.params.mass) >= 0)
+        assert np.asarray(m.params.mass)[0] == pytest.approx(nominal[0] * scale[0] * strength[0], rel=1e-5)
+        res = g.replay(seconds=0.5)
+        assert bool(res.finite[0])
+
+
+def test_terrain_scores_differ_from_flat_ground(bounder_run):
+    db, run_id = bounder_run
+    with Library(str(db)) as lib:
+        g = Gait.from_library(lib, f"{run_id}/1")
+    space = Space(g.spec)
+    theta = space.nominal(g.params)[None]
+    flat = TuneEvaluator(g.spec, space, metric=g.metric, seconds=2.0, batch=64)(g.weights[None], theta)
+    rough = TuneEvaluator(g.spec, space, metric=g.metric, seconds=2.0, terrain="rough", batch=16)(g.weights[None], theta)
+    assert flat["score"][0] != rough["score"][0]
+    with pytest.raises(ValueError, match="terrain"):
+        TuneEvaluator(g.spec, space, metric="distance", seconds=2.0, terrain="moon")
+
+
+def test_tune_cli_json(bounder_run):
+    db, run_id = bounder_run
+    r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "5", "--batch", "64",
+                                 "--db", str(db), "--json"], capture_output=True, text=True, check=True)
+    out = json.loads(r.stdout)
+    assert set(out) == {"gait", "tuned_gait", "before", "after", "trials"}
+    assert out["trials"] == 5 and out["after"]["score"] >= out["before"]["score"]
+    assert set(out["before"]) == {"score", "speed_cm_s"}
+    bad = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "newton", "--db", str(db)],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr
