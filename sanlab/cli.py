@@ -390,3 +390,26 @@ def tune(
                       f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
     console.print(f"{len(results)} chain(s) x {trials} trials ({method}) in {results[0].seconds:.0f} s")
+
+
+@app.command()
+def reproduce(
+    creatures: Annotated[str | None, typer.Option(help="Comma-separated names (default: all of Table 1 that are built in).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
+    controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
+    trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
+    out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
+    db: DbOpt = "sanlab.db",
+) -> None:
+    """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report."""
+    from sanlab.reproduce import TABLE1
+    from sanlab.reproduce import reproduce as run
+
+    names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
+    for n in names:
+        load_or_exit(n)
+    lib = open_library(db)
+    report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s))
+    with open(out, "w") as f:
+        f.write(report)
+    console.print(f"wrote {out}")

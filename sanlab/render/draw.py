@@ -205,14 +205,20 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
             pa, pb = _attach(scene, frame, a.a), _attach(scene, frame, a.b)
             u = float(scene.u[frame, a_i]) if scene.u.size else 0.5
             canvas.segment(pa, pb, max(1.5, sizes.thin * (1.0 + 1.5 * u)), f(mix(MUSCLE, BACKGROUND, 0.55 * (1 - u))))
-        for i, link in enumerate(spec.links):
-            if link.parent is not None:
-                j = tuple(scene.links[frame, i, :2])
-                canvas.circle(j, sizes.joint, f(JOINT_RING), True)
-                canvas.circle(j, 0.55 * sizes.joint, f(JOINT_FILL), True)
+        joints = [i for i, link in enumerate(spec.links) if link.parent is not None]
+        jxy = scene.links[frame, joints, :2] if joints else np.zeros((0, 2))
+        halo = 1.5 * sizes.joint / canvas.view.scale
         for c in range(scene.contacts.shape[1]):
             on = scene.depth[frame, c] > 0
-            canvas.circle(tuple(scene.contacts[frame, c]), sizes.contact, f(CONTACT_ON if on else CONTACT_OFF), True)
+            p = scene.contacts[frame, c]
+            at_joint = len(jxy) and np.min(np.hypot(*(jxy - p).T)) < 0.5 * halo
+            # a contact on a joint shows as a ring around the joint's symbol
+            r = 1.45 * sizes.joint if at_joint else sizes.contact
+            canvas.circle(tuple(p), r, f(CONTACT_ON if on else CONTACT_OFF), True)
+        for i in joints:
+            j = tuple(scene.links[frame, i, :2])
+            canvas.circle(j, sizes.joint, f(JOINT_RING), True)
+            canvas.circle(j, 0.55 * sizes.joint, f(JOINT_FILL), True)
     if com:
         _com_marker(canvas, tuple(scene.com[frame]), max(3.0, 0.8 * sizes.link), fade)
 
@@ -238,18 +244,22 @@ def _com_marker(canvas: Canvas, c, r: float, fade: float) -> None:
 # ------------------------------------------------------------------------------ overlays
 
 
-def draw_scale_bar(canvas: Canvas, view: View, bottom: float | None = None) -> None:
-    """A bar of a round length (about a fifth of the view) in the bottom-left corner."""
+def draw_scale_bar(canvas: Canvas, view: View, at: tuple[float, float] | None = None, size: float = 12) -> None:
+    """A bar of a round length (about a fifth of the view). ``at``: the pixel where the bar's
+    right end sits, label to its left (default: bottom-left corner, label above the bar)."""
     length = nice(0.22 * (view.x1 - view.x0))
     px = length * view.scale
     saved = canvas.view
-    canvas.view = View.screen(view.width, view.height if bottom is None else int(bottom))
-    y = (view.height if bottom is None else bottom) - 14
-    x0 = 14
-    canvas.segment((x0, y), (x0 + px, y), 3.0, TEXT)
-    canvas.segment((x0, y - 5), (x0, y + 3), 1.5, TEXT)
-    canvas.segment((x0 + px, y - 5), (x0 + px, y + 3), 1.5, TEXT)
-    canvas.text((x0 + px / 2, y - 5), fmt_length(length), TEXT, 12, anchor="md")
+    canvas.view = View.screen(view.width, view.height)
+    if at is None:
+        x0, y = 14.0, view.height - 14.0
+        canvas.text((x0 + px / 2, y - 5), fmt_length(length), TEXT, size, anchor="md")
+    else:
+        x0, y = at[0] - px, at[1]
+        canvas.text((x0 - 6, y), fmt_length(length), TEXT, size, anchor="rm")
+    canvas.segment((x0, y), (x0 + px, y), 2.0 if at else 3.0, TEXT)
+    canvas.segment((x0, y - 4), (x0, y + 4), 1.5, TEXT)
+    canvas.segment((x0 + px, y - 4), (x0 + px, y + 4), 1.5, TEXT)
     canvas.view = saved
 
 
@@ -323,9 +333,8 @@ def draw_panel(canvas: Canvas, scene, box, frames=None) -> None:
         canvas.raster(_panel_image(scene, name, vals, color, rh), (gx0, y, gx1, y + k * rh))  # type: ignore[attr-defined]
         canvas.text((gx0 - 6, y + k * rh / 2), f"{name}", color if name != "sensors" else MUTED, 10, anchor="rm")
         y += k * rh + 4
-    t_end = scene.t[-1] if F > 1 else 1.0
-    canvas.text((gx0, y + 1), "0 s", MUTED, 9, anchor="la")
-    canvas.text((gx1, y + 1), f"{t_end + (scene.t[1] - scene.t[0] if F > 1 else 0):.2g} s", MUTED, 9, anchor="ra")
+    canvas.text((gx0, y + 1), f"{scene.t[0]:g} s", MUTED, 9, anchor="la")
+    canvas.text((gx1, y + 1), f"{scene.t[0] + scene.duration:.3g} s", MUTED, 9, anchor="ra")
     if frames is not None:
         for fi in np.atleast_1d(frames):
             cx = gx0 + (fi + 0.5) * (gx1 - gx0) / F

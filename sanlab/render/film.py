@@ -5,19 +5,22 @@ the SAN panel under it when ``nodes``.
 
 Camera (``camera="auto"``, the default): the scale is fixed for the whole film, so that the
 creature's largest width spans about 1/2.8 of the picture and its largest height at most 0.6 of
-it: the creature is always drawn large. On each axis the camera stays put
-if the whole trajectory fits at that scale, and otherwise follows the centre of mass, smoothed
-with a Gaussian of 0.4 s (a centred filter: the whole trajectory is known), then nudged where
-needed so that the creature never leaves the picture. On the vertical plane the ground keeps a
-band at the bottom of the picture, and its distance ticks (labelled in metres) show the motion
-when the camera follows. ``camera="fixed"`` fits the whole trajectory in one view (like the
-strobe pictures); ``"follow"`` always follows.
+it: the creature is always drawn large. On each axis the camera stays put if the whole
+trajectory fits at that scale, and otherwise follows the centre of mass, smoothed with a
+Gaussian of 0.4 s (a centred filter: the whole trajectory is known), then nudged where needed so
+that the creature never leaves the picture. On the vertical plane the ground keeps a band at the
+bottom of the picture, and its distance ticks (labelled in metres) show the motion when the
+camera follows. ``camera="fixed"`` fits the whole trajectory in one view (like the strobe
+pictures); ``"follow"`` always follows along x (and along y too on the horizontal plane).
 
-GIF frame durations: GIF counts time in hundredths of a second, so 1/fps is rounded per frame
-such that the running total stays within 5 ms of k/fps (at 30 fps: 30, 40, 30, 30, 40, ... ms):
-the film plays at the requested rate on average. Files are deterministic: one palette from a
-fixed sample of frames, no dithering; the MP4 is encoded by one x264 thread with bit-exact flags
-and no metadata, which makes it byte-identical from run to run with the same ffmpeg build.
+Timing: the rollout records a frame every round(1 / (fps dt)) simulation steps (at 30 fps and
+dt = 1 ms, every 33 ms), and the film plays them at ``fps``. GIF counts time in hundredths of a
+second, so 1/fps is rounded per frame such that the running total stays within 5 ms of k/fps
+(at 30 fps: 30, 40, 30, 30, 40, ... ms); 25 or 50 fps are exact.
+
+Files are deterministic: one GIF palette from a fixed sample of frames, no dithering; the MP4 is
+encoded by one x264 thread with bit-exact flags and no metadata, which makes it byte-identical
+from run to run with the same ffmpeg build (imageio-ffmpeg's wheel pins one).
 """
 
 from __future__ import annotations
@@ -102,10 +105,10 @@ def camera(scene, width: int, height: int, mode: str = "auto") -> list[View]:
     follow = mode == "follow"
     cx = _track(scene.com[:, 0], xlo - margin, xhi + margin, w, sigma, follow)
     lo, hi = _y_needs(scene, ylo, yhi, h, margin)
-    if scene.plane == "vertical" and not follow and hi.max() - lo.min() <= h:
+    if scene.plane == "vertical" and hi.max() - lo.min() <= h:
         cy = np.full(F, lo.min() + h / 2)  # ground band at the bottom, sky above
-    else:
-        cy = _track(scene.com[:, 1], lo, hi, h, sigma, follow)
+    else:  # the vertical plane follows in y only where it must (slopes, high jumps)
+        cy = _track(scene.com[:, 1], lo, hi, h, sigma, follow and scene.plane != "vertical")
     return [View.centred(float(x), float(y), w, width, height) for x, y in zip(cx, cy)]
 
 

@@ -39,6 +39,16 @@ class Scene:
         return int(self.t.shape[0])
 
     @property
+    def frame_dt(self) -> float:
+        """Simulated time between recorded frames (s)."""
+        return float(self.t[1] - self.t[0]) if self.n_frames > 1 else 1.0 / self.fps
+
+    @property
+    def duration(self) -> float:
+        """Simulated time the frames cover (s)."""
+        return self.n_frames * self.frame_dt
+
+    @property
     def plane(self) -> str:
         return self.spec.world.plane
 
@@ -138,7 +148,15 @@ def follow_samples(model, t: np.ndarray) -> np.ndarray:
 def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     """A scene from a recorded ``sim.Result`` (batch 1) of ``gait``."""
     fr = result.frames
-    q = fr.q[0]
+    if fr is None or np.asarray(fr.t).shape[0] == 0:
+        raise ValueError(f"too short to record a frame at {fps:g} frames per second")
+    q = np.asarray(fr.q[0])
+    ok = np.all(np.isfinite(q), axis=1)
+    n = len(q) if ok.all() else max(1, int(np.argmin(ok)))  # keep the frames before it blew up
+    if n < len(q):
+        fr = jax_tree_cut(fr, n)
+        q = q[:n]
+        title = (title + "  " if title else "") + f"(non-finite after t = {float(fr.t[-1]):.2f} s)"
     P = poses(model, q)
     spec = gait.spec
     follow = path = None
@@ -165,9 +183,20 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     )
 
 
-def gait_title(gait) -> str:
+def jax_tree_cut(fr, n: int):
+    """Frames (batch 1) cut to the first ``n``."""
+    cut = lambda x: np.asarray(x)[:, :n]  # noqa: E731
+    import jax
+
+    return fr._replace(t=np.asarray(fr.t)[:n], q=cut(fr.q), qd=cut(fr.qd), bits=cut(fr.bits), u=cut(fr.u),
+                       cstate=jax.tree_util.tree_map(lambda x: cut(x) if np.ndim(x) >= 2 else x, fr.cstate))
+
+
+def gait_title(gait, rank: int | None = None) -> str:
+    """E.g. "3fa1c2d0#17 (rank 1)  cart  7.3 cm/s"."""
     speed = "" if not np.isfinite(gait.speed_cm_s) else f"  {gait.speed_cm_s:.1f} cm/s"
-    return f"{gait.gait_id}  {gait.spec.name}{speed}"
+    ranked = f" (rank {rank})" if rank else ""
+    return f"{gait.gait_id}{ranked}  {gait.spec.name}{speed}"
 
 
 def scene(gait, seconds: float | None = None, fps: float = 30.0, title: str | None = None) -> Scene:

@@ -4,7 +4,8 @@ A strobe picture shows the whole trajectory in one fixed view: the creature draw
 older poses fainter (their colours mixed towards the background), the newest one in full with
 its centre of mass; the centre of mass's path as a thin line; the ground with distance ticks;
 a scale bar. Δt is chosen so that successive poses are about 0.4 creature widths apart along
-the path (8 to 24 exposures over the run), rounded to whole recorded frames.
+the path, and at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded
+frames.
 
 A contact sheet puts one strobe tile per gait on a grid (:func:`sheet_layout`), each labelled
 with its rank, gait id and speed. Tiles share one scale (so that distances compare at a
@@ -23,11 +24,13 @@ from sanlab.render.canvas import PillowCanvas, View
 from sanlab.render.film import even, fixed_view
 
 MIN_EXPOSURES, MAX_EXPOSURES = 8, 24
+MAX_DT = 0.4  # s: at least this often (within MAX_EXPOSURES), to catch fast cycles
 FADE_OLDEST = 0.78  # the first exposure's colours are this far towards the background
 
 
-def exposures(scene, n: int | None = None) -> list[int]:
-    """Frame indices of the exposures: every k-th frame, first and last included."""
+def exposures(scene, n: int | None = None, most: int | None = None) -> list[int]:
+    """Frame indices of the exposures: every k-th frame, first and last included; ``n`` of them
+    (default: see the module docstring), at most ``most``."""
     F = scene.n_frames
     if F <= 1:
         return [0]
@@ -35,7 +38,11 @@ def exposures(scene, n: int | None = None) -> list[int]:
         cw, _ = scene.extent()
         d = scene.com[-1] - scene.com[0]
         travel = float(np.hypot(*d)) if scene.plane != "vertical" else abs(float(d[0]))
-        n = int(np.clip(math.ceil(travel / (0.4 * cw)) + 1, MIN_EXPOSURES, MAX_EXPOSURES))
+        span = float(scene.t[-1] - scene.t[0])
+        n = max(math.ceil(travel / (0.4 * cw)), math.ceil(span / MAX_DT)) + 1
+        n = int(np.clip(n, MIN_EXPOSURES, MAX_EXPOSURES))
+    if most is not None:
+        n = min(n, most)
     k = max(1, int(round((F - 1) / max(n - 1, 1))))
     idx = list(range(0, F, k))
     if idx[-1] != F - 1:
@@ -59,7 +66,8 @@ def strobe_height(scene, width: int) -> int:
 
 
 def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, overlays: bool = True) -> None:
-    """Multi-exposure of ``scene`` at frames ``idx`` on ``canvas`` through ``view``."""
+    """Multi-exposure of ``scene`` at frames ``idx`` on ``canvas`` through ``view``; ``labels``:
+    distance labels on the ground; ``overlays``: Δt, title and scale bar."""
     canvas.view = view
     sizes = draw.Sizes.for_view(view, scene.size())
     draw.draw_ground(canvas, scene, view, labels=labels)
@@ -72,10 +80,10 @@ def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, 
         draw.draw_pose(canvas, scene, f, sizes, fade=fade, detail=True, com=j == n - 1)
     if overlays:
         step = scene.t[idx[1]] - scene.t[idx[0]] if n > 1 else 0.0
-        span = scene.t[-1] + (scene.t[1] - scene.t[0] if scene.n_frames > 1 else 0.0)
-        draw.draw_label(canvas, view, f"Δt = {step:.2f} s  ({n} exposures over {span:.1f} s)", "tl", 13)
+        what = f"Δt = {step:.2f} s  ({n} exposures over {scene.duration:.1f} s)" if n > 1 else f"t = {scene.t[idx[0]]:.2f} s"
+        draw.draw_label(canvas, view, what, "tl", 13)
         draw.draw_label(canvas, view, scene.title, "tr", 12, draw.MUTED)
-    draw.draw_scale_bar(canvas, view)
+        draw.draw_scale_bar(canvas, view)
 
 
 def strobe(scene, width: int = 1000, n: int | None = None, nodes: bool = False):
@@ -101,6 +109,7 @@ def write_strobe(scene, path: str, width: int = 1000, n: int | None = None, node
 # ------------------------------------------------------------------------------ contact sheet
 
 HEADER = 34
+TILE_EXPOSURES = 12
 LABEL = 22
 GAP = 2
 
@@ -140,10 +149,11 @@ def contact_sheet(tiles: list[tuple[str, object]], title: str = "", width: int =
         # the tile's view: the picture's, extended up over the label strip
         inner = View(pic.x0, pic.y0, pic.x1, pic.y1 + LABEL / pic.scale, tw, th)
         canvas = PillowCanvas(tw, th, draw.BACKGROUND, inner)
-        draw_strobe(canvas, sc, inner, exposures(sc), labels=False, overlays=False)
+        draw_strobe(canvas, sc, inner, exposures(sc, most=TILE_EXPOSURES), labels=False, overlays=False)
         canvas.view = View.screen(tw, th)
         canvas.rect((0, 0, tw, LABEL), draw.BACKGROUND, True)
         canvas.segment((0, LABEL - 0.5), (tw, LABEL - 0.5), 1.0, draw.GRID)
         canvas.text((8, LABEL / 2 + 1), label, draw.TEXT, 12, anchor="lm")
+        draw.draw_scale_bar(canvas, inner, (tw - 10, LABEL / 2 + 1), 11)  # in the label strip
         sheet.paste(canvas.image(), (x0, y0))
     return sheet

@@ -423,14 +423,12 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 _friction(element, _project(J, e1), va, jnp.where(va > 0, mu_f, mu_b) * N, eps)
                 _friction(element, _project(J, e2), vl, mu_l * N, eps)
             else:
-                # isotropic Coulomb: the force opposes the slip velocity, |F| <= mu N
+                # isotropic Coulomb: the force opposes the slip velocity, |F| = mu N (implicit
+                # damper, as in _friction)
                 speed = jnp.sqrt(v[0] * v[0] + v[1] * v[1])
                 gamma = mu_f * N / jnp.maximum(speed, eps)
-                lin = jnp.where(speed < eps, gamma, 0.0)
                 for e, ve in (((1.0, 0.0), v[0]), ((0.0, 1.0), v[1])):
-                    g = _project(J, e)
-                    T.outer(h * lin, g)
-                    T.force(-gamma * ve, g)
+                    element(_project(J, e), -gamma * ve, 0.0, gamma, ve)
 
     # water drag on each edge: F = -k ∫ (v.N) N ds, exact for a rigid edge
     for e, i in enumerate(st.edges):
@@ -509,11 +507,11 @@ def _linear(st, fr, pts, la, lb, target, ks, kd, element) -> None:
 
 
 def _friction(element, g: dict, v, muN, eps) -> None:
-    """Coulomb friction along row g, viscous (slope muN/eps, implicit) below slip speed eps."""
-    x = v / eps
-    lin = jnp.abs(x) < 1.0
-    force = -muN * jnp.clip(x, -1.0, 1.0)
-    element(g, force, 0.0, jnp.where(lin, muN / eps, 0.0), v)
+    """Coulomb friction along row g as a damper c = muN / max(|v|, eps), treated implicitly: the
+    force is muN against the slip (viscous below slip speed eps), and being implicit it can stop
+    a slip within a step but never reverse it, however large muN dt is (hard landings)."""
+    c = muN / jnp.maximum(jnp.abs(v), eps)
+    element(g, -c * v, 0.0, c, v)
 
 
 def step(model: Model, state: State, u) -> State:

@@ -1,0 +1,36 @@
+"""Seeing the gaits: animations (GIF, MP4), strobe pictures and contact sheets (PNG), plots.
+
+    from sanlab.render import animate, write_strobe
+    from sanlab.render.scene import scene
+    sc = scene(Gait.from_library(lib, "3fa1c2d0/1"))      # replay once, keep the poses
+    animate(sc, "gait.gif"); write_strobe(sc, "gait.png")
+
+Modules: ``canvas`` (view and the Pillow canvas), ``draw`` (all drawing), ``scene`` (a replayed
+gait as arrays), ``film`` (camera and animations), ``strobe`` (strobe pictures, contact sheets),
+``plots`` (matplotlib), ``command`` (``sanlab render`` and :func:`render_top`).
+Nothing heavy is imported until used.
+"""
+
+from __future__ import annotations
+
+__all__ = ["animate", "contact_sheet", "plot_scores", "plot_trace", "render", "render_top", "write_strobe"]
+
+
+def __getattr__(name: str):
+    if name == "animate":
+        from sanlab.render.film import animate
+
+        return animate
+    if name in ("contact_sheet", "write_strobe"):
+        from sanlab.render import strobe
+
+        return getattr(strobe, name)
+    if name in ("plot_scores", "plot_trace"):
+        from sanlab.render import plots
+
+        return getattr(plots, name)
+    if name in ("render", "render_top"):
+        from sanlab.render import command
+
+        return getattr(command, name)
+    raise AttributeError(f"module 'sanlab.render' has no attribute {name!r}")

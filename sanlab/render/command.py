@@ -1,0 +1,198 @@
+"""``sanlab render``: animations, strobe pictures, contact sheets and plots from a gait library.
+
+    sanlab render RUN/RANK [--out FILE.gif|FILE.mp4|FILE.png] [--seconds T] [--fps F] [--width W]
+                           [--nodes/--no-nodes] [--camera auto|follow|fixed] [--db PATH]
+    sanlab render RUN [--top N] [--out sheet.png]          a contact sheet of the run's best gaits
+    sanlab render RUN --plot scores|trace [--out FILE.png]  sorted scores / tuning trace
+
+The output kind follows the file's extension: .gif or .mp4 is an animation, .png a strobe
+picture (for a gait), a contact sheet (for a run) or a plot (with --plot). Default names, in the
+current directory: ``<run>_<rank>.gif``, ``<run>_top<N>.png``, ``<run>_<plot>.png``.
+
+:func:`render_top` writes a run's best gaits (GIF + strobe PNG each, and a contact sheet) into a
+directory, for ``sanlab search --render DIR`` and ``sanlab tune --render DIR``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import Annotated
+
+import typer
+
+ANIMATIONS = (".gif", ".mp4")
+PLOTS = ("scores", "trace")
+DEFAULT_WIDTH = {".gif": 640, ".mp4": 640, "strobe": 1000, "sheet": 1200, "plot": 0}
+
+
+def _fail(message: str) -> typer.Exit:
+    from sanlab.cli import fail
+
+    return fail(message)
+
+
+def _is_gait(target: str) -> bool:
+    return "/" in target or "#" in target
+
+
+def _speed(x: float) -> str:
+    return "" if not math.isfinite(x) else f", {x:.1f} cm/s"
+
+
+def _gait_label(rank: int | None, gait) -> str:
+    speed = "" if not math.isfinite(gait.speed_cm_s) else f" {gait.speed_cm_s:.1f} cm/s"
+    return (f"rank {rank}   " if rank else "") + f"{gait.gait_id}  {speed}"
+
+
+def gait_scene(library, gait_id: str, seconds: float | None = None, fps: float = 30.0):
+    """(evaluation, gait, scene) of ``gait_id`` (RUN/RANK or RUN#IDX)."""
+    from sanlab.gait import Gait
+    from sanlab.render.scene import gait_title, scene
+
+    ev = library.gait(gait_id)
+    gait = Gait.from_library(library, ev.gait_id)
+    return ev, gait, scene(gait, seconds, fps, gait_title(gait, ev.rank))
+
+
+def render_top(library, run_id: str, out_dir: str, top: int = 10, fps: float = 30.0, width: int = 640,
+               seconds: float | None = None, nodes: bool = False) -> list[str]:
+    """Write each of the run's ``top`` best gaits as ``<run>_<rank>.gif`` (animation) and
+    ``<run>_<rank>.png`` (strobe) into ``out_dir`` (created if needed), and a contact sheet
+    ``<run>_top<N>.png``; returns the paths written, in that order."""
+    from sanlab.render.film import animate
+    from sanlab.render.strobe import contact_sheet, write_strobe
+
+    run = library.get_run(run_id)
+    os.makedirs(out_dir, exist_ok=True)
+    written, tiles = [], []
+    for e in library.top(run.run_id, top):
+        _, gait, sc = gait_scene(library, f"{run.run_id}/{e.rank}", seconds, fps)
+        base = os.path.join(out_dir, f"{run.run_id}_{e.rank}")
+        animate(sc, base + ".gif", width=width, nodes=nodes)
+        write_strobe(sc, base + ".png", nodes=nodes)
+        written += [base + ".gif", base + ".png"]
+        tiles.append((_gait_label(e.rank, gait), sc))
+    if tiles:
+        path = os.path.join(out_dir, f"{run.run_id}_top{len(tiles)}.png")
+        contact_sheet(tiles, _sheet_title(library, run, len(tiles))).save(path, format="PNG")
+        written.append(path)
+    return written
+
+
+def _sheet_title(library, run, n: int) -> str:
+    metric = run.params.get("metric", "?")
+    return f"run {run.run_id}: {run.creature}, best {n} of {library.count(run.run_id)} ({metric})"
+
+
+def render(
+    target: Annotated[str, typer.Argument(help="A gait (RUN/RANK, e.g. 3fa1c2d0/1, or RUN#IDX) or a run id.")],
+    out: Annotated[str | None, typer.Option("--out", "-o", help="Output file: .gif or .mp4 (animation), .png (strobe picture, contact sheet or plot).")] = None,
+    seconds: Annotated[float | None, typer.Option(min=0.001, help="Replay this long (s); default: the run's evaluation time.")] = None,
+    fps: Annotated[float, typer.Option(min=1.0, max=100.0, help="Frames recorded (and played) per second.")] = 30.0,
+    width: Annotated[int | None, typer.Option(min=64, max=4096, help="Picture width in pixels; default 640 (animation), 1000 (strobe), 1200 (sheet).")] = None,
+    top: Annotated[int, typer.Option(min=1, max=60, help="Gaits on a run's contact sheet.")] = 10,
+    db: Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)] = "sanlab.db",
+    nodes: Annotated[bool, typer.Option("--nodes/--no-nodes", help="Add a panel of the SAN's sensor and node outputs over time.")] = False,
+    plot: Annotated[str | None, typer.Option("--plot", help="With a run id: scores (sorted phase-1 scores) or trace (tuning score per trial).")] = None,
+    camera: Annotated[str, typer.Option(help="Animation camera: auto (follow only if the trajectory does not fit), follow, or fixed.")] = "auto",
+) -> None:
+    """Draw gaits: animations (.gif/.mp4), strobe pictures and contact sheets (.png), plots."""
+    from sanlab.library import Library, LibraryError
+
+    gait = _is_gait(target)
+    if plot is not None and plot not in PLOTS:
+        raise _fail(f"--plot: expected scores or trace, got {plot!r}")
+    if plot is not None and gait:
+        raise _fail(f"--plot takes a run id, not a gait ({target!r})")
+    if camera not in ("auto", "follow", "fixed"):
+        raise _fail(f"--camera: expected auto, follow or fixed, got {camera!r}")
+    if out is not None:
+        ext = os.path.splitext(out)[1].lower()
+        allowed = (*ANIMATIONS, ".png") if gait and plot is None else (".png",)
+        if ext not in allowed:
+            what = "an animation (.gif, .mp4) or a strobe picture (.png)" if len(allowed) > 1 else (
+                "a plot" if plot else "a contact sheet") + " (.png)"
+            raise _fail(f"--out {out}: unknown kind {ext or '(no extension)'!r}; expected {what}")
+        folder = os.path.dirname(os.path.abspath(out))
+        if not os.path.isdir(folder):
+            raise _fail(f"--out {out}: directory {folder} does not exist")
+    if not os.path.exists(db):
+        raise _fail(f"{db}: no such gait library (give --db PATH)")
+    try:
+        lib = Library(db)
+    except LibraryError as e:
+        raise _fail(str(e)) from None
+    try:
+        if plot is not None:
+            _render_plot(lib, target, plot, out)
+        elif gait:
+            _render_gait(lib, target, out, seconds, fps, width, nodes, camera)
+        else:
+            _render_sheet(lib, target, out, seconds, fps, width, top)
+    except LibraryError as e:
+        raise _fail(str(e)) from None
+    except ValueError as e:
+        raise _fail(f"render: {e}") from None
+    finally:
+        lib.close()
+
+
+def _render_gait(lib, target, out, seconds, fps, width, nodes, camera) -> None:
+    from sanlab.render.film import animate
+    from sanlab.render.strobe import write_strobe
+
+    ev = lib.gait(target)  # fail early on an unknown gait, before compiling anything
+    path = out or f"{ev.run_id}_{ev.rank}.gif"
+    ext = os.path.splitext(path)[1].lower()
+    t0 = time.perf_counter()
+    _, gait, sc = gait_scene(lib, ev.gait_id, seconds, fps)
+    t1 = time.perf_counter()
+    about = f"gait {ev.gait_id} (rank {ev.rank}{_speed(gait.speed_cm_s)})"
+    if ext == ".png":
+        info = write_strobe(sc, path, width or DEFAULT_WIDTH["strobe"], nodes=nodes)
+        w, h = info["size"]
+        n = info["exposures"]
+        typer.echo(f"wrote {path}: strobe picture {w}x{h}, {n} exposure{'s' * (n != 1)} over "
+                   f"{sc.duration:.1f} s, {about}")
+        return
+    info = animate(sc, path, width or DEFAULT_WIDTH[ext], nodes=nodes, camera_mode=camera)
+    t2 = time.perf_counter()
+    w, h = info["size"]
+    typer.echo(f"wrote {path}: {info['frames']} frames {w}x{h} at {fps:g} fps ({info['seconds']:.1f} s), "
+               f"{about}; simulated in {t1 - t0:.1f} s, drawn in {t2 - t1:.1f} s")
+
+
+def _render_sheet(lib, target, out, seconds, fps, width, top) -> None:
+    from sanlab.render.strobe import contact_sheet, sheet_layout
+
+    run = lib.get_run(target)
+    best = lib.top(run.run_id, top)
+    if not best:
+        raise ValueError(f"run {run.run_id} has no evaluations yet")
+    path = out or f"{run.run_id}_top{len(best)}.png"
+    tiles = []
+    for e in best:
+        _, gait, sc = gait_scene(lib, f"{run.run_id}/{e.rank}", seconds, fps)
+        tiles.append((_gait_label(e.rank, gait), sc))
+    w = width or DEFAULT_WIDTH["sheet"]
+    contact_sheet(tiles, _sheet_title(lib, run, len(tiles)), w).save(path, format="PNG")
+    lay = sheet_layout(len(tiles), w)
+    W, H = lay["size"]
+    typer.echo(f"wrote {path}: contact sheet {W}x{H} of the best {len(tiles)} gaits of run {run.run_id} "
+               f"({lay['rows']} x {lay['cols']} tiles)")
+
+
+def _render_plot(lib, target, plot, out) -> None:
+    from sanlab.render.plots import plot_scores, plot_trace
+
+    run = lib.get_run(target)
+    path = out or f"{run.run_id}_{plot}.png"
+    if plot == "scores":
+        info = plot_scores(lib, run.run_id, path)
+        typer.echo(f"wrote {path}: {info['points']} sorted scores of run {run.run_id} (best {info['best']:.3f})")
+    else:
+        info = plot_trace(lib, run.run_id, path)
+        typer.echo(f"wrote {path}: tuning trace of run {run.run_id}, {info['points']} trials, "
+                   f"{info['accepted']} accepted")
