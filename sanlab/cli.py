@@ -4,6 +4,7 @@ the commands that need them so that ``sanlab check`` starts fast."""
 from __future__ import annotations
 
 import json
+import os
 from collections import Counter
 from typing import Annotated
 
@@ -196,6 +197,15 @@ def _print_distribution(scores: list[float]) -> None:
     console.print(f"score distribution over {len(s)} controllers (best first) — top {qs}; best {s[0]:.3f}")
 
 
+def _render_into(lib, run_ids: list[str], out_dir: str, top: int, quiet: bool) -> None:
+    from sanlab.render.command import render_top
+
+    os.makedirs(out_dir, exist_ok=True)
+    paths = [p for rid in run_ids for p in render_top(lib, rid, out_dir, top=top)]
+    if not quiet:
+        console.print(f"rendered {len(paths)} files into {escape(out_dir)}")
+
+
 @app.command()
 def search(
     creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
@@ -208,6 +218,7 @@ def search(
     db: DbOpt = "sanlab.db",
     resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
     top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
+    render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits."""
@@ -254,6 +265,8 @@ def search(
     except ValueError as e:
         raise fail(f"search: {e}") from None
     rows = _top_rows(lib, run_id, top)
+    if render_dir:
+        _render_into(lib, [run_id], render_dir, top, quiet=as_json)
     if as_json:
         typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
         return
@@ -344,6 +357,7 @@ def tune(
     morphology: Annotated[bool, typer.Option("--morphology", help="Also tune link lengths (and so masses).")] = False,
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
     batch: Annotated[int, typer.Option(min=1, help="Evaluations simulated together per round.")] = 128,
+    render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -381,6 +395,8 @@ def tune(
         raise fail(f"tune: {e}") from None
     rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials}
             for r in results]
+    if render_dir:
+        _render_into(lib, [r.run_id for r in results], render_dir, 1, quiet=as_json)
     if as_json:
         typer.echo(json.dumps(rows[0] if top is None else rows, indent=2))
         return
@@ -413,3 +429,8 @@ def reproduce(
     with open(out, "w") as f:
         f.write(report)
     console.print(f"wrote {out}")
+
+
+from sanlab.render.command import render  # noqa: E402  (imports its drawing libraries lazily)
+
+app.command()(render)

@@ -181,11 +181,11 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
     spec = scene.spec
     f = lambda c: mix(c, BACKGROUND, fade) if fade else c  # noqa: E731
     colors = link_colors(spec)
-    world = [scene.to_world(frame, i, l.shape.points or [(0.0, 0.0)]) for i, l in enumerate(spec.links)]
+    world = [scene.to_world(frame, i, scene.shape_points(i)) for i in range(len(spec.links))]
 
     if detail:
         for s in spec.springs:
-            a, b = _attach(scene, frame, s.a), _attach(scene, frame, s.b)
+            a, b = scene.attachment(frame, s.a), scene.attachment(frame, s.b)
             canvas.segment(a, b, sizes.thin, f(SPRING))
     order = sorted(range(len(spec.links)), key=lambda i: spec.links[i].shape.kind != "polygon")
     for i in order:  # polygons (bodies) first, limbs over them
@@ -202,7 +202,7 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
         for a_i, a in enumerate(spec.actuators):
             if a.kind != "linear":
                 continue
-            pa, pb = _attach(scene, frame, a.a), _attach(scene, frame, a.b)
+            pa, pb = scene.attachment(frame, a.a), scene.attachment(frame, a.b)
             u = float(scene.u[frame, a_i]) if scene.u.size else 0.5
             canvas.segment(pa, pb, max(1.5, sizes.thin * (1.0 + 1.5 * u)), f(mix(MUSCLE, BACKGROUND, 0.55 * (1 - u))))
         joints = [i for i, link in enumerate(spec.links) if link.parent is not None]
@@ -221,11 +221,6 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
             canvas.circle(j, 0.55 * sizes.joint, f(JOINT_FILL), True)
     if com:
         _com_marker(canvas, tuple(scene.com[frame]), max(3.0, 0.8 * sizes.link), fade)
-
-
-def _attach(scene, frame: int, ref) -> tuple[float, float]:
-    i = [l.name for l in scene.spec.links].index(ref.link)
-    return tuple(scene.to_world(frame, i, [ref.at])[0])
 
 
 def _com_marker(canvas: Canvas, c, r: float, fade: float) -> None:

@@ -32,6 +32,7 @@ class Scene:
     title: str = ""  # e.g. "3fa1c2d0/1  cart  7.3 cm/s"
     follow: np.ndarray | None = None  # [F, 2] the follow point at each frame
     follow_path: np.ndarray | None = None  # [P, 2] the whole follow spline
+    scale: np.ndarray | None = None  # [L] link length scales of a gait tuned with --morphology
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -61,6 +62,18 @@ class Scene:
         p = np.asarray(pts, float).reshape(-1, 2)
         return np.stack([x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]], 1)
 
+    def shape_points(self, link: int) -> np.ndarray:
+        """Outline of ``link`` in its frame [K, 2] (a point mass: its origin), scaled as tuned."""
+        l = self.spec.links[link]
+        pts = np.asarray(l.shape.points if l.shape.kind != "point" else [(0.0, 0.0)], float).reshape(-1, 2)
+        return pts * (1.0 if self.scale is None else float(self.scale[link]))
+
+    def attachment(self, frame: int, ref) -> tuple[float, float]:
+        """World position of a PointRef (link name, point in its frame) at ``frame``."""
+        i = [l.name for l in self.spec.links].index(ref.link)
+        k = 1.0 if self.scale is None else float(self.scale[i])
+        return tuple(self.to_world(frame, i, [np.asarray(ref.at, float) * k])[0])
+
     def outline_points(self) -> np.ndarray:
         """Every shape point of every link, in world coordinates, per frame: [F, K, 2]."""
         if "outline" not in self._cache:
@@ -69,8 +82,8 @@ class Scene:
 
     def _outline_points(self) -> np.ndarray:
         parts = []
-        for i, link in enumerate(self.spec.links):
-            pts = np.asarray(link.shape.points if link.shape.kind != "point" else [(0.0, 0.0)], float)
+        for i in range(len(self.spec.links)):
+            pts = self.shape_points(i)
             x, y, a = (self.links[:, i, k][:, None] for k in range(3))
             c, s = np.cos(a), np.sin(a)
             parts.append(np.stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]], -1))
@@ -180,6 +193,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         title=title,
         follow=follow,
         follow_path=path,
+        scale=np.asarray(gait.params["scale"], float) if gait.params.get("scale") else None,
     )
 
 

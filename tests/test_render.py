@@ -1,0 +1,340 @@
+"""Rendering gaits: animations, strobe pictures, contact sheets, plots and the render command.
+
+One tiny seeded search on the cart (16 controllers, 1 s) makes the gait library; every replay
+uses the same duration and frame rate so that the rollout compiles once for the whole file.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import typer
+from PIL import Image
+from typer.testing import CliRunner
+
+from sanlab.creature import read_source
+from sanlab.library import Library
+from sanlab.render import draw, film, strobe
+from sanlab.render.canvas import PillowCanvas, View
+from sanlab.render.command import gait_scene, render, render_top
+from sanlab.render.plots import plot_scores, plot_trace
+from sanlab.search import run_search
+
+FPS = 30.0
+# imageio-ffmpeg starts ffmpeg with subprocess (fork + exec), which JAX warns about: harmless here
+pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
+app = typer.Typer(add_completion=False, pretty_exceptions_enable=False)
+app.command()(render)
+
+
+@app.callback()
+def _main() -> None:
+    """A stand-in for the sanlab app: `render` as a subcommand."""
+
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def lib_run(tmp_path_factory):
+    db = tmp_path_factory.mktemp("render") / "gaits.db"
+    text, where = read_source("cart")
+    with Library(str(db)) as lib:
+        run_id = run_search(lib, text, where, controllers=16, seconds=1.0, batch=16)
+    return str(db), run_id
+
+
+@pytest.fixture(scope="module")
+def scene1(lib_run):
+    db, run_id = lib_run
+    with Library(db) as lib:
+        return gait_scene(lib, f"{run_id}/1", None, FPS)[2]
+
+
+def cli(*args, cwd=None):
+    return runner.invoke(app, ["render", *args])
+
+
+def _close(pixel, color, tol=40) -> bool:
+    return float(np.abs(np.asarray(pixel[:3], float) - np.asarray(color, float)).max()) <= tol
+
+
+def _near(img: np.ndarray, u: float, v: float, color, r: int = 1, tol: int = 40) -> bool:
+    """Some pixel within r of (u, v) has ``color``."""
+    i, j = int(v), int(u)
+    patch = img[max(0, i - r) : i + r + 1, max(0, j - r) : j + r + 1].reshape(-1, 3)
+    return any(_close(p, color, tol) for p in patch)
+
+
+def _root_samples(scene, frame: int, view: View):
+    """Pixels on the root link (L1, a segment) at 30 %, 50 % and 70 % of its length."""
+    a, b = scene.shape_points(0)
+    pts = scene.to_world(frame, 0, [a + t * (b - a) for t in (0.3, 0.5, 0.7)])
+    return list(zip(*view.px(pts[:, 0], pts[:, 1])))
+
+
+def _far_pixel(scene, frame: int, view: View):
+    """A pixel of the sky at least 40 px from every point of the creature and off the labels."""
+    pts = scene.outline_points()[frame]
+    u, v = view.px(pts[:, 0], pts[:, 1])
+    ground_v = view.px(0.0, float(scene.terrain(np.array([view.x0]))[0]))[1]
+    for vv in range(40, int(ground_v) - 20, 10):
+        for uu in range(20, view.width - 20, 10):
+            if np.min(np.hypot(u - uu, v - vv)) > 40:
+                return uu, vv
+    raise AssertionError("no free sky in the picture")
+
+
+# --------------------------------------------------------------------------- animations
+
+
+def test_gif_has_every_frame_at_the_requested_rate(scene1, tmp_path):
+    path = tmp_path / "a.gif"
+    info = film.animate(scene1, str(path), width=320)
+    assert scene1.n_frames == 30  # 1 s at 30 fps (a frame every 33 steps of 1 ms)
+    with Image.open(path) as im:
+        assert im.n_frames == scene1.n_frames == info["frames"]
+        assert im.size == (320, 180)
+        durations = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            durations.append(im.info["duration"])
+    assert set(durations) <= {30, 40}  # GIF counts hundredths: 1/30 s alternates 30 and 40 ms
+    for k in range(1, len(durations) + 1):  # and the running total keeps to k / fps
+        assert abs(sum(durations[:k]) - k * 1000 / FPS) <= 5
+    assert film.gif_durations(5, 25.0) == [40] * 5
+    assert film.gif_durations(4, 100.0) == [10] * 4
+
+
+def test_mp4_has_every_frame(scene1, tmp_path):
+    import imageio_ffmpeg
+
+    path = tmp_path / "a.mp4"
+    film.animate(scene1, str(path), width=320)
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    frames = [np.frombuffer(f, np.uint8).reshape(meta["size"][1], meta["size"][0], 3) for f in reader]
+    assert len(frames) == scene1.n_frames
+    assert tuple(meta["size"]) == (320, 180) and meta["codec"] == "h264"
+    assert meta["fps"] == pytest.approx(FPS)
+    # the first picture survives the encoding: the background colour in the sky corner
+    assert _close(frames[0][40, 160], draw.BACKGROUND, 8)
+
+
+def test_the_creature_is_drawn_where_the_trajectory_says(scene1, tmp_path):
+    path = tmp_path / "a.gif"
+    film.animate(scene1, str(path), width=480)
+    w, h = film.frame_size(480)
+    views = film.camera(scene1, w, h)
+    last = scene1.n_frames - 1
+    assert not np.allclose(scene1.links[0, 0], scene1.links[last, 0])  # it did move
+    with Image.open(path) as im:
+        for f in (0, last):
+            im.seek(f)
+            img = np.asarray(im.convert("RGB"))
+            hits = [_near(img, u, v, draw.ROOT) for u, v in _root_samples(scene1, f, views[f])]
+            assert sum(hits) >= 2, (f, hits)
+            u, v = _far_pixel(scene1, f, views[f])
+            assert _close(img[v, u], draw.BACKGROUND, 6), (f, img[v, u])
+            assert not _near(img, u, v, draw.ROOT, r=3)
+
+
+@pytest.mark.parametrize("mode", ["auto", "follow", "fixed"])
+def test_the_camera_keeps_the_creature_in_the_picture(scene1, mode):
+    w, h = film.frame_size(320)
+    views = film.camera(scene1, w, h, mode)
+    assert len(views) == scene1.n_frames
+    pts = scene1.outline_points()
+    for f, view in enumerate(views):
+        assert view.width == w and view.height == h
+        assert view.scale == pytest.approx(views[0].scale)  # one scale for the whole film
+        u, v = view.px(pts[f, :, 0], pts[f, :, 1])
+        assert u.min() >= 0 and u.max() <= w and v.min() >= 0 and v.max() <= h
+
+
+def test_nodes_panel_adds_a_raster_under_the_picture(scene1):
+    pic = next(film.frames(scene1, 320, nodes=True))
+    w, h = film.frame_size(320)
+    assert pic.size[0] == w and pic.size[1] == h + film.even(draw.panel_height(scene1, w))
+    panel = np.asarray(pic)[h:]
+    on = scene1.nodes[:, scene1.n_hidden :].any()
+    assert on == any(_close(p, draw.NODE_ACTUATOR, 30) for p in panel.reshape(-1, 3)[::3])
+
+
+def test_canvas_maps_world_to_pixels_with_y_up():
+    v = View.fit((0.0, 0.0, 2.0, 1.0), 200, 100)
+    assert v.scale == pytest.approx(100.0)
+    assert v.px(0.0, 0.0) == (pytest.approx(0.0), pytest.approx(100.0))
+    assert v.px(2.0, 1.0) == (pytest.approx(200.0), pytest.approx(0.0))
+    c = PillowCanvas(200, 100, (255, 255, 255), v)
+    c.segment((0.5, 0.25), (1.5, 0.25), 6, (255, 0, 0))
+    c.circle((1.0, 0.75), 5, (0, 0, 255))
+    img = np.asarray(c.image())
+    assert tuple(img[75, 100]) == (255, 0, 0) and tuple(img[25, 100]) == (0, 0, 255)
+    assert tuple(img[50, 100]) == (255, 255, 255)
+
+
+# --------------------------------------------------------------------------- strobe and sheet
+
+
+def test_strobe_draws_the_newest_pose_in_full(scene1, tmp_path):
+    path = tmp_path / "s.png"
+    info = strobe.write_strobe(scene1, str(path), width=800)
+    idx = strobe.exposures(scene1)
+    assert idx[0] == 0 and idx[-1] == scene1.n_frames - 1 and len(idx) == info["exposures"]
+    assert strobe.MIN_EXPOSURES <= len(idx) <= strobe.MAX_EXPOSURES
+    with Image.open(path) as im:
+        assert im.size == (800, strobe.strobe_height(scene1, 800))
+        img = np.asarray(im.convert("RGB"))
+    view = film.fixed_view(scene1, *img.shape[1::-1])
+    hits = [_near(img, u, v, draw.ROOT, tol=12) for u, v in _root_samples(scene1, idx[-1], view)]
+    assert sum(hits) >= 2, hits
+    oldest = draw.mix(draw.ROOT, draw.BACKGROUND, strobe.FADE_OLDEST)  # the first pose, faded
+    assert any(_near(img, u, v, oldest, tol=12) for u, v in _root_samples(scene1, 0, view))
+
+
+def test_contact_sheet_has_one_tile_per_gait(lib_run, tmp_path):
+    db, run_id = lib_run
+    out = tmp_path / "sheet.png"
+    r = cli(run_id, "--top", "5", "--out", str(out), "--db", db)
+    assert r.exit_code == 0, r.output
+    assert "contact sheet" in r.stdout and str(out) in r.stdout
+    lay = strobe.sheet_layout(5, 1200)
+    assert (lay["cols"], lay["rows"]) == (2, 3)
+    with Image.open(out) as im:
+        assert im.size == lay["size"]
+        img = np.asarray(im.convert("RGB")).astype(int)
+    for x0, y0, x1, y1 in lay["boxes"]:
+        tile = img[y0:y1, x0:x1]
+        label = tile[: lay["label"]]
+        pic = tile[lay["label"] :]
+        assert (np.abs(label - draw.TEXT).max(-1) < 60).sum() > 20  # the label is written
+        creature = [(np.abs(pic - c).max(-1) < 40).sum() for c in (draw.ROOT, draw.LIMBS[0])]
+        assert min(creature) > 30, creature  # both links of the newest pose are drawn
+    # the sixth slot of the 3 x 2 grid stays empty
+    tw, th = lay["tile"]
+    x0 = lay["boxes"][1][0]
+    y0 = lay["boxes"][4][1]
+    assert (np.abs(img[y0 : y0 + th, x0 : x0 + tw] - draw.GRID).max() == 0)
+
+
+# --------------------------------------------------------------------------- determinism
+
+
+def test_rendering_twice_gives_identical_files(lib_run, tmp_path):
+    db, run_id = lib_run
+    for ext in ("gif", "png", "mp4"):
+        a, b = tmp_path / f"a.{ext}", tmp_path / f"b.{ext}"
+        for path in (a, b):
+            r = cli(f"{run_id}/2", "--out", str(path), "--db", db, "--width", "320", "--nodes")
+            assert r.exit_code == 0, r.output
+        assert a.read_bytes() == b.read_bytes(), ext
+        assert a.stat().st_size > 1000
+
+
+# --------------------------------------------------------------------------- plots
+
+
+def test_plots_are_written(lib_run, tmp_path):
+    db, run_id = lib_run
+    with Library(db) as lib:
+        info = plot_scores(lib, run_id, str(tmp_path / "scores.png"))
+        assert info["points"] == 16 and info["best"] == pytest.approx(max(lib.scores(run_id)))
+        run = lib.get_run(run_id)
+        tune = lib.create_run("tune", run.creature, run.creature_text, {"metric": "distance"}, 0, 20,
+                              parent_gait=f"{run_id}/1")
+        rng = np.random.default_rng(0)
+        best, rows = 0.0, []
+        for k in range(20):
+            s = float(rng.uniform(0, 0.1))
+            rows.append({"trial": k, "score": s, "accepted": s > best})
+            best = max(best, s)
+        lib.add_trace(tune.run_id, rows)
+        info = plot_trace(lib, tune.run_id, str(tmp_path / "trace.png"))
+        assert info == {"path": str(tmp_path / "trace.png"), "points": 20, "accepted": sum(r["accepted"] for r in rows)}
+        with pytest.raises(ValueError, match="no tuning trace"):
+            plot_trace(lib, run_id, str(tmp_path / "none.png"))
+    for name in ("scores.png", "trace.png"):
+        with Image.open(tmp_path / name) as im:
+            im.load()
+            assert im.size[0] > 400 and im.size[1] > 200
+            assert len(np.unique(np.asarray(im.convert("RGB")).reshape(-1, 3), axis=0)) > 10  # not blank
+    r = cli(tune.run_id, "--plot", "trace", "--out", str(tmp_path / "t2.png"), "--db", db)
+    assert r.exit_code == 0 and "20 trials" in r.stdout, r.output
+    assert (tmp_path / "t2.png").read_bytes() == (tmp_path / "trace.png").read_bytes()
+
+
+# --------------------------------------------------------------------------- the command
+
+
+def test_default_output_name_and_summary(lib_run, tmp_path, monkeypatch):
+    db, run_id = lib_run
+    monkeypatch.chdir(tmp_path)
+    r = cli(f"{run_id}/1", "--db", db, "--width", "160")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / f"{run_id}_1.gif").exists()
+    assert r.stdout.count("\n") == 1 and f"{run_id}_1.gif" in r.stdout and "30 frames" in r.stdout
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["{run}/99"], "no gait"),
+        (["{run}#999"], "no evaluation #999"),
+        (["nothex/1"], "malformed gait id"),
+        (["{run}/1", "--out", "x.jpg"], "unknown kind '.jpg'"),
+        (["{run}", "--out", "x.gif"], "contact sheet (.png)"),
+        (["{run}", "--plot", "nope"], "--plot: expected scores or trace"),
+        (["{run}/1", "--plot", "scores"], "--plot takes a run id"),
+        (["{run}", "--plot", "trace"], "no tuning trace"),
+        (["{run}/1", "--camera", "wobbly"], "--camera"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(lib_run, tmp_path, monkeypatch, args, words):
+    db, run_id = lib_run
+    monkeypatch.chdir(tmp_path)
+    r = cli(*[a.format(run=run_id) for a in args], "--db", db)
+    assert r.exit_code == 2, r.output
+    assert words in r.stderr and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_too_short_to_record_a_frame_is_an_error():
+    from types import SimpleNamespace
+
+    from sanlab.render.scene import from_result
+
+    with pytest.raises(ValueError, match="too short to record a frame at 30 frames per second"):
+        from_result(None, None, SimpleNamespace(frames=None), 30.0)
+
+
+def test_a_missing_library_is_not_created(tmp_path):
+    r = cli("abcd/1", "--db", str(tmp_path / "none.db"))
+    assert r.exit_code == 2 and "no such gait library" in r.stderr
+    assert not (tmp_path / "none.db").exists()
+
+
+def test_render_top_writes_gifs_strobes_and_a_sheet(lib_run, tmp_path):
+    db, run_id = lib_run
+    with Library(db) as lib:
+        paths = render_top(lib, run_id, str(tmp_path / "out"), top=2, fps=FPS, width=160)
+    names = [p.split("/")[-1] for p in paths]
+    assert names == [f"{run_id}_1.gif", f"{run_id}_1.png", f"{run_id}_2.gif", f"{run_id}_2.png", f"{run_id}_top2.png"]
+    for p in paths:
+        with Image.open(p) as im:
+            assert im.size[0] > 0
+    with Image.open(paths[0]) as im:
+        assert im.n_frames == math.floor(1000 / 33)
+
+
+def test_link_outlines_follow_tuned_length_scales(scene1):
+    import dataclasses
+
+    big = dataclasses.replace(scene1, scale=np.array([2.0, 1.0]), _cache={})
+    assert np.allclose(big.shape_points(0), 2 * scene1.shape_points(0))
+    assert np.allclose(big.shape_points(1), scene1.shape_points(1))
+    ends = big.to_world(0, 0, big.shape_points(0))
+    assert np.hypot(*(ends[1] - ends[0])) == pytest.approx(0.4, rel=1e-5)  # L1 is 0.2 m long
+    assert big.outline_points().shape == scene1.outline_points().shape
