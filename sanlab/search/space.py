@@ -34,6 +34,7 @@ import numpy as np
 
 from sanlab.creature.spec import Creature
 from sanlab.san import San
+from sanlab.sim.model import drag_edges
 
 
 @dataclass(frozen=True)
@@ -211,15 +212,9 @@ class Space:
                "act_pts": act_pts, "sens_pts": sens_pts}
         if s.springs:
             out["spr_pts"] = pts([(x.a, x.b) for x in s.springs])
-        edges = []
-        if s.world.water_drag > 0:
-            for i, l in enumerate(s.links):
-                if not l.drag or l.shape.kind == "point":
-                    continue
-                p = list(l.shape.points)
-                pairs = [(p[0], p[1])] if l.shape.kind == "segment" else list(zip(p, p[1:] + p[:1]))
-                edges += [(np.array(a) * scale[i], np.array(b) * scale[i]) for a, b in pairs]
-            out["edge"] = np.array(edges, float).reshape(-1, 2, 2)
+        edges = drag_edges(s)
+        if edges:
+            out["edge"] = np.array([(np.multiply(a, scale[i]), np.multiply(b, scale[i])) for i, a, b in edges], float)
         return out
 
     def batch(self, thetas: np.ndarray, model):

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from sanlab.creature.spec import Creature
+from sanlab.creature.spec import Creature, Vec2
 
 ROUGH_TERMS = 8  # sinusoids in rough terrain
 FOLLOW_SAMPLES = 512  # arc-length table of the follow-point spline
@@ -207,6 +207,20 @@ def rough_terms(height: float, wavelength: float, seed: int) -> np.ndarray:
     return np.stack([amp, k, phase], 1)
 
 
+def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
+    """(link index, start, end) of every edge that feels water drag: a segment link's segment,
+    each side of a polygon link (none without water, or for point masses)."""
+    out = []
+    if spec.world.water_drag > 0:
+        for i, l in enumerate(spec.links):
+            if not l.drag or l.shape.kind == "point":
+                continue
+            pts = list(l.shape.points)
+            pairs = [(pts[0], pts[1])] if l.shape.kind == "segment" else list(zip(pts, pts[1:] + pts[:1]))
+            out += [(i, a, b) for a, b in pairs]
+    return out
+
+
 def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
     """Build the static structure and parameter arrays of ``spec``.
 
@@ -248,16 +262,8 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
             contacts.append(i)
             contact_pts.append(c)
             contact_load.append(l.mass * spec.world.gravity / max(1, len(l.contacts)))
-    edges, edge_pts = [], []
-    if spec.world.water_drag > 0:
-        for i, l in enumerate(spec.links):
-            if not l.drag or l.shape.kind == "point":
-                continue
-            pts = list(l.shape.points)
-            pairs = [(pts[0], pts[1])] if l.shape.kind == "segment" else list(zip(pts, pts[1:] + pts[:1]))
-            for a, b in pairs:
-                edges.append(i)
-                edge_pts.append((a, b))
+    drag = drag_edges(spec)
+    edges, edge_pts = [i for i, _, _ in drag], [(a, b) for _, a, b in drag]
 
     g = spec.world.ground
     mu, aniso = [], []
