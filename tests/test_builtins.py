@@ -1,0 +1,125 @@
+"""The ten built-in creatures of the paper's Table 1: they load, have the paper's sizes, stay
+finite under random networks, and a small phase-1 search finds each of them a gait that moves."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sanlab import sim
+from sanlab.creature import builtin_names, load, read_source
+from sanlab.library import Library
+from sanlab.metrics import Metric
+from sanlab.san import San
+from sanlab.search import run_search
+
+# Table 1 of van de Panne & Fiume (1993): links, sensors, actuators, hidden nodes.
+TABLE1 = {
+    "crawler": (4, 8, 2, 10),
+    "fish": (4, 6, 2, 5),
+    "bounder": (5, 8, 4, 8),
+    "luxo": (3, 6, 2, 6),
+    "cart": (2, 6, 1, 5),
+    "walker": (6, 11, 5, 6),
+    "twolink": (2, 6, 1, 5),
+    "threelink": (3, 8, 2, 7),
+    "fourlink": (4, 11, 3, 8),
+    "star": (3, 8, 2, 7),
+}
+NAMES = sorted(TABLE1)
+TRACKERS = {"fish", "crawler"}  # the two that pursue the follow point (§6)
+
+
+def test_every_creature_of_table_1_is_built_in():
+    assert set(TABLE1) <= set(builtin_names())
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_counts_match_table_1(name):
+    c = load(name)
+    assert c.name == name and c.description
+    counts = (len(c.links), len(c.sensors), len(c.actuators), c.san.hidden)
+    assert counts == TABLE1[name]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_paper_conventions(name):
+    c = load(name)
+    assert 0.07 <= c.san.delay_on <= 0.15 and 0.07 <= c.san.delay_off <= 0.15  # §4
+    tracker = name in TRACKERS
+    assert (c.evaluation.metric == "pursuit") == tracker
+    assert c.evaluation.seconds == (30.0 if tracker else 6.0)  # §6
+    assert (c.world.plane == "horizontal") == tracker
+    if c.evaluation.metric == "distance_upright":
+        assert c.evaluation.fell_link is not None
+
+
+@pytest.mark.parametrize("name", sorted(TRACKERS))
+def test_trackers_have_eyes_and_a_follow_point(name):
+    c = load(name)
+    assert c.world.follow is not None and c.world.follow.speed > 0
+    assert any(s.kind == "eye" for s in c.sensors)
+
+
+def test_fish_has_a_passive_caudal_fin_and_swims_in_water():
+    c = load("fish")
+    assert c.world.water_drag > 0 and c.world.ground.friction == 0
+    assert c.link("L4").spring is not None and c.link("L4").parent == "L3"
+    assert {a.joint for a in c.actuators} == {"L2", "L3"}  # no motor on the fin's joint
+
+
+def test_crawler_is_four_point_masses_that_slide_forward_more_easily():
+    c = load("crawler")
+    assert all(link.is_point for link in c.links)
+    assert all(link.friction.forward < link.friction.backward for link in c.links)
+    assert all(link.friction.axis is not None for link in c.links)
+    assert all(a.kind == "linear" for a in c.actuators)
+    assert any(s.kind == "length" for s in c.sensors)
+    assert all(s.axis is not None for s in c.sensors if s.kind == "eye")
+
+
+def test_twolink_has_one_link_heavier_than_the_other():
+    c = load("twolink")
+    assert c.links[0].mass != c.links[1].mass  # §6.1: symmetry would stop it
+
+
+@pytest.mark.parametrize("name", sorted(set(NAMES) - TRACKERS))
+def test_starts_at_rest_on_the_ground(name):
+    """Every creature in the vertical plane starts touching the ground but not inside it."""
+    m = sim.compile_creature(load(name), "float64")
+    depth = np.asarray(sim.poses(m, m.params.q0)["depth"])
+    assert depth.max() == pytest.approx(0.0, abs=1e-4)
+
+
+# Both tests below roll out batches of 256 for 6 s with the creature's own metric, exactly as a
+# search does, so each creature's program is compiled once and shared by the two.
+SECONDS, BATCH = 6.0, 256
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_200_random_networks_stay_finite_for_6_s(name):
+    spec = load(name)
+    san = San.for_creature(spec)
+    W = np.stack([san.random_weights(5, i) for i in range(200)])
+    p = san.params(W, spec.san.delay_on, spec.san.delay_off, "float32")
+    metric = Metric.for_creature(spec)
+    r = sim.rollout(sim.compile_creature(spec), san, p, SECONDS, observer=metric, pad_to=BATCH)
+    assert bool(np.all(np.asarray(r.finite)))
+    assert np.isfinite(np.asarray(r.state.q)).all()
+    assert float(np.max(r.max_depth)) < 0.02  # penetration stays around a centimetre or less
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_small_search_finds_a_gait_that_moves(name, tmp_path):
+    """Phase 1 in miniature: 64 random networks, 6 s each."""
+    text, where = read_source(name)
+    with Library(str(tmp_path / "gaits.db")) as lib:
+        run_id = run_search(lib, text, where, controllers=64, seconds=SECONDS, seed=0, batch=BATCH)
+        top = lib.top(run_id, 64)
+    assert len(top) == 64 and not any(e.nonfinite for e in top)
+    best = top[0].score
+    if name in TRACKERS:
+        assert best > 0.1  # m gained towards the follow point in 6 s
+    else:
+        # the score is the distance (m) moved, 0 for a fall: more than 3 cm/s without falling
+        assert best / SECONDS * 100 > 3.0
