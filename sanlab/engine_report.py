@@ -12,18 +12,13 @@ from sanlab.creature.spec import Creature
 
 
 def random_san_params(spec: Creature, n: int, seed: int, dtype="float32"):
-    """n random networks for ``spec``: integer weights uniform in [-2, 2], the creature's delays."""
-    import jax.numpy as jnp
+    """n random networks for ``spec`` (controllers 0..n-1 of a search seeded ``seed``), with the
+    creature's node delays: (San, SanParams with a leading batch axis)."""
+    from sanlab.san import San
 
-    from sanlab.san import San, SanParams
-
-    S, A = len(spec.sensors), len(spec.actuators)
-    H = spec.san.hidden if spec.san.hidden is not None else S
-    rng = np.random.default_rng(seed)
-    W = rng.integers(-2, 3, (n, H + A, S + H + A)).astype(dtype)
-    k1 = np.full((n, H + A), 1.0 / spec.san.delay_on, dtype)
-    k2 = np.full((n, H + A), -1.0 / spec.san.delay_off, dtype)
-    return San(S, H, A), SanParams(jnp.asarray(W), jnp.asarray(k1), jnp.asarray(k2))
+    san = San.for_creature(spec)
+    weights = np.stack([san.random_weights(seed, i) for i in range(n)])
+    return san, san.params(weights, spec.san.delay_on, spec.san.delay_off, dtype)
 
 
 def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: str = "float32") -> dict:
