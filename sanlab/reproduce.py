@@ -37,7 +37,6 @@ TABLE1 = {
     "fourlink": (4, 11, 3, 8, 55.0),
     "star": (3, 8, 2, 7, 9.0),
 }
-TRACKERS = ("fish", "crawler")
 
 
 @dataclass
@@ -119,6 +118,7 @@ def robustness(lib, tuned_gait: str) -> dict:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print) -> str:
     """Run the paper's budget on each creature; returns the Markdown report."""
+    from sanlab.san import San
     from sanlab.search import run_search
     from sanlab.search.tune import tune
 
@@ -128,7 +128,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     for name in creatures:
         t0 = time.perf_counter()
         spec = load(name)
-        seconds = 30.0 if name in TRACKERS else 6.0
+        seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
         text, where = read_source(name)
         run_id = run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed)
         best = lib.top(run_id, 1)[0]
@@ -136,13 +136,12 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
         [res] = tune(lib, [f"{run_id}/1"], method="sa", trials=trials, seed=seed, batch=32)
         wall = time.perf_counter() - t0
         tuned = lib.gait(res.tuned_gait)
-        counts = (len(spec.links), len(spec.sensors), len(spec.actuators),
-                  spec.san.hidden if spec.san.hidden is not None else len(spec.sensors))
+        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), San.for_creature(spec).n_hidden)
         rows.append(Row(name, counts, TABLE1.get(name, (None,) * 5)[4], run_id, best.speed_cm_s,
                         tuned.speed_cm_s, res.tuned_gait, useful_fraction(lib, run_id, spec, seconds), wall,
                         spec.evaluation.metric))
         log(f"{name}: {best.speed_cm_s:.1f} -> {tuned.speed_cm_s:.1f} cm/s ({wall:.0f} s)")
-        if name in TRACKERS:
+        if spec.evaluation.metric == "pursuit":
             extras.setdefault("tracking", {})[name] = tracking(lib, run_id, res.tuned_gait)
         if name == "bounder":
             extras["robustness"] = robustness(lib, res.tuned_gait)
