@@ -259,3 +259,17 @@ def test_persistent_compile_cache_is_written(tmp_path):
     subprocess.run([sys.executable, "-c", code], check=True, env=env, timeout=300)
     entries = list((tmp_path / "jax").iterdir())
     assert entries, "no compiled program was cached"
+
+
+def test_a_run_continues_exactly_from_its_final_state_and_controller_state():
+    # Live mode steps a gait in short rollouts: state0 = result.state, cstate0 = result.cstate
+    # must give exactly the trajectory of one long rollout (same compiled step, same order).
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec)
+    san, params = random_sans(spec, 3, seed=5)
+    whole = sim.rollout(m, san, params, steps=600)
+    first = sim.rollout(m, san, params, steps=300)
+    rest = sim.rollout(m, san, params, steps=300, state0=first.state, cstate0=first.cstate)
+    np.testing.assert_array_equal(np.asarray(rest.state.q), np.asarray(whole.state.q))
+    np.testing.assert_array_equal(np.asarray(rest.cstate.istate), np.asarray(whole.cstate.istate))
+    assert not np.array_equal(np.asarray(first.state.q), np.asarray(whole.state.q))  # it moved on

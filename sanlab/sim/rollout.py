@@ -57,13 +57,16 @@ class Result(NamedTuple):
     max_depth: Any  # [...] largest ground penetration over the run (m)
     finite: Any  # [...] bool: the state stayed finite and bounded
     frames: Frames | None
+    cstate: Any = None  # final controller state (pass it back as ``cstate0`` to continue a run)
 
 
-def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0, gate):
+def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0, cstate0, gate):
     """Roll one controller out for n_steps (static), recording a frame every ``every`` steps.
 
+    cstate0: the controller's state to start from (None: ``controller.init``).
     gate: an unbatched boolean that is true at run time (see dynamics._barrier)."""
-    cstate0 = controller.init(cparams, model)
+    if cstate0 is None:
+        cstate0 = controller.init(cparams, model)
     acc0 = observer.init(model, state0) if observer is not None else None
     zero = jnp.zeros((), state0.q.dtype)
 
@@ -96,21 +99,21 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
         if rest:
             carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=rest)
         frames = rec
-    state, _, acc, deepest = carry
+    state, cstate, acc, deepest = carry
     if observer is not None and hasattr(observer, "finish"):
         acc = observer.finish(model, acc, state)
     finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4)
-    return state, acc, deepest, finite, frames
+    return state, acc, deepest, finite, frames, cstate
 
 
 @partial(jax.jit, static_argnames=("controller", "observer", "n_steps", "every", "params_batched", "fence"))
-def _batched(model, controller, observer, n_steps, every, cparams, state0, params_batched, one, fence):
+def _batched(model, controller, observer, n_steps, every, cparams, state0, cstate0, params_batched, one, fence):
     in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
     fn = jax.vmap(
-        lambda m, c, s, g: _one(m, controller, observer, n_steps, every, c, s, (g > 0) if fence else None),
-        in_axes=(in_model, 0, 0, None),
+        lambda m, c, s, cs, g: _one(m, controller, observer, n_steps, every, c, s, cs, (g > 0) if fence else None),
+        in_axes=(in_model, 0, 0, 0, None),
     )
-    return fn(model, cparams, state0, one)
+    return fn(model, cparams, state0, cstate0, one)
 
 
 def devices():
@@ -147,6 +150,7 @@ def rollout(
     record_fps: float | None = None,
     observer=None,
     state0: State | None = None,
+    cstate0: Any = None,
     params_batched: bool = False,
     pad_to: int | None = None,
     fence: bool = True,
@@ -189,21 +193,22 @@ def rollout(
 
     cp = jax.tree_util.tree_map(pad, cparams)
     s0 = jax.tree_util.tree_map(pad, state0)
+    cs0 = None if cstate0 is None else jax.tree_util.tree_map(pad, cstate0)
     m = model
     if params_batched:
         m = jax.tree_util.tree_map(pad, model)
     one = jnp.ones((), model.dtype)
 
-    state, acc, deepest, finite, frames = _batched(
-        m, controller, observer, steps, every, cp, s0, params_batched, one, fence
+    state, acc, deepest, finite, frames, cstate = _batched(
+        m, controller, observer, steps, every, cp, s0, cs0, params_batched, one, fence
     )
     cut = lambda x: x[:B]
-    state, acc, deepest, finite = jax.tree_util.tree_map(cut, (state, acc, deepest, finite))
+    state, acc, deepest, finite, cstate = jax.tree_util.tree_map(cut, (state, acc, deepest, finite, cstate))
     if frames is not None:
         qf, qdf, bits, u, cs = jax.tree_util.tree_map(cut, frames)
         t = np.arange(qf.shape[1]) * every * dt
         frames = Frames(t, qf, qdf, bits, u, cs)
-    return Result(state, acc, deepest, finite, frames)
+    return Result(state, acc, deepest, finite, frames, cstate)
 
 
 # ------------------------------------------------------------- simple controllers (tests, demos)
