@@ -28,7 +28,7 @@ def evaluate(spec, kind, qd0=None, q0=None, seconds=1.0):
     metric = Metric.for_creature(spec, kind)
     q = m.params.q0 if q0 is None else jnp.asarray(q0, jnp.float64)
     qd = jnp.zeros_like(q) if qd0 is None else jnp.asarray(qd0, jnp.float64)
-    s0 = sim.State(q, qd, jnp.zeros(()))
+    s0 = sim.make_state(m, q, qd)
     r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), seconds, observer=metric, state0=s0)
     return {k: v[0] for k, v in scores(metric, r.acc, r.finite, seconds, spec.world.plane).items()}
 
@@ -92,7 +92,7 @@ def test_a_run_that_blows_up_scores_zero_and_is_flagged():
     metric = Metric.for_creature(spec, "distance")
     q = jnp.stack([m.params.q0, m.params.q0])
     qd = jnp.array([[1.0, 0.0, 0.0], [jnp.nan, 0.0, 0.0]], jnp.float32)
-    s0 = sim.State(q, qd, jnp.zeros(2))
+    s0 = sim.make_state(m, q, qd)
     r = sim.rollout(m, sim.ConstantController(), jnp.zeros((2, 0)), 0.5, observer=metric, state0=s0)
     out = scores(metric, r.acc, r.finite, 0.5, "vertical")
     assert list(out["nonfinite"]) == [False, True]

@@ -50,7 +50,7 @@ def test_free_fall_matches_the_integrator_and_the_analytic_parabola():
     bar = Link("b", 2.0, 2.0 / 12, (0.0, 0.0), Shape("segment", ((-0.5, 0.0), (0.5, 0.0))), position=(0.0, 10.0))
     spec = Creature("ff", (bar,), dt=dt)
     m = sim.compile_creature(spec, "float64")
-    s0 = sim.State(jnp.array([0.0, 10.0, 0.3]), jnp.array([1.5, 2.0, 4.0]), jnp.zeros(()))
+    s0 = sim.make_state(m, jnp.array([0.0, 10.0, 0.3]), jnp.array([1.5, 2.0, 4.0]))
     r = sim.rollout(m, sim.ConstantController(), no_act(), steps=n, state0=s0)
     x, y, a = np.asarray(r.state.q[0])
     T = n * dt
@@ -84,7 +84,7 @@ def test_sliding_block_decelerates_at_mu_g_then_sticks():
     blk = box("block", 0.4, 0.1, m, position=(0.0, 0.05 - m * G / (2 * k)))
     spec = Creature("block", (blk,), world=World(ground=Ground(stiffness=k, damping=300.0, friction=mu)))
     mdl = sim.compile_creature(spec, "float64")
-    s0 = sim.State(mdl.params.q0, jnp.array([2.0, 0.0, 0.0]), jnp.zeros(()))
+    s0 = sim.make_state(mdl, mdl.params.q0, jnp.array([2.0, 0.0, 0.0]))
     r = sim.rollout(mdl, sim.ConstantController(), no_act(), seconds=1.0, record_fps=1000, state0=s0)
     v = np.asarray(r.frames.qd[0, :, 0])
     t = r.frames.t
@@ -107,7 +107,7 @@ def test_energy_is_conserved_without_damping_or_contact():
     spec = double_pendulum()
     m = sim.compile_creature(spec, "float64")
     r = sim.rollout(m, sim.ConstantController(), no_act(), seconds=1.0, record_fps=100)
-    e = jax.vmap(lambda q, qd: sim.energy(m, sim.State(q, qd, jnp.zeros(()))))(r.frames.q[0], r.frames.qd[0])
+    e = jax.vmap(lambda q, qd: sim.energy(m, sim.make_state(m, q, qd)))(r.frames.q[0], r.frames.qd[0])
     E = np.asarray(e["kinetic"] + e["gravity"])
     swing = np.ptp(np.asarray(e["kinetic"]))
     assert swing > 1.0  # it really moved: kinetic energy swings by joules
@@ -118,7 +118,7 @@ def test_energy_function_against_hand_formulas():
     spec = double_pendulum()
     m = sim.compile_creature(spec, "float64")
     q, qd = jnp.array([0.4, -0.7]), jnp.array([1.1, -2.3])
-    e = sim.energy(m, sim.State(q, qd, jnp.zeros(())))
+    e = sim.energy(m, sim.make_state(m, q, qd))
     t1, t2 = 0.4, 0.4 - 0.7
     w1, w2 = 1.1, 1.1 - 2.3
     c1 = np.array([0.25 * math.cos(t1), 0.25 * math.sin(t1)])
@@ -213,11 +213,14 @@ def test_float32_and_float64_agree_and_keep_their_dtype():
 def test_parameters_are_batched_arrays_and_never_recompile():
     """Every number is an array input: a batch of different masses runs in one compiled
     program, and each member equals the unbatched run with that mass."""
+    # float64: a batched mass array and a scalar one round differently in the last bit, and the
+    # closed loop (binary sensors, stick-slip) amplifies that in float32
     spec = creature.load("cart")
-    m = sim.compile_creature(spec)
+    m = sim.compile_creature(spec, "float64")
     san, p = random_sans(spec, 1, seed=5)
+    p = jax.tree_util.tree_map(lambda x: x.astype(jnp.float64), p)
     p3 = jax.tree_util.tree_map(lambda x: jnp.repeat(x, 3, axis=0), p)
-    masses = jnp.array([[0.1, 0.1], [0.1, 0.2], [0.05, 0.1]], jnp.float32)
+    masses = jnp.array([[0.1, 0.1], [0.1, 0.2], [0.05, 0.1]], jnp.float64)
     mb = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (3,) + x.shape), m)
     mb = mb.with_params(mass=masses)
     batched = sim.rollout(mb, san, p3, seconds=0.5, params_batched=True)
@@ -243,7 +246,7 @@ def test_bad_runs_are_flagged_not_fatal():
     m = sim.compile_creature(spec)
     s0 = sim.initial_state(m)
     bad = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), s0)
-    bad = bad._replace(qd=bad.qd.at[1, 1].set(jnp.nan))
+    bad = bad._replace(p=bad.p.at[1, 1].set(jnp.nan))
     r = sim.rollout(m, sim.ConstantController(), jnp.full((2, 1), 0.5), seconds=0.1, state0=bad)
     assert list(np.asarray(r.finite)) == [True, False]
 

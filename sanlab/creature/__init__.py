@@ -20,6 +20,7 @@ from .spec import (
     Follow,
     Friction,
     Ground,
+    JointLimit,
     JointSpring,
     LengthSensor,
     LinearActuator,
@@ -36,7 +37,7 @@ from .spec import (
 
 __all__ = [
     "Actuator", "AngleSensor", "AngularActuator", "Creature", "CreatureError", "Evaluation",
-    "EyeSensor", "Follow", "Friction", "Ground", "JointSpring", "LengthSensor", "LinearActuator",
+    "EyeSensor", "Follow", "Friction", "Ground", "JointLimit", "JointSpring", "LengthSensor", "LinearActuator",
     "LinearSpring", "Link", "PointRef", "SanConfig", "Sensor", "Shape", "Terrain", "TouchSensor",
     "World", "builtin_names", "initial_frames", "load", "load_file", "loads", "read_source",
     "world_point",

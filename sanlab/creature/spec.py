@@ -39,6 +39,20 @@ class JointSpring:
 
 
 @dataclass(frozen=True)
+class JointLimit:
+    """A range the joint angle cannot leave (a mechanical stop, not the servo's target range).
+
+    Outside [min, max] a one-sided spring-damper pushes the joint back, T = k (limit - phi) -
+    c phi_dot, and only ever pushes (it never pulls the joint into the stop), like the ground.
+    """
+
+    min: float  # rad
+    max: float  # rad
+    stiffness: float = 57.29577951308232  # N m / rad (1 N m/deg)
+    damping: float = 0.5729577951308232  # N m s / rad (0.01 N m s/deg)
+
+
+@dataclass(frozen=True)
 class Friction:
     """Per-link friction override, possibly anisotropic.
 
@@ -75,6 +89,7 @@ class Link:
     position: Vec2 = (0.0, 0.0)  # initial origin, world (m); roots only
     angle: float = 0.0  # initial angle (rad): absolute for roots, relative to parent for joints
     spring: JointSpring | None = None  # passive joint spring; joints only
+    limit: JointLimit | None = None  # mechanical stop of the joint; joints only
     friction: Friction | None = None  # overrides the world's isotropic friction
     drag: bool = True  # feels water drag (only if the world has water)
     fixed: bool = False  # roots only: welded to the world at position/angle (no dofs); for rigs and tests
@@ -198,14 +213,18 @@ class LinearSpring:
 class Ground:
     """Penalty ground: per contact point N = max(0, k d - c v_n) for penetration d > 0.
 
-    Friction is Coulomb with coefficient ``friction``, regularised to viscous below
-    ``slip_speed`` (m/s) so that it is continuous and can be integrated implicitly.
+    Friction is Coulomb with coefficient ``friction``, and it sticks. Each touching contact keeps
+    an anchor on the ground; while the contact slips slower than ``slip_speed`` and a spring
+    (stiffness k, the ground's) with a damper mu N / slip_speed to its anchor needs no more than
+    mu N, the contact is held, with no creep however long a load inside the friction cone lasts.
+    Otherwise it slides with Coulomb friction mu N against the slip (an implicit damper that can
+    stop a slip within a step but never reverse it) and its anchor restarts where it stops.
     """
 
     stiffness: float = 5.0e4  # N / m (stiff: penetration stays ~1 cm under a 4 kg landing)
     damping: float = 300.0  # N s / m
     friction: float = 0.6
-    slip_speed: float = 0.01  # m/s
+    slip_speed: float = 1.0e-4  # m/s (as Drake's default stiction tolerance)
 
 
 @dataclass(frozen=True)
@@ -244,7 +263,9 @@ class World:
     seen from above, no gravity in the plane; every contact point always rests on the floor and
     carries an equal share of its link's weight (m g / contacts) as normal load for friction.
     water_drag k (N s / m^2): each link with ``drag`` feels F = -k ∫ (v·N) N ds along each edge of
-    its outline (paper §3.4; normal component only).
+    its outline (paper §3.4), plus a tangential (skin) part -k_t ∫ (v·T) T ds with k_t =
+    ``water_tangential`` x k, so that a slender body coasting along its axis slows down too
+    (``water_tangential = 0`` is the paper's normal-only model).
     """
 
     plane: Literal["vertical", "horizontal"] = "vertical"
@@ -252,6 +273,7 @@ class World:
     ground: Ground = field(default_factory=Ground)
     terrain: Terrain = field(default_factory=Terrain)
     water_drag: float = 0.0
+    water_tangential: float = 0.1  # skin drag coefficient as a fraction of water_drag
     follow: Follow | None = None
 
 

@@ -15,11 +15,15 @@ from sanlab.sim.dynamics import (  # noqa: E402
     centre_of_mass,
     energy,
     follow_point,
+    from_root_coordinates,
     initial_state,
+    make_state,
     poses,
     prepare,
+    root_coordinates,
     sense,
     step,
+    velocity,
 )
 from sanlab.sim.model import Model, Params, Structure, compile_creature  # noqa: E402
 from sanlab.sim.rollout import (  # noqa: E402
@@ -34,7 +38,8 @@ from sanlab.sim.rollout import (  # noqa: E402
 )
 
 __all__ = [
-    "State", "advance", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "prepare", "sense", "step",
+    "State", "advance", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "make_state", "prepare", "sense", "step", "velocity",
+    "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
     "batch_quantum", "devices", "rollout",

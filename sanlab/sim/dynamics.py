@@ -1,17 +1,38 @@
 """One time step of a planar articulated creature, written for a single creature.
 
-Generalised coordinates q [D]: per tree (x, y, angle) of its root then one relative angle per
-joint; per point mass (x, y). Equations of motion M(q) q'' = Q(q, q', u) - c(q, q') are built from
-point Jacobians, unrolled at trace time over the creature's structure (see ``sparse``).
+Coordinates (see ``model``): per free tree the position of its centre of mass (COM), its root's
+absolute angle and one relative angle per joint; per point mass its (x, y); a tree welded to the
+world has only its joint angles. The state carries the generalised *momentum* p = M(q) q'
+rather than the velocity, and every point Jacobian, the mass matrix M(q) and the inertial force
+dT/dq are built from the creature's structure, unrolled at trace time (see ``sparse``).
 
-Integration is semi-implicit Euler in which every stiff term is linearised implicitly: each
-spring-damper-like element with gradient g (a row over dofs), stiffness k and damping c adds
-(h c + h^2 k) g g^T to the matrix and uses the predicted force F - h k (g . q') (PD servos,
-passive springs, ground normal springs and dampers, regularised friction, water drag):
+The step is semi-implicit Euler in momentum form (the Lagrangian "symplectic Euler" with its
+inertial force taken explicitly), with every stiff term linearised implicitly:
 
-    (M + h D + h^2 K) dv = h (Q - c - h K q'),   q'_{n+1} = q'_n + dv,   q_{n+1} = q_n + h q'_{n+1}
+    q'_n = M_n^-1 p_n                                         (velocity of this configuration)
+    (M_n + h D + h^2 K) dv = h (dT/dq(q_n, q'_n) + Q - h K q'_n)
+    q'* = q'_n + dv,   p_{n+1} = M_n q'*,   q_{n+1} = q_n + h q'*
 
-so that dt = 1 ms is stable with stiff ground, strong servos and sticking friction.
+Each spring-damper-like element (PD servos, passive springs, joint stops, the ground's normal
+and sticking-friction springs, sliding friction, water drag) with gradient row g, stiffness k
+and damping c adds (h c + h^2 k) g g^T to the matrix and its predicted force F - h k (g . q') to
+Q, so dt = 1 ms is stable with stiff ground, strong servos and sticking friction.
+
+Why this form (each was a way for a search to cheat):
+
+- *Momentum.* The translational rows are exactly m dv = h F_external (the COM coordinates make
+  M block-diagonal there), so a creature on frictionless ground cannot move its COM along x, and
+  a creature in flight keeps its linear momentum; its angular momentum about the COM (the root
+  angle is a cyclic coordinate in flight) is conserved too, because dT/dq has no entry for it
+  and p is what is carried from step to step. The velocity-form step (M_n dv = h (Q - c)) leaks
+  both at O(dt), and searches learn to walk on ice with the leak.
+- *Energy.* Taking the velocity of the new configuration from the carried momentum (rather than
+  integrating a Coriolis force explicitly) makes the step dissipate a little where the
+  velocity form gains: a passive, undamped chain released from rest does not gain energy.
+- *Friction that holds.* Each touching contact keeps an anchor on the ground (``State.anchor``):
+  while the tangential spring-damper to it needs no more than mu N, the contact sticks, with no
+  creep however long the load lasts; beyond it, Coulomb sliding (an implicit damper that can stop
+  a slip but never reverse it) and the anchor follows.
 
 Units: SI throughout.
 """
@@ -31,11 +52,17 @@ Vec = tuple[Any, Any]
 
 
 class State(NamedTuple):
-    """Simulation state of one creature (add a leading batch axis for many)."""
+    """Simulation state of one creature (add a leading batch axis for many).
+
+    ``p`` is what the integrator carries; ``qd`` is the velocity M(q)^-1 p of this state (inside a
+    rollout's loop, the velocity of the last step). Build states with :func:`make_state`.
+    """
 
     q: Any  # [D] generalised coordinates (m, rad)
     qd: Any  # [D] generalised velocities (m/s, rad/s)
     t: Any  # [] time (s)
+    p: Any  # [D] generalised momenta (kg m/s, kg m^2/s)
+    anchor: Any  # [C, 2] m, world: where each contact's friction holds it (the contact itself when free)
 
 
 class Frame(NamedTuple):
@@ -50,14 +77,11 @@ class Frame(NamedTuple):
     cv: list  # per contact: world velocity
     depth: list  # per contact: penetration (m, > 0 when touching); horizontal plane: 1.0
     terrain: list  # per contact: (h, dh/dx) of the ground under it
-    qd: list  # per dof velocity
+    qd: list  # per dof velocity q'_n = M_n^-1 p_n
     gate: Any = None  # unbatched runtime-true boolean that fences XLA fusion (see _barrier)
-
-
-def initial_state(model: Model) -> State:
-    p = model.params
-    z = jnp.zeros_like(p.q0)
-    return State(p.q0, z, jnp.zeros((), p.q0.dtype))
+    com: list | None = None  # per link: centre of mass, world
+    S: dict | None = None  # per rotational link of a free tree: (sum over its subtree of m (c - X_k)) / m_tree
+    M: SymMatrix | None = None  # mass matrix M(q_n)
 
 
 # ---------------------------------------------------------------- kinematics
@@ -72,6 +96,11 @@ def _perp(v: Vec) -> Vec:
     return (neg(v[1]), v[0])
 
 
+def _point_at(cs: Vec, X: Vec, r) -> Vec:
+    rx, ry = _rot(cs, r)
+    return (add(X[0], rx), add(X[1], ry))
+
+
 def _point(fr: Frame, i: int, r) -> Vec:
     rx, ry = _rot(fr.cs[i], r)
     return (fr.X[i][0] + rx, fr.X[i][1] + ry)
@@ -84,14 +113,27 @@ def _point_vel(fr: Frame, i: int, p: Vec) -> Vec:
 
 
 def jacobian(st: Structure, fr: Frame, i: int, p: Vec) -> dict:
-    """Jacobian of world point ``p`` fixed on link ``i``: {dof: (dx/dq, dy/dq)}."""
+    """Jacobian of world point ``p`` fixed on link ``i``: {dof: (dx/dq, dy/dq)}.
+
+    In a free tree turning dof k moves the point by perp(p - X_k) if k is on its chain, and
+    every point by -perp(S_k): the tree turns about its centre of mass, which stays put."""
     ls = st.links[i]
-    J = {ls.dof_x: (1.0, 0.0), ls.dof_y: (0.0, 1.0)} if ls.dof_x >= 0 else {}
-    if not ls.point:
-        for k in ls.chain:
-            if st.links[k].dof_rot >= 0:
-                X = fr.X[k]
-                J[st.links[k].dof_rot] = (neg(sub(p[1], X[1])), sub(p[0], X[0]))
+    if ls.dof_x < 0 and ls.dof_rot < 0 and ls.parent < 0:
+        return {}  # welded to the world
+    J: dict = {ls.dof_x: (1.0, 0.0), ls.dof_y: (0.0, 1.0)} if ls.dof_x >= 0 else {}
+    if ls.point:
+        return J
+    tree = st.trees[ls.tree]
+    for k in tree.rot:
+        jx: Any = 0.0
+        jy: Any = 0.0
+        if k in ls.chain:
+            X = fr.X[k]
+            jx, jy = neg(sub(p[1], X[1])), sub(p[0], X[0])
+        if tree.free:
+            S = fr.S[k]
+            jx, jy = add(jx, S[1]), sub(jy, S[0])
+        J[st.links[k].dof_rot] = (jx, jy)
     return J
 
 
@@ -108,21 +150,6 @@ def _project(J: dict, n: Vec) -> dict:
         if not (isinstance(v, float) and v == 0.0):
             out[d] = v
     return out
-
-
-def _bias_acc(st: Structure, fr: Frame, i: int, p: Vec) -> Vec:
-    """Acceleration of point ``p`` on link ``i`` when q'' = 0 (centripetal terms)."""
-    ls = st.links[i]
-    if ls.point:
-        return (0.0, 0.0)
-    ax, ay = 0.0, 0.0
-    chain = ls.chain
-    for n, k in enumerate(chain):
-        nxt = fr.X[chain[n + 1]] if n + 1 < len(chain) else p
-        w2 = mul(fr.w[k], fr.w[k])
-        ax = sub(ax, mul(w2, nxt[0] - fr.X[k][0]))
-        ay = sub(ay, mul(w2, nxt[1] - fr.X[k][1]))
-    return (ax, ay)
 
 
 def terrain_height(st: Structure, p: Params, x) -> Vec:
@@ -175,51 +202,77 @@ def sincos(a) -> Vec:
     return cos, sin
 
 
-def prepare(model: Model, state: State, gate=None) -> Frame:
-    """Forward kinematics of links and contact points.
-
-    gate: optional traced boolean, true at run time and not batched, used to keep XLA from
-    recomputing shared intermediates (see :func:`_barrier`); rollouts pass one.
-    """
+def _positions(model: Model, q, gate) -> Frame:
+    """Positions only: link frames, centres of mass, subtree sums, contact points and depths."""
     st, p = model.structure, model.params
-    q = [state.q[i] for i in range(st.ndof)]
-    qd = [state.qd[i] for i in range(st.ndof)]
-    # absolute angles and angular velocities, then their trig, computed once
-    th, w = [], []
+    q = [q[i] for i in range(st.ndof)]
+    th = []
     for ls in st.links:
         if ls.parent < 0:
-            if ls.dof_x < 0:
-                th.append(p.root_pose[ls.index, 2])
-                w.append(0.0)
-            elif ls.point:
-                th.append(0.0)
-                w.append(0.0)
-            else:
+            if ls.dof_rot >= 0:
                 th.append(q[ls.dof_rot])
-                w.append(qd[ls.dof_rot])
+            elif ls.dof_x < 0:
+                th.append(p.root_pose[ls.index, 2])  # welded to the world
+            else:
+                th.append(0.0)  # a free point mass never turns
         else:
             th.append(th[ls.parent] + q[ls.dof_rot])
-            w.append(add(w[ls.parent], qd[ls.dof_rot]))
     cs = _barrier([(1.0, 0.0) if isinstance(a, float) else sincos(a) for a in th], gate)
-    X, V = [], []
+    # link origins relative to their tree's root (a free tree's root at the origin)
+    X: list = [None] * len(st.links)
     for ls in st.links:
-        if ls.parent < 0 and ls.dof_x < 0:
-            X.append((p.root_pose[ls.index, 0], p.root_pose[ls.index, 1]))
-            V.append((0.0, 0.0))
-        elif ls.parent < 0:
-            X.append((q[ls.dof_x], q[ls.dof_y]))
-            V.append((qd[ls.dof_x], qd[ls.dof_y]))
+        i = ls.index
+        if ls.parent < 0:
+            if ls.dof_x < 0:
+                X[i] = (p.root_pose[i, 0], p.root_pose[i, 1])  # welded to the world
+            elif ls.point:
+                X[i] = (q[ls.dof_x], q[ls.dof_y])
+            else:
+                X[i] = (0.0, 0.0)
         else:
             j = ls.parent
-            r = _rot(cs[j], (p.anchor[ls.index, 0], p.anchor[ls.index, 1]))
-            X.append((X[j][0] + r[0], X[j][1] + r[1]))
-            V.append((sub(V[j][0], mul(w[j], r[1])), add(V[j][1], mul(w[j], r[0]))))
-    X, V = _barrier((X, V), gate)
-    fr = Frame(X, V, cs, th, w, [], [], [], [], qd, gate)
+            r = _rot(cs[j], (p.anchor[i, 0], p.anchor[i, 1]))
+            X[i] = (add(X[j][0], r[0]), add(X[j][1], r[1]))
+    com: list = [None] * len(st.links)
+    for ls in st.links:
+        i = ls.index
+        if ls.point or (ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0):
+            com[i] = X[i] if ls.point else _point_at(cs[i], X[i], (p.com[i, 0], p.com[i, 1]))
+        else:
+            r = _rot(cs[i], (p.com[i, 0], p.com[i, 1]))
+            com[i] = (add(X[i][0], r[0]), add(X[i][1], r[1]))
+    S: dict = {}
+    for tree in st.trees:
+        if not tree.free or tree.point:
+            continue
+        # subtree sums, leaves first: m_sub(k) and sum m c over the subtree of k
+        msum: dict = {}
+        mc: dict = {}
+        for i in reversed(tree.links):
+            m = p.mass[i]
+            ms, mx, my = m, m * com[i][0], m * com[i][1]
+            for j in tree.links:
+                if st.links[j].parent == i:
+                    ms, mx, my = ms + msum[j], mx + mc[j][0], my + mc[j][1]
+            msum[i], mc[i] = ms, (mx, my)
+        r = tree.root
+        inv = 1.0 / msum[r]
+        # place the tree so that its centre of mass is at (q_x, q_y)
+        root = st.links[r]
+        sx = q[root.dof_x] - mc[r][0] * inv
+        sy = q[root.dof_y] - mc[r][1] * inv
+        for i in tree.links:
+            X[i] = (add(X[i][0], sx), add(X[i][1], sy))
+            com[i] = (com[i][0] + sx, com[i][1] + sy)
+        for k in tree.rot:
+            # S_k = sum over the subtree of k of m (c - X_k), over the tree's mass (shift-free form)
+            Xr = (sub(X[k][0], sx), sub(X[k][1], sy))
+            S[k] = ((mc[k][0] - msum[k] * Xr[0]) * inv, (mc[k][1] - msum[k] * Xr[1]) * inv)
+    X, com, S = _barrier((X, com, S), gate)
+    fr = Frame(X, [None] * len(X), cs, th, [None] * len(X), [], [], [], [], [], gate, com, S)
     for c, i in enumerate(st.contacts):
         pt = _point(fr, i, (p.contact[c, 0], p.contact[c, 1]))
         fr.cp.append(pt)
-        fr.cv.append(_point_vel(fr, i, pt))
         if st.plane == "vertical":
             h = terrain_height(st, p, pt[0])
             n, _ = _ground_frame(h)
@@ -228,8 +281,85 @@ def prepare(model: Model, state: State, gate=None) -> Frame:
         else:
             fr.terrain.append((0.0, 0.0))
             fr.depth.append(1.0)
-    cp, cv, depth, terrain = _barrier((fr.cp, fr.cv, fr.depth, fr.terrain), gate)
-    return fr._replace(cp=cp, cv=cv, depth=depth, terrain=terrain)
+    cp, depth, terrain = _barrier((fr.cp, fr.depth, fr.terrain), gate)
+    return fr._replace(cp=cp, depth=depth, terrain=terrain)
+
+
+def _mass_matrix(st: Structure, p: Params, fr: Frame) -> SymMatrix:
+    """M(q): sum over links of m J_c^T J_c + I r r^T. The translational block of a free tree is its
+    mass times the identity, exactly: the rotational dofs' columns of J_c sum to zero over the
+    tree (the tree turns about its centre of mass), so they are assembled without it."""
+    terms = _Terms()
+    for tree in st.trees:
+        r = st.links[tree.root]
+        if tree.free:
+            mt = 0.0
+            for i in tree.links:
+                mt = add(mt, p.mass[i])
+            terms.outer(mt, {r.dof_x: 1.0})
+            terms.outer(mt, {r.dof_y: 1.0})
+        for i in tree.links:
+            ls = st.links[i]
+            if ls.point or (ls.parent < 0 and not tree.free):
+                continue
+            J = jacobian(st, fr, i, fr.com[i])
+            gx = {d: v[0] for d, v in J.items() if d != r.dof_x and d != r.dof_y and not _zero(v[0])}
+            gy = {d: v[1] for d, v in J.items() if d != r.dof_x and d != r.dof_y and not _zero(v[1])}
+            if not tree.free:
+                gx = {d: v[0] for d, v in J.items() if not _zero(v[0])}
+                gy = {d: v[1] for d, v in J.items() if not _zero(v[1])}
+            terms.outer(p.mass[i], gx)
+            terms.outer(p.mass[i], gy)
+            terms.outer(p.inertia[i], _rot_row(st, i))
+    M, _ = terms.assemble(_elimination_order(st), fr.gate)
+    return M
+
+
+def _zero(v) -> bool:
+    return isinstance(v, float) and v == 0.0
+
+
+def _velocities(model: Model, fr: Frame, qd: list) -> Frame:
+    """Link angular velocities, link origin and contact velocities for velocities ``qd``."""
+    st, p = model.structure, model.params
+    w: list = [None] * len(st.links)
+    V: list = [None] * len(st.links)
+    for ls in st.links:
+        i = ls.index
+        if ls.parent < 0:
+            w[i] = qd[ls.dof_rot] if ls.dof_rot >= 0 else 0.0
+            if ls.dof_x < 0:
+                V[i] = (0.0, 0.0)
+            elif ls.point:
+                V[i] = (qd[ls.dof_x], qd[ls.dof_y])
+            else:
+                # the root origin moves with the centre of mass, plus the tree's turning about it
+                tx, ty = _turning(st, fr, ls, qd)
+                V[i] = (add(qd[ls.dof_x], tx), add(qd[ls.dof_y], ty))
+        else:
+            j = ls.parent
+            w[i] = add(w[j], qd[ls.dof_rot])
+            rx, ry = sub(fr.X[i][0], fr.X[j][0]), sub(fr.X[i][1], fr.X[j][1])
+            V[i] = (sub(V[j][0], mul(w[j], ry)), add(V[j][1], mul(w[j], rx)))
+    w, V = _barrier((w, V), fr.gate)
+    fr = fr._replace(w=w, V=V, qd=qd)
+    cv = [_point_vel(fr, i, fr.cp[c]) for c, i in enumerate(st.contacts)]
+    return fr._replace(cv=_barrier(cv, fr.gate))
+
+
+def prepare(model: Model, state: State, gate=None) -> Frame:
+    """Kinematics of a state: positions, the mass matrix, the velocity M^-1 p and every velocity
+    the forces need.
+
+    gate: optional traced boolean, true at run time and not batched, used to keep XLA from
+    recomputing shared intermediates (see :func:`_barrier`); rollouts pass one.
+    """
+    st = model.structure
+    fr = _positions(model, state.q, gate)
+    M = _mass_matrix(st, model.params, fr)
+    v = M.solve({d: state.p[d] for d in range(st.ndof)})
+    qd = _barrier([v[d] for d in range(st.ndof)], gate)
+    return _velocities(model, fr._replace(M=M), qd)
 
 
 def _barrier(tree, gate):
@@ -252,11 +382,135 @@ def _barrier(tree, gate):
     return jax.tree_util.tree_unflatten(treedef, leaves)
 
 
+# ---------------------------------------------------------------- states
+
+
+def _dense(a, dtype) -> Any:
+    return jnp.stack([x + jnp.zeros((), dtype) for x in a]) if a else jnp.zeros((0,), dtype)
+
+
+def _contact_points(model: Model, fr: Frame) -> Any:
+    dtype = model.params.q0.dtype
+    C = len(model.structure.contacts)
+    if not C:
+        return jnp.zeros((0, 2), dtype)
+    return jnp.stack([jnp.stack([pt[0] + jnp.zeros((), dtype), pt[1] + jnp.zeros((), dtype)]) for pt in fr.cp])
+
+
+def _make_one(model: Model, q, qd, t) -> State:
+    st = model.structure
+    fr = _positions(model, q, None)
+    M = _mass_matrix(st, model.params, fr)
+    p = M.matvec({d: qd[d] for d in range(st.ndof)})
+    return State(q, qd, t, _dense([p[d] for d in range(st.ndof)], q.dtype), _contact_points(model, fr))
+
+
+def make_state(model: Model, q=None, qd=None, t=0.0) -> State:
+    """A consistent state: coordinates ``q`` [D] or [B, D] (default: the creature's start pose),
+    velocities ``qd`` (default: at rest), time ``t`` (s); momenta p = M(q) qd and friction anchors
+    at the contacts (nothing held yet)."""
+    dtype = model.params.q0.dtype
+    q = jnp.asarray(model.params.q0 if q is None else q, dtype)
+    qd = jnp.zeros_like(q) if qd is None else jnp.asarray(qd, dtype)
+    t = jnp.broadcast_to(jnp.asarray(t, dtype), q.shape[:-1])
+    if q.ndim == 1:
+        return _make_one(model, q, qd, t)
+    return jax.vmap(lambda a, b, c: _make_one(model, a, b, c))(q, qd, t)
+
+
+def initial_state(model: Model) -> State:
+    """The creature at rest in its start pose (one creature)."""
+    return make_state(model)
+
+
+def velocity(model: Model, state: State) -> Any:
+    """The velocity M(q)^-1 p [D] of one state (what ``qd`` holds outside a rollout's loop)."""
+    st = model.structure
+    fr = _positions(model, state.q, None)
+    v = _mass_matrix(st, model.params, fr).solve({d: state.p[d] for d in range(st.ndof)})
+    return _dense([v[d] for d in range(st.ndof)], state.q.dtype)
+
+
+def seat_on_ground(model: Model, q0) -> Any:
+    """q0 [D] with every free tree lifted just enough that none of its contact points starts
+    below the ground (a body started inside the ground would be launched by the penalty spring).
+    Vertical plane; trees already above the ground are left where they are."""
+    st = model.structure
+    fr = _positions(model, jnp.asarray(q0), None)
+    out = jnp.asarray(q0)
+    for tree in st.trees:
+        if not tree.free:
+            continue
+        lift = jnp.zeros((), out.dtype)
+        for c, i in enumerate(st.contacts):
+            if st.links[i].tree == st.links[tree.root].tree:
+                # vertical distance to the ground under the point
+                h = terrain_height(st, model.params, fr.cp[c][0])[0]
+                lift = jnp.maximum(lift, h - fr.cp[c][1])
+        out = out.at[st.links[tree.root].dof_y].add(lift)
+    return out
+
+
+def _free_roots(st: Structure):
+    return [st.links[t.root] for t in st.trees if t.free and not t.point]
+
+
+def _turning(st: Structure, fr: Frame, root, qd) -> Vec:
+    """Velocity of a free tree's root origin relative to its centre of mass, for velocities qd."""
+    vx: Any = 0.0
+    vy: Any = 0.0
+    for k in st.trees[root.tree].rot:
+        vx = add(vx, mul(qd[st.links[k].dof_rot], fr.S[k][1]))
+        vy = sub(vy, mul(qd[st.links[k].dof_rot], fr.S[k][0]))
+    return vx, vy
+
+
+def root_coordinates(model: Model, q, qd=None):
+    """Convert one state's coordinates q [D] (and velocities qd) to root-origin form: each free
+    tree's centre of mass (and its velocity) replaced by its root link's origin (and that point's
+    velocity), the convention of MuJoCo's free joints and of the creature file's ``position``.
+    Returns q_root, or (q_root, qd_root) when qd is given."""
+    st = model.structure
+    fr = _positions(model, q, None)
+    qr = q
+    for r in _free_roots(st):
+        qr = qr.at[r.dof_x].set(fr.X[r.index][0]).at[r.dof_y].set(fr.X[r.index][1])
+    if qd is None:
+        return qr
+    qdr = qd
+    for r in _free_roots(st):
+        vx, vy = _turning(st, fr, r, [qd[d] for d in range(st.ndof)])
+        qdr = qdr.at[r.dof_x].add(vx).at[r.dof_y].add(vy)
+    return qr, qdr
+
+
+def from_root_coordinates(model: Model, q_root, qd_root=None):
+    """Inverse of :func:`root_coordinates`."""
+    st = model.structure
+    q = q_root
+    for r in _free_roots(st):
+        q = q.at[r.dof_x].set(0.0).at[r.dof_y].set(0.0)
+    fr = _positions(model, q, None)  # centre of mass at the origin: the root sits at -offset
+    for r in _free_roots(st):
+        q = q.at[r.dof_x].set(q_root[r.dof_x] - fr.X[r.index][0]).at[r.dof_y].set(q_root[r.dof_y] - fr.X[r.index][1])
+    if qd_root is None:
+        return q
+    qd = qd_root
+    for r in _free_roots(st):
+        vx, vy = _turning(st, fr, r, [qd_root[d] for d in range(st.ndof)])
+        qd = qd.at[r.dof_x].add(-vx).at[r.dof_y].add(-vy)
+    return q, qd
+
+
 # ---------------------------------------------------------------- sensors
 
 
-def _wrap(a):
+def wrap_angle(a):
+    """a wrapped to [-pi, pi)."""
     return a - (2 * math.pi) * jnp.floor((a + math.pi) * (0.5 / math.pi))
+
+
+_wrap = wrap_angle
 
 
 def follow_point(model: Model, t) -> Vec:
@@ -280,7 +534,7 @@ def _axis(fr: Frame, i: int, frm: int, to: int) -> Vec:
 
 
 def sense(model: Model, fr: Frame, t) -> Any:
-    """Binary sensor values [S] (0.0 / 1.0) of a prepared frame."""
+    """Binary sensor values [S] (0.0 / 1.0) of a prepared frame (positions only)."""
     st, p = model.structure, model.params
     dtype = p.q0.dtype
     out = []
@@ -316,14 +570,55 @@ def sense(model: Model, fr: Frame, t) -> Any:
 
 
 def _elimination_order(st: Structure) -> list[int]:
-    """Leaves first, roots last: L D L^T of a tree then has no fill-in."""
+    """Leaves first, roots last: L D L^T of a tree then has no fill-in within a fixed tree; a free
+    tree's rotational block is dense (it turns about its centre of mass) and small."""
     return list(range(st.ndof))[::-1]
+
+
+def _inertial_force(st: Structure, p: Params, fr: Frame, T: "_Terms") -> None:
+    """dT/dq at fixed velocities, the inertial generalised force of the momentum form.
+
+    For link i with centre of mass c_i, T_i = m_i |v_ci|^2 / 2 + I_i w_i^2 / 2. Turning joint k at
+    fixed velocities turns every segment below k on the chain to c_i, so d v_ci / dq_k =
+    -sum_{j on the chain, j >= k} w_j s_j, s_j the segment of link j towards c_i, and (in a free
+    tree, whose centre of mass velocity v_c is fixed) dT/dq_k = sum_i m_i (v_ci - v_c) . d v_ci /
+    dq_k. Translations and a free root's angle are cyclic: no entry at all."""
+    for tree in st.trees:
+        if tree.point:
+            continue
+        root = st.links[tree.root]
+        vc = (fr.qd[root.dof_x], fr.qd[root.dof_y]) if tree.free else (0.0, 0.0)
+        for i in tree.links:
+            ls = st.links[i]
+            if ls.parent < 0 and not tree.free:
+                continue
+            chain = [k for k in ls.chain]
+            rot_on_chain = [n for n, k in enumerate(chain) if st.links[k].dof_rot >= 0
+                            and not (tree.free and st.links[k].parent < 0)]
+            if not rot_on_chain:
+                continue
+            v = _point_vel(fr, i, fr.com[i])
+            ux, uy = mul(p.mass[i], sub(v[0], vc[0])), mul(p.mass[i], sub(v[1], vc[1]))
+            # suffix sums P_n = sum_{m >= n} w_{chain[m]} s_{chain[m]}
+            Px: Any = 0.0
+            Py: Any = 0.0
+            suffix = {}
+            for n in range(len(chain) - 1, -1, -1):
+                k = chain[n]
+                nxt = fr.X[chain[n + 1]] if n + 1 < len(chain) else fr.com[i]
+                sx, sy = sub(nxt[0], fr.X[k][0]), sub(nxt[1], fr.X[k][1])
+                Px, Py = add(Px, mul(fr.w[k], sx)), add(Py, mul(fr.w[k], sy))
+                suffix[n] = (Px, Py)
+            for n in rot_on_chain:
+                Pn = suffix[n]
+                T.force(neg(add(mul(ux, Pn[0]), mul(uy, Pn[1]))), {st.links[chain[n]].dof_rot: 1.0})
 
 
 def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     """Integrate one step from a prepared frame with actuator activations ``u`` [A] in [0, 1].
 
-    Returns (next state, largest penetration over contacts (m) at this step).
+    Returns (next state, largest penetration over contacts (m) at this step). The next state's
+    ``qd`` is the velocity q'* of this step's position update (see the module docstring).
     """
     st, p = model.structure, model.params
     h = p.dt
@@ -335,32 +630,24 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         T.outer(add(mul(h, c), mul(h * h, k)), g)
         T.force(sub(force, mul(mul(h, k), rate)), g)
 
-    # inertia, gravity and centripetal terms
-    for ls in st.links:
-        i = ls.index
-        m = p.mass[i]
-        if ls.dof_x < 0 and ls.parent < 0:
-            continue  # welded to the world
-        if ls.point:
-            T.outer(m, {ls.dof_x: 1.0})
-            T.outer(m, {ls.dof_y: 1.0})
-            if st.plane == "vertical":
-                T.force(-m * p.gravity, {ls.dof_y: 1.0})
-            continue
-        com = _point(fr, i, (p.com[i, 0], p.com[i, 1]))
-        J = jacobian(st, fr, i, com)
-        gx = {d: v[0] for d, v in J.items() if not (isinstance(v[0], float) and v[0] == 0.0)}
-        gy = {d: v[1] for d, v in J.items() if not (isinstance(v[1], float) and v[1] == 0.0)}
-        T.outer(m, gx)
-        T.outer(m, gy)
-        T.outer(p.inertia[i], _rot_row(st, i))
-        a = _bias_acc(st, fr, i, com)
-        fx = neg(mul(m, a[0]))
-        fy = neg(mul(m, a[1]))
-        if st.plane == "vertical":
-            fy = sub(fy, m * p.gravity)
-        T.force(fx, gx)
-        T.force(fy, gy)
+    _inertial_force(st, p, fr, T)
+
+    # gravity: on a free tree's centre of mass; link by link in a welded tree
+    if st.plane == "vertical":
+        for tree in st.trees:
+            r = st.links[tree.root]
+            if tree.free:
+                mt = 0.0
+                for i in tree.links:
+                    mt = add(mt, p.mass[i])
+                T.force(neg(mt * p.gravity), {r.dof_y: 1.0})
+                continue
+            for i in tree.links:
+                ls = st.links[i]
+                if ls.parent < 0:
+                    continue
+                gy = {d: v[1] for d, v in jacobian(st, fr, i, fr.com[i]).items() if not _zero(v[1])}
+                T.force(neg(p.mass[i] * p.gravity), gy)
 
     # passive joint springs
     for i in st.joint_springs:
@@ -368,6 +655,17 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         k, c, rest = p.jspring[i, 0], p.jspring[i, 1], p.jspring[i, 2]
         phi = fr.th[i] - fr.th[st.links[i].parent]
         element({d: 1.0}, -k * (phi - rest) - c * qd[d], k, c, qd[d])
+
+    # joint stops: a one-sided spring-damper that only ever pushes the joint back into range
+    for i in st.limits:
+        d = st.links[i].dof_rot
+        lo, hi, k, c = p.limit[i, 0], p.limit[i, 1], p.limit[i, 2], p.limit[i, 3]
+        phi = fr.th[i] - fr.th[st.links[i].parent]
+        below = jnp.maximum(k * (lo - phi) - c * qd[d], 0.0)
+        above = jnp.minimum(k * (hi - phi) - c * qd[d], 0.0)
+        on = jnp.where(((phi < lo) & (below > 0)) | ((phi > hi) & (above < 0)), 1.0, 0.0)
+        torque = jnp.where(phi < lo, below, jnp.where(phi > hi, above, 0.0))
+        element({d: 1.0}, torque, on * k, on * c, qd[d])
 
     # actuators
     for a, (kind, ref) in enumerate(st.actuators):
@@ -386,12 +684,13 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
 
     # ground contact and friction
     deepest = None
+    anchors = []
     for c, i in enumerate(st.contacts):
         pt, v = fr.cp[c], fr.cv[c]
         J = jacobian(st, fr, i, pt)
         mu_f, mu_b, mu_l = p.mu[i, 0], p.mu[i, 1], p.mu[i, 2]
         aniso, frm, to = st.aniso[i]
-        eps = p.slip
+        anchor = (state.anchor[c, 0], state.anchor[c, 1])
         if st.plane == "vertical":
             n, t = _ground_frame(fr.terrain[c])
             depth = fr.depth[c]
@@ -401,18 +700,24 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
             gn, gt = _project(J, n), _project(J, t)
             touching = depth > 0
             fn = p.ground_k * depth - p.ground_c * vn
-            N = jnp.where(touching & (fn > 0), fn, 0.0)
-            on = jnp.where(touching & (fn > 0), 1.0, 0.0)
-            element(gn, N, on * p.ground_k, on * p.ground_c, vn)
+            on = touching & (fn > 0)
+            N = jnp.where(on, fn, 0.0)
+            onf = jnp.where(on, 1.0, 0.0)
+            element(gn, N, onf * p.ground_k, onf * p.ground_c, vn)
+            stretch = add(mul(sub(pt[0], anchor[0]), t[0]), mul(sub(pt[1], anchor[1]), t[1]))
             if aniso:
+                # the limit depends on the way the contact is pushed to slip
                 ax = _axis(fr, i, frm, to)
-                fwd = (add(mul(ax[0], t[0]), mul(ax[1], t[1])) * vt) > 0
+                along = add(mul(ax[0], t[0]), mul(ax[1], t[1]))
+                fwd = along * (p.ground_k * stretch + vt) > 0
                 mu = jnp.where(fwd, mu_f, mu_b)
             else:
                 mu = mu_f
-            _friction(element, gt, vt, mu * N, eps)
+            held = _stick(element, gt, stretch, vt, mu * N, p, on)
+            anchors.append((sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1]))))
         else:
             N = p.contact_load[c]
+            d = (sub(pt[0], anchor[0]), sub(pt[1], anchor[1]))
             if aniso:
                 ax = _axis(fr, i, frm, to)
                 inv = jax.lax.rsqrt(ax[0] * ax[0] + ax[1] * ax[1] + 1e-12)
@@ -420,27 +725,30 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 e2 = _perp(e1)
                 va = v[0] * e1[0] + v[1] * e1[1]
                 vl = v[0] * e2[0] + v[1] * e2[1]
-                _friction(element, _project(J, e1), va, jnp.where(va > 0, mu_f, mu_b) * N, eps)
-                _friction(element, _project(J, e2), vl, mu_l * N, eps)
+                s1 = d[0] * e1[0] + d[1] * e1[1]
+                s2 = d[0] * e2[0] + d[1] * e2[1]
+                mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
+                h1 = _stick(element, _project(J, e1), s1, va, mu * N, p, True)
+                h2 = _stick(element, _project(J, e2), s2, vl, mu_l * N, p, True)
+                anchors.append((pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1]))
             else:
-                # isotropic Coulomb: the force opposes the slip velocity, |F| = mu N (implicit
-                # damper, as in _friction)
-                speed = jnp.sqrt(v[0] * v[0] + v[1] * v[1])
-                gamma = mu_f * N / jnp.maximum(speed, eps)
-                for e, ve in (((1.0, 0.0), v[0]), ((0.0, 1.0), v[1])):
-                    element(_project(J, e), -gamma * ve, 0.0, gamma, ve)
+                hx, hy = _stick_disc(element, J, d, v, mu_f * N, p)
+                anchors.append((sub(pt[0], hx), sub(pt[1], hy)))
 
-    # water drag on each edge: F = -k ∫ (v.N) N ds, exact for a rigid edge
+    # water drag on each edge, exact for a rigid edge: normal -k ∫ (v.N) N ds, tangential
+    # (skin) -k_t ∫ (v.T) T ds (uniform along the edge, along its own line: no moment)
     for e, i in enumerate(st.edges):
         a0 = _point(fr, i, (p.edge[e, 0, 0], p.edge[e, 0, 1]))
         a1 = _point(fr, i, (p.edge[e, 1, 0], p.edge[e, 1, 1]))
         dx, dy = a1[0] - a0[0], a1[1] - a0[1]
         L = jnp.sqrt(dx * dx + dy * dy)
-        nrm = (-dy / L, dx / L)
+        tan = (dx / L, dy / L)
+        nrm = (-tan[1], tan[0])
         va = _point_vel(fr, i, a0)
         vn = va[0] * nrm[0] + va[1] * nrm[1]
         w = fr.w[i]
-        gn = _project(jacobian(st, fr, i, a0), nrm)
+        Ja = jacobian(st, fr, i, a0)
+        gn = _project(Ja, nrm)
         k = p.water_k
         if st.links[i].point:
             gw, w = {}, 0.0
@@ -452,16 +760,66 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         T.outer(h * c3, gw)
         T.force(neg(add(mul(c1, vn), mul(c2, w))), gn)
         T.force(neg(add(mul(c2, vn), mul(c3, w))), gw)
+        vt = va[0] * tan[0] + va[1] * tan[1]
+        ct = p.water_t * L
+        element(_project(Ja, tan), -ct * vt, 0.0, ct, vt)
 
-    M, Q = T.assemble(_elimination_order(st), fr.gate)
+    A, Q = T.assemble(_elimination_order(st), fr.gate, base=fr.M)
     rhs = {d: mul(h, v) for d, v in Q.items()}
-    M.a, rhs = _barrier((M.a, rhs), fr.gate)
-    dv = _barrier(M.solve(rhs), fr.gate)
-    qd_new = jnp.stack([add(qd[d], dv[d]) for d in range(st.ndof)])
+    A.a, rhs = _barrier((A.a, rhs), fr.gate)
+    dv = _barrier(A.solve(rhs), fr.gate)
+    vstar = [add(qd[d], dv[d]) for d in range(st.ndof)]
+    dp = fr.M.matvec(dv)
+    dtype = state.q.dtype
+    qd_new = _dense(vstar, dtype)
+    p_new = state.p + _dense([dp.get(d, 0.0) for d in range(st.ndof)], dtype)
     q_new = state.q + h * qd_new
     if deepest is None:
         deepest = jnp.zeros((), q_new.dtype)
-    return State(q_new, qd_new, state.t + h), deepest
+    anchor = jnp.stack([jnp.stack([a[0] + jnp.zeros((), dtype), a[1] + jnp.zeros((), dtype)]) for a in anchors]) \
+        if anchors else state.anchor
+    return State(q_new, qd_new, state.t + h, p_new, anchor), deepest
+
+
+def _stick(element, g: dict, stretch, v, limit, p: Params, touching) -> Any:
+    """Friction along one tangent direction (row g, slip velocity v, anchor ``stretch`` m behind
+    the contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor
+    (the ground's stiffness k, and a damper mu N / slip_speed) needs at most the limit, else
+    slides with Coulomb friction. The damper bounds how fast the spring can push the contact
+    back (by k s <= mu N: at most the slip speed), so a stopped slip does not rebound.
+
+    Returns how far behind the contact its anchor stays (0 when sliding or free: the anchor
+    restarts at the contact, so a contact that stops sliding holds from where it stopped)."""
+    k = p.ground_k
+    c = limit / p.slip  # as stiff as Coulomb friction at the slip speed: springs back at most that fast
+    s = jnp.clip(stretch, -limit / k, limit / k)
+    trial = -k * s - c * v
+    stick = touching & (limit > 0) & (jnp.abs(trial) <= limit)
+    slide = limit / jnp.maximum(jnp.abs(v), p.slip)  # Coulomb as an implicit damper
+    on = jnp.where(stick, 1.0, 0.0)
+    force = jnp.where(stick, trial, -slide * v)
+    element(g, force, on * k, jnp.where(stick, c, slide), v)
+    return jnp.where(stick, s, 0.0)
+
+
+def _stick_disc(element, J: dict, d: Vec, v: Vec, limit, p: Params) -> Vec:
+    """Isotropic friction in the horizontal plane: as :func:`_stick`, with the force limited to a
+    disc (the spring to the anchor ``d`` m behind the contact, 2-D)."""
+    k = p.ground_k
+    c = limit / p.slip
+    r = jnp.sqrt(d[0] * d[0] + d[1] * d[1])
+    scale = jnp.minimum(1.0, (limit / k) / jnp.maximum(r, 1e-30))
+    s = (d[0] * scale, d[1] * scale)
+    trial = (-k * s[0] - c * v[0], -k * s[1] - c * v[1])
+    stick = (limit > 0) & (trial[0] * trial[0] + trial[1] * trial[1] <= limit * limit)
+    speed = jnp.sqrt(v[0] * v[0] + v[1] * v[1])
+    slide = limit / jnp.maximum(speed, p.slip)
+    on = jnp.where(stick, 1.0, 0.0)
+    damp = jnp.where(stick, c, slide)
+    for axis, (e, ve) in enumerate((((1.0, 0.0), v[0]), ((0.0, 1.0), v[1]))):
+        force = jnp.where(stick, trial[axis], -slide * ve)
+        element(_project(J, e), force, on * k, damp, ve)
+    return jnp.where(stick, s[0], 0.0), jnp.where(stick, s[1], 0.0)
 
 
 class _Terms:
@@ -481,9 +839,11 @@ class _Terms:
         if not (isinstance(f, float) and f == 0.0) and g:
             self.vec.append((f, g))
 
-    def assemble(self, order: list[int], gate) -> tuple[SymMatrix, dict]:
+    def assemble(self, order: list[int], gate, base: SymMatrix | None = None) -> tuple[SymMatrix, dict]:
         mat, vec = _barrier((self.mat, self.vec), gate)
         M = SymMatrix(order)
+        if base is not None:
+            M.a = dict(base.a)
         for coef, g, h in mat:
             M.add_outer(coef, g, h)
         Q: dict = {}
@@ -506,34 +866,28 @@ def _linear(st, fr, pts, la, lb, target, ks, kd, element) -> None:
     element(g, ks * (target - L) - kd * rate, ks, kd, rate)
 
 
-def _friction(element, g: dict, v, muN, eps) -> None:
-    """Coulomb friction along row g as a damper c = muN / max(|v|, eps), treated implicitly: the
-    force is muN against the slip (viscous below slip speed eps), and being implicit it can stop
-    a slip within a step but never reverse it, however large muN dt is (hard landings)."""
-    c = muN / jnp.maximum(jnp.abs(v), eps)
-    element(g, -c * v, 0.0, c, v)
-
-
 def step(model: Model, state: State, u) -> State:
-    """Advance one creature by dt with actuator activations u [A] in [0, 1]."""
-    return advance(model, prepare(model, state), state, u)[0]
+    """Advance one creature by dt with actuator activations u [A] in [0, 1]; the returned state's
+    ``qd`` is the velocity M^-1 p of the new configuration."""
+    nxt, _ = advance(model, prepare(model, state), state, u)
+    return nxt._replace(qd=velocity(model, nxt))
 
 
 def energy(model: Model, state: State) -> dict:
-    """Mechanical energy of one creature (J): kinetic, gravitational (m g y of each centre of
-    mass), and elastic (passive joint and linear springs; actuators and ground excluded)."""
+    """Mechanical energy of one creature (J): kinetic (of the velocity M^-1 p), gravitational
+    (m g y of each centre of mass), and elastic (passive joint and linear springs; actuators,
+    joint stops and the ground excluded)."""
     st, p = model.structure, model.params
     fr = prepare(model, state)
     kin, grav, elastic = 0.0, 0.0, 0.0
     for ls in st.links:
         i = ls.index
-        if ls.parent < 0 and ls.dof_x < 0:
+        if ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0:
             continue
-        com = _point(fr, i, (p.com[i, 0], p.com[i, 1]))
-        v = _point_vel(fr, i, com)
+        v = _point_vel(fr, i, fr.com[i])
         kin = kin + 0.5 * p.mass[i] * (v[0] * v[0] + v[1] * v[1]) + 0.5 * p.inertia[i] * fr.w[i] * fr.w[i]
         if st.plane == "vertical":
-            grav = grav + p.mass[i] * p.gravity * com[1]
+            grav = grav + p.mass[i] * p.gravity * fr.com[i][1]
     for i in st.joint_springs:
         phi = fr.th[i] - fr.th[st.links[i].parent]
         elastic = elastic + 0.5 * p.jspring[i, 0] * (phi - p.jspring[i, 2]) ** 2
@@ -547,19 +901,22 @@ def energy(model: Model, state: State) -> dict:
 
 
 def centre_of_mass(model: Model, fr: Frame) -> tuple[Vec, Vec]:
-    """Whole-creature centre of mass and its velocity from a prepared frame (m, m/s)."""
+    """Whole-creature centre of mass and its velocity from a prepared frame (m, m/s).
+
+    Links welded to the world are part of the world and do not count."""
     st, p = model.structure, model.params
     mx = my = vx = vy = 0.0
     total = 0.0
     for ls in st.links:
         i = ls.index
-        if ls.parent < 0 and ls.dof_x < 0:
-            continue  # a fixed base is part of the world
+        if ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0:
+            continue
         m = p.mass[i]
-        c = _point(fr, i, (p.com[i, 0], p.com[i, 1]))
-        v = _point_vel(fr, i, c)
+        c = fr.com[i]
         mx, my = mx + m * c[0], my + m * c[1]
-        vx, vy = add(vx, mul(m, v[0])), add(vy, mul(m, v[1]))
+        if fr.w[i] is not None:
+            v = _point_vel(fr, i, c)
+            vx, vy = add(vx, mul(m, v[0])), add(vy, mul(m, v[1]))
         total = total + m
     inv = 1.0 / total
     return (mx * inv, my * inv), (mul(vx, inv), mul(vy, inv))
@@ -569,8 +926,7 @@ def poses(model: Model, q) -> dict:
     """World placement of one configuration q [D] (for drawing and analysis): ``links`` [L, 3]
     (origin x, y and absolute angle of each link frame), ``contacts`` [C, 2] (contact points),
     ``depth`` [C] (penetration, > 0 when touching; horizontal plane: 1), ``com`` [2]."""
-    state = State(q, jnp.zeros_like(q), jnp.zeros((), q.dtype))
-    fr = prepare(model, state)
+    fr = _positions(model, q, None)
     z = jnp.zeros((), q.dtype)
     links = jnp.stack([jnp.stack([x[0] + z, x[1] + z, a + z]) for x, a in zip(fr.X, fr.th)])
     C = len(model.structure.contacts)

@@ -6,6 +6,14 @@ actuators, terrain) goes into :class:`Structure`, a hashable value fixed at trac
 structural zeros never reach the compiled code. Every number (masses, lengths, gains, ranges,
 friction, terrain heights) goes into :class:`Params`, a pytree of arrays, so that tuning or
 batching over any of them never recompiles.
+
+Generalised coordinates. The links form trees, each hanging from a root link. A *free* tree's
+coordinates are the world position of its centre of mass (x, y), its root link's absolute angle,
+then one relative angle per joint; a point mass's are its (x, y); a tree whose root is welded to
+the world (``fixed``) has only its joint angles. Using the centre of mass (rather than the root
+link's origin) makes the translational dynamics exact and decoupled, m x'' = F_external: with no
+external horizontal force the centre of mass cannot move along x, whatever the controller does
+(see ``dynamics``).
 """
 
 from __future__ import annotations
@@ -26,10 +34,12 @@ FOLLOW_SAMPLES = 512  # arc-length table of the follow-point spline
 class LinkS:
     """Static facts about link ``index``.
 
-    dof_x, dof_y: the root translation dofs of its tree (or its own, for a point mass).
-    dof_rot: this link's own rotational dof (root angle or joint angle), -1 for a point mass.
-    All three are -1 for a fixed root (welded to the world).
+    dof_x, dof_y: the translation dofs of its tree: the tree's centre of mass (a point mass's
+    own position); -1 in a tree welded to the world.
+    dof_rot: this link's own rotational dof (root angle or joint angle), -1 for a point mass and
+    for a fixed root.
     chain: link indices from its root down to itself.
+    tree: index into ``Structure.trees``.
     """
 
     index: int
@@ -39,6 +49,20 @@ class LinkS:
     dof_y: int
     dof_rot: int
     chain: tuple[int, ...]
+    tree: int = -1
+
+
+@dataclass(frozen=True)
+class TreeS:
+    """One tree of links: its root, members (parents before children), whether it is free
+    (centre-of-mass coordinates) or welded to the world, whether it is a lone point mass, and
+    the links that own a rotational dof, in order."""
+
+    root: int
+    links: tuple[int, ...]
+    free: bool
+    point: bool
+    rot: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -48,6 +72,7 @@ class Structure:
     name: str
     ndof: int
     links: tuple[LinkS, ...]
+    trees: tuple[TreeS, ...]
     contacts: tuple[int, ...]  # owning link of each contact point
     edges: tuple[int, ...]  # owning link of each water-drag edge
     sensors: tuple[tuple[str, int, int], ...]  # (kind, link or -1, index into that kind's params)
@@ -55,6 +80,7 @@ class Structure:
     lin_act: tuple[tuple[int, int], ...]  # (link a, link b) of each linear actuator
     springs: tuple[tuple[int, int], ...]  # (link a, link b) of each linear spring
     joint_springs: tuple[int, ...]  # links whose joint has a passive spring
+    limits: tuple[int, ...]  # links whose joint has a mechanical stop
     aniso: tuple[tuple[int, int, int], ...]  # per link: (has override, axis from, axis to) or (0,-1,-1)
     eyes: tuple[tuple[int, int, int], ...]  # per eye: (link of eye point, axis from, axis to)
     lengths: tuple[tuple[int, int], ...]  # per length sensor: (link a, link b)
@@ -105,8 +131,10 @@ class Params:
     ground_c: Any  # [] N s/m
     mu: Any  # [L, 3] forward, backward, lateral friction coefficient per link
     slip: Any  # [] m/s
-    water_k: Any  # [] N s/m^2
+    water_k: Any  # [] N s/m^2, normal drag
+    water_t: Any  # [] N s/m^2, tangential (skin) drag
     jspring: Any  # [L, 3] stiffness N m/rad, damping N m s/rad, rest rad
+    limit: Any  # [L, 4] joint stop: min rad, max rad, stiffness N m/rad, damping N m s/rad
     act_min: Any  # [A] rad or m
     act_max: Any  # [A]
     act_ks: Any  # [A] N m/rad or N/m
@@ -122,7 +150,7 @@ class Params:
     follow: Any  # [F, 2] m, points equally spaced in arc length
     follow_ds: Any  # [] m, arc length between samples
     follow_speed: Any  # [] m/s
-    q0: Any  # [D] initial generalised coordinates
+    q0: Any  # [D] initial generalised coordinates (centre of mass of each free tree, angles)
     dt: Any  # [] s
 
 
@@ -234,27 +262,8 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
 
     dt_np = np.dtype(dtype)
     names = {l.name: i for i, l in enumerate(spec.links)}
-    links: list[LinkS] = []
-    ndof = 0
-    q0: list[float] = []
-    for i, l in enumerate(spec.links):
-        if l.parent is None and l.fixed:
-            links.append(LinkS(i, -1, False, -1, -1, -1, (i,)))
-        elif l.parent is None:
-            dx, dy = ndof, ndof + 1
-            q0 += [l.position[0], l.position[1]]
-            ndof += 2
-            rot = -1
-            if not l.is_point:
-                rot = ndof
-                q0.append(l.angle)
-                ndof += 1
-            links.append(LinkS(i, -1, l.is_point, dx, dy, rot, (i,)))
-        else:
-            p = links[names[l.parent]]
-            links.append(LinkS(i, p.index, False, p.dof_x, p.dof_y, ndof, p.chain + (i,)))
-            q0.append(l.angle)
-            ndof += 1
+    links, trees, q0 = _trees(spec, names)
+    ndof = len(q0)
 
     contacts, contact_pts, contact_load = [], [], []
     for i, l in enumerate(spec.links):
@@ -276,14 +285,18 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
             mu.append((f.forward, f.backward, f.lateral))
             ax = (names[f.axis[0]], names[f.axis[1]]) if f.axis else (-1, -1)
             aniso.append((1, *ax))
-    jspring = []
-    jsl = []
+    jspring, jsl, limit, lim = [], [], [], []
     for i, l in enumerate(spec.links):
         if l.spring is not None:
             jsl.append(i)
             jspring.append((l.spring.stiffness, l.spring.damping, l.spring.rest))
         else:
             jspring.append((0.0, 0.0, 0.0))
+        if l.limit is not None:
+            lim.append(i)
+            limit.append((l.limit.min, l.limit.max, l.limit.stiffness, l.limit.damping))
+        else:
+            limit.append((0.0, 0.0, 0.0, 0.0))
 
     acts, lin_act, amin, amax, aks, akd, apts = [], [], [], [], [], [], []
     for a in spec.actuators:
@@ -348,6 +361,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
         name=spec.name,
         ndof=ndof,
         links=tuple(links),
+        trees=tuple(trees),
         contacts=tuple(contacts),
         edges=tuple(edges),
         sensors=tuple(sensors),
@@ -355,6 +369,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
         lin_act=tuple(lin_act),
         springs=tuple(springs),
         joint_springs=tuple(jsl),
+        limits=tuple(lim),
         aniso=tuple(aniso),
         eyes=tuple(eyes),
         lengths=tuple(lengths),
@@ -388,7 +403,9 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
         mu=arr(mu, (L, 3)),
         slip=arr(g.slip_speed),
         water_k=arr(w.water_drag),
+        water_t=arr(w.water_drag * w.water_tangential),
         jspring=arr(jspring, (L, 3)),
+        limit=arr(limit, (L, 4)),
         act_min=arr(amin, (A,)),
         act_max=arr(amax, (A,)),
         act_ks=arr(aks, (A,)),
@@ -411,4 +428,63 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
         q0=arr(q0, (ndof,)),
         dt=arr(spec.dt),
     )
-    return Model(structure, params, spec, dt_np)
+    model = Model(structure, params, spec, dt_np)
+    if w.plane == "vertical" and contacts:
+        from sanlab.sim.dynamics import seat_on_ground
+
+        model = model.with_params(q0=seat_on_ground(model, params.q0))
+    return model
+
+
+def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[TreeS], list[float]]:
+    """Static link records, trees and the initial coordinates (centre of mass of each free
+    tree in the file's start pose, root angle, joint angles)."""
+    from sanlab.creature.loader import initial_frames
+
+    frames = initial_frames(spec)
+    roots = [i for i, l in enumerate(spec.links) if l.parent is None]
+    members = {r: [r] for r in roots}
+    root_of = {}
+    for i, l in enumerate(spec.links):
+        root_of[i] = i if l.parent is None else root_of[names[l.parent]]
+        if l.parent is not None:
+            members[root_of[i]].append(i)
+    links: list[LinkS | None] = [None] * len(spec.links)
+    trees: list[TreeS] = []
+    q0: list[float] = []
+    for r in roots:
+        root = spec.links[r]
+        t = len(trees)
+        free = not root.fixed
+        dx = dy = -1
+        if free:
+            dx, dy = len(q0), len(q0) + 1
+            if root.is_point:
+                q0 += list(root.position)
+            else:
+                mass = sum(spec.links[i].mass for i in members[r])
+                com = np.zeros(2)
+                for i in members[r]:
+                    x, y, a = frames[spec.links[i].name]
+                    c, s_ = math.cos(a), math.sin(a)
+                    cx, cy = spec.links[i].com
+                    com += spec.links[i].mass * np.array([x + c * cx - s_ * cy, y + s_ * cx + c * cy])
+                q0 += list(com / mass)
+        rot = []
+        for i in members[r]:
+            l = spec.links[i]
+            if l.parent is None:
+                dof = -1
+                if free and not l.is_point:
+                    dof = len(q0)
+                    q0.append(l.angle)
+                links[i] = LinkS(i, -1, l.is_point, dx, dy, dof, (i,), t)
+            else:
+                p = links[names[l.parent]]
+                dof = len(q0)
+                q0.append(l.angle)
+                links[i] = LinkS(i, p.index, False, dx, dy, dof, p.chain + (i,), t)
+            if links[i].dof_rot >= 0:
+                rot.append(i)
+        trees.append(TreeS(r, tuple(members[r]), free, root.is_point and len(members[r]) == 1, tuple(rot)))
+    return links, trees, q0  # type: ignore[return-value]

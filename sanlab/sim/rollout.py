@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sanlab.sim.dynamics import State, advance, initial_state, prepare, sense
+from sanlab.sim.dynamics import State, advance, make_state, prepare, sense, velocity
 from sanlab.sim.model import Model
 
 
@@ -78,7 +78,8 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
         if observer is not None:
             acc = observer.update(model, acc, state, fr, bits, u)
         nxt, depth = advance(model, fr, state, u)
-        out = (state.q, state.qd, bits, u, cstate) if every else None
+        qd_n = jnp.stack([x + jnp.zeros((), state.q.dtype) for x in fr.qd]) if fr.qd else state.qd
+        out = (state.q, qd_n, bits, u, cstate) if every else None
         return (nxt, cstate2, acc, jnp.maximum(deepest, depth)), out
 
     carry = (state0, cstate0, acc0, zero)
@@ -102,7 +103,8 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
     state, cstate, acc, deepest = carry
     if observer is not None and hasattr(observer, "finish"):
         acc = observer.finish(model, acc, state)
-    finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4)
+    state = state._replace(qd=velocity(model, state))
+    finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
     return state, acc, deepest, finite, frames, cstate
 
 
@@ -181,8 +183,11 @@ def rollout(
     n = max(pad_to or 0, B)
     n = int(math.ceil(n / q) * q)
     if state0 is None:
-        q0 = model.params.q0
-        state0 = State(q0, jnp.zeros_like(q0), jnp.zeros(q0.shape[:-1], q0.dtype))
+        if params_batched:  # each member starts at rest in its own pose
+            in_model = jax.tree_util.tree_map(lambda _: 0, model)
+            state0 = jax.vmap(make_state, in_axes=(in_model,))(model)
+        else:
+            state0 = make_state(model)
     if state0.q.ndim == 1:
         state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), state0)
     def pad(x):

@@ -107,6 +107,16 @@ class SymMatrix:
                     v = add(v, v)
                 self.add(i, j, v)
 
+    def matvec(self, x: dict) -> dict:
+        """self x for a sparse vector x (absent entries are zero); returns a sparse dict."""
+        out: dict = {}
+        for (i, j), v in self.a.items():
+            if j in x:
+                out[i] = add(out.get(i, 0.0), mul(v, x[j]))
+            if i != j and i in x:
+                out[j] = add(out.get(j, 0.0), mul(v, x[i]))
+        return out
+
     def solve(self, b: dict) -> dict:
         """Solve self x = b (self symmetric positive definite) by L D L^T with the given
         elimination order; fill-in is tracked symbolically. Returns x as a dense dict."""
