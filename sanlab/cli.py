@@ -1,5 +1,6 @@
 """The ``sanlab`` command line. Each command is a small function; heavy imports (jax) stay inside
-the commands that need them so that ``sanlab check`` starts fast."""
+the commands that need them so that ``sanlab check`` starts fast. Commands that simulate call
+:func:`sanlab.configure` first (JAX's device split, float64, compile cache)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from sanlab import configure
 from sanlab.creature import Creature, CreatureError, builtin_names, load, read_source
 
 app = typer.Typer(
@@ -118,6 +120,7 @@ def simulate(
     if dtype not in ("float32", "float64"):
         raise fail(f"--dtype: expected float32 or float64, got {dtype!r}")
     c, _ = load_or_exit(creature)
+    configure()
     from sanlab.engine_report import simulate_random
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:
@@ -224,6 +227,7 @@ def search(
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    configure()
     from sanlab.search import run_search
 
     if dtype not in ("float32", "float64"):
@@ -364,6 +368,7 @@ def tune(
     """Phase 2 (paper §5.3): fine-tune a gait's sensor, actuator and delay parameters."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    configure()
     from sanlab.search.tune import tune as run_tune
 
     lib = open_library(db)
@@ -418,6 +423,7 @@ def reproduce(
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report."""
+    configure()
     from sanlab.reproduce import TABLE1
     from sanlab.reproduce import reproduce as run
 

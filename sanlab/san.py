@@ -16,14 +16,9 @@ import re
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+import jax
+import jax.numpy as jnp
 import numpy as np
-
-from sanlab import _jax
-
-_jax.configure()
-
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
 MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum

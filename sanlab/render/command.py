@@ -124,6 +124,10 @@ def render(
         lib = Library(db)
     except LibraryError as e:
         raise _fail(str(e)) from None
+    if plot is None:
+        from sanlab import configure
+
+        configure()  # before the replay's first JAX call
     try:
         if plot is not None:
             _render_plot(lib, target, plot, out)
