@@ -94,7 +94,7 @@ def job(spec=None) -> dict:
     qpos0 = [0.0] * m.nq
     for d, v in zip(idx, mm.initial_q(spec)):
         qpos0[d] = float(v)
-    hidden = spec.san.hidden if spec.san.hidden is not None else len(spec.sensors)
+    hidden = spec.n_hidden
     return dict(
         xml=xml,
         qpos0=qpos0,

@@ -55,13 +55,9 @@ def _counts(items) -> str:
     return f"{len(items)} ({kinds})" if items else "0"
 
 
-def _hidden(c: Creature) -> int:
-    return c.san.hidden if c.san.hidden is not None else len(c.sensors)
-
-
 def _sizes(c: Creature) -> dict[str, int]:
     n = dict(links=len(c.links), sensors=len(c.sensors), actuators=len(c.actuators))
-    return n | {"hidden": _hidden(c)}
+    return n | {"hidden": c.n_hidden}
 
 
 @app.command()
@@ -77,7 +73,7 @@ def check(creature: CreatureArg) -> None:
         ("links", f"{len(c.links)} ({c.dofs} degrees of freedom)"),
         ("sensors", _counts(c.sensors)),
         ("actuators", _counts(c.actuators)),
-        ("hidden nodes", f"{_hidden(c)}" + ("" if c.san.hidden is not None else " (= sensors)")),
+        ("hidden nodes", f"{c.n_hidden}" + ("" if c.san.hidden is not None else " (= sensors)")),
         ("dt", f"{c.dt:g} s"),
     ]
     if c.springs:

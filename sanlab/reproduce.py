@@ -118,7 +118,6 @@ def robustness(lib, tuned_gait: str) -> dict:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print) -> str:
     """Run the paper's budget on each creature; returns the Markdown report."""
-    from sanlab.san import San
     from sanlab.search import run_search
     from sanlab.search.tune import tune
 
@@ -136,7 +135,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
         [res] = tune(lib, [f"{run_id}/1"], method="sa", trials=trials, seed=seed, batch=32)
         wall = time.perf_counter() - t0
         tuned = lib.gait(res.tuned_gait)
-        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), San.for_creature(spec).n_hidden)
+        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), spec.n_hidden)
         rows.append(Row(name, counts, TABLE1.get(name, (None,) * 5)[4], run_id, best.speed_cm_s,
                         tuned.speed_cm_s, res.tuned_gait, useful_fraction(lib, run_id, spec, seconds), wall,
                         spec.evaluation.metric))

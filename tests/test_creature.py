@@ -163,6 +163,12 @@ def test_default_inertia_of_triangle_ignores_explicit_com():
     assert k.com == (0.0, 0.0)
 
 
+def test_hidden_nodes_default_to_one_per_sensor_and_zero_means_none():
+    assert loads(BASE).n_hidden == 2  # two sensors, no [san] table
+    assert loads(BASE + "[san]\nhidden = 5\n").n_hidden == 5
+    assert loads(BASE + "[san]\nhidden = 0\n").n_hidden == 0
+
+
 def test_point_mass_defaults():
     k = loads(_one('shape = "point"\nposition = [1, 2]')).links[0]
     assert (k.inertia, k.com, k.position) == (0.0, (0.0, 0.0), (1.0, 2.0))

@@ -83,6 +83,17 @@ class Link:
     def is_point(self) -> bool:
         return self.shape.kind == "point"
 
+    @property
+    def dofs(self) -> int:
+        """Generalised coordinates this link adds, in this order: a free root's x, y (m) and, unless
+        it is a point mass, its absolute angle (rad); a jointed link's joint angle (rad); a fixed
+        root none."""
+        if self.fixed:
+            return 0
+        if self.parent is not None:
+            return 1
+        return 2 if self.is_point else 3
+
 
 @dataclass(frozen=True)
 class PointRef:
@@ -259,7 +270,7 @@ class World:
 class SanConfig:
     """Defaults for this creature's sensor-actuator networks (paper §4)."""
 
-    hidden: int | None = None  # None: as many hidden nodes as sensors
+    hidden: int | None = None  # None: as many hidden nodes as sensors (see Creature.n_hidden)
     delay_on: float = 0.1  # s, T_on = 1 / k1
     delay_off: float = 0.1  # s, T_off = -1 / k2
 
@@ -301,13 +312,11 @@ class Creature:
 
     @property
     def dofs(self) -> int:
-        """Number of generalised coordinates."""
-        n = 0
-        for link in self.links:
-            if link.fixed:
-                continue
-            if link.parent is not None:
-                n += 1
-            else:
-                n += 2 if link.is_point else 3
-        return n
+        """Number of generalised coordinates: each link's :attr:`Link.dofs`, in link order."""
+        return sum(link.dofs for link in self.links)
+
+    @property
+    def n_hidden(self) -> int:
+        """Hidden nodes of this creature's SANs: ``san.hidden`` when the file gives it (0 is
+        allowed), else one per sensor (Table 1's usual choice)."""
+        return self.san.hidden if self.san.hidden is not None else len(self.sensors)
