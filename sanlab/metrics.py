@@ -27,6 +27,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from sanlab.sim.dynamics import _wrap as wrap_angle  # the angle sensors' wrap to [-pi, pi)
 from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare
 
 METRICS = ("distance", "distance_upright", "hopping", "pursuit")
@@ -72,8 +73,7 @@ class Metric:
         dt = model.params.dt
         hop, pursuit, fell = acc.hop, acc.pursuit, acc.fell
         if self.fell_link >= 0:
-            a = fr.th[self.fell_link]
-            a = a - 2 * math.pi * jnp.floor((a + math.pi) / (2 * math.pi))
+            a = wrap_angle(fr.th[self.fell_link])
             fell = fell | (jnp.abs(a) > self.fell_angle)
         if self.kind in ("hopping", "pursuit"):
             p, v = centre_of_mass(model, fr)
