@@ -77,15 +77,6 @@ class View:
         v = (self.y1 - np.asarray(y, float)) * s if self.y_up else (np.asarray(y, float) - self.y0) * s
         return u, v
 
-    def world(self, u, v):
-        """Pixel -> world (inverse of :meth:`px`)."""
-        s = self.scale
-        x = self.x0 + np.asarray(u, float) / s
-        y = self.y1 - np.asarray(v, float) / s if self.y_up else self.y0 + np.asarray(v, float) / s
-        return x, y
-
-    def moved(self, dx: float = 0.0, dy: float = 0.0) -> "View":
-        return View(self.x0 + dx, self.y0 + dy, self.x1 + dx, self.y1 + dy, self.width, self.height, self.y_up)
 
 
 class Canvas(Protocol):
@@ -194,11 +185,6 @@ class PillowCanvas:
         """``anchor``: Pillow's two letters (horizontal l/m/r, vertical a(scender)/m/s/d)."""
         (x, y) = self._xy([pos])[0]
         self._draw.text((x, y), string, fill=color, font=font(max(4, int(round(size * self.ss)))), anchor=anchor)
-
-    def text_width(self, string: str, size: float) -> float:
-        """Width of ``string`` in output pixels."""
-        f = font(max(4, int(round(size * self.ss))))
-        return f.getlength(string) / self.ss
 
     def rect(self, box, color: Color, fill: bool = True, width: float = 1.0) -> None:
         """An axis-aligned rectangle (x0, y0, x1, y1) in the current view's coordinates."""

@@ -35,7 +35,7 @@ class SearchProgress:
 Reporter = Callable[[SearchProgress], None]
 
 
-def _device(dtype: str) -> str:
+def _device() -> str:
     import jax
 
     devs = jax.devices()
@@ -85,7 +85,7 @@ def run_search(
         }
         run = library.create_run(
             kind="search", creature=spec.name, creature_text=creature_text, params=params, seed=seed,
-            total=controllers, dtype=dtype, device=_device(dtype), sanlab_version=__version__,
+            total=controllers, dtype=dtype, device=_device(), sanlab_version=__version__,
         )
         run_id = run.run_id
     library.set_status(run_id, "running")
