@@ -167,7 +167,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     ok = np.all(np.isfinite(q), axis=1)
     n = len(q) if ok.all() else max(1, int(np.argmin(ok)))  # keep the frames before it blew up
     if n < len(q):
-        fr = jax_tree_cut(fr, n)
+        fr = cut_frames(fr, n)
         q = q[:n]
         title = (title + "  " if title else "") + f"(non-finite after t = {float(fr.t[-1]):.2f} s)"
     P = poses(model, q)
@@ -197,7 +197,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     )
 
 
-def jax_tree_cut(fr, n: int):
+def cut_frames(fr, n: int):
     """Frames (batch 1) cut to the first ``n``."""
     cut = lambda x: np.asarray(x)[:, :n]  # noqa: E731
     import jax

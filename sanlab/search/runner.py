@@ -17,7 +17,7 @@ from sanlab import __version__
 from sanlab.creature import loads
 from sanlab.evaluate import Evaluator
 from sanlab.library import Library
-from sanlab.search.random import RandomSearch
+from sanlab.search.random_search import RandomSearch
 
 
 @dataclass(frozen=True)
