@@ -27,10 +27,10 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from sanlab.creature.spec import METRICS
 from sanlab.sim.dynamics import _wrap as wrap_angle  # the angle sensors' wrap to [-pi, pi)
 from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare
 
-METRICS = ("distance", "distance_upright", "hopping", "pursuit")
 
 
 class MetricAcc(NamedTuple):

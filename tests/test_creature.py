@@ -169,6 +169,17 @@ def test_hidden_nodes_default_to_one_per_sensor_and_zero_means_none():
     assert loads(BASE + "[san]\nhidden = 0\n").n_hidden == 0
 
 
+def test_the_format_and_the_spec_share_defaults_and_vocabularies():
+    from sanlab.creature import _toml, spec
+
+    assert tuple(_toml.TERRAIN) == spec.TERRAIN_KINDS
+    c = loads(BASE)  # no [world], [san], [evaluation], dt: all defaults
+    assert (c.world, c.san, c.evaluation, c.dt) == (spec.World(), spec.SanConfig(), spec.Evaluation(), 1e-3)
+    c = loads(BASE + "[world]\n[san]\n[evaluation]\n")  # empty tables: the same defaults
+    assert (c.world, c.san, c.evaluation) == (spec.World(), spec.SanConfig(), spec.Evaluation())
+    assert c.links[0].drag and not c.links[0].fixed and c.links[0].position == (0.0, 0.0)
+
+
 def test_point_mass_defaults():
     k = loads(_one('shape = "point"\nposition = [1, 2]')).links[0]
     assert (k.inertia, k.com, k.position) == (0.0, (0.0, 0.0), (1.0, 2.0))
