@@ -23,21 +23,7 @@ import numpy as np
 
 from sanlab.creature import load, read_source
 from sanlab.creature.spec import Terrain
-
-# Table 1 of the paper: links, sensors, actuators, hidden nodes, speed (cm/s; None: "U")
-TABLE1 = {
-    "crawler": (4, 8, 2, 10, None),
-    "fish": (4, 6, 2, 5, 19.0),
-    "bounder": (5, 8, 4, 8, 115.0),
-    "luxo": (3, 6, 2, 6, 79.0),
-    "cart": (2, 6, 1, 5, 23.0),
-    "walker": (6, 11, 5, 6, 101.0),
-    "twolink": (2, 6, 1, 5, 12.0),
-    "threelink": (3, 8, 2, 7, 33.0),
-    "fourlink": (4, 11, 3, 8, 55.0),
-    "star": (3, 8, 2, 7, 9.0),
-}
-
+from sanlab.creature.table1 import TABLE1
 
 @dataclass
 class Row:
@@ -55,7 +41,8 @@ class Row:
 
 def useful_fraction(lib, run_id: str, spec, seconds: float) -> float:
     evs = lib.top(run_id, None)
-    paper = TABLE1.get(spec.name, (0, 0, 0, 0, None))[4]
+    row = TABLE1.get(spec.name)
+    paper = row.speed_cm_s if row else None
     n = 0
     for e in evs:
         if e.nonfinite or e.fell:
@@ -136,7 +123,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
         wall = time.perf_counter() - t0
         tuned = lib.gait(res.tuned_gait)
         counts = (len(spec.links), len(spec.sensors), len(spec.actuators), spec.n_hidden)
-        rows.append(Row(name, counts, TABLE1.get(name, (None,) * 5)[4], run_id, best.speed_cm_s,
+        paper = TABLE1[name].speed_cm_s if name in TABLE1 else None
+        rows.append(Row(name, counts, paper, run_id, best.speed_cm_s,
                         tuned.speed_cm_s, res.tuned_gait, useful_fraction(lib, run_id, spec, seconds), wall,
                         spec.evaluation.metric))
         log(f"{name}: {best.speed_cm_s:.1f} -> {tuned.speed_cm_s:.1f} cm/s ({wall:.0f} s)")

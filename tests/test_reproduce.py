@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from sanlab.library import Library
-from sanlab.reproduce import TABLE1
+from sanlab.creature.table1 import TABLE1
 
 SANLAB = [sys.executable, "-m", "sanlab"]
 
