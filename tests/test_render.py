@@ -18,7 +18,7 @@ from sanlab.creature import read_source
 from sanlab.library import Library
 from sanlab.render import draw, film, strobe
 from sanlab.render.canvas import PillowCanvas, View
-from sanlab.render.command import gait_scene, render, render_top
+from sanlab.cli.render import gait_scene, render, render_top
 from sanlab.render.plots import plot_scores, plot_trace
 from sanlab.search import run_search
 
@@ -240,7 +240,7 @@ def test_rendering_twice_gives_identical_files(lib_run, tmp_path):
 def test_plots_are_written(lib_run, tmp_path):
     db, run_id = lib_run
     with Library(db) as lib:
-        info = plot_scores(lib, run_id, str(tmp_path / "scores.png"))
+        info = plot_scores(lib.get_run(run_id), lib.scores(run_id), str(tmp_path / "scores.png"))
         assert info["points"] == 16 and info["best"] == pytest.approx(max(lib.scores(run_id)))
         run = lib.get_run(run_id)
         tune = lib.create_run("tune", run.creature, run.creature_text, {"metric": "distance"}, 0, 20,
@@ -252,10 +252,10 @@ def test_plots_are_written(lib_run, tmp_path):
             rows.append({"trial": k, "score": s, "accepted": s > best})
             best = max(best, s)
         lib.add_trace(tune.run_id, rows)
-        info = plot_trace(lib, tune.run_id, str(tmp_path / "trace.png"))
+        info = plot_trace(lib.get_run(tune.run_id), lib.trace(tune.run_id), str(tmp_path / "trace.png"))
         assert info == {"path": str(tmp_path / "trace.png"), "points": 20, "accepted": sum(r["accepted"] for r in rows)}
         with pytest.raises(ValueError, match="no tuning trace"):
-            plot_trace(lib, run_id, str(tmp_path / "none.png"))
+            plot_trace(lib.get_run(run_id), lib.trace(run_id), str(tmp_path / "none.png"))
     for name in ("scores.png", "trace.png"):
         with Image.open(tmp_path / name) as im:
             im.load()
