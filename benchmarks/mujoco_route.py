@@ -4,7 +4,7 @@ The same job as sanlab's batched simulator: evaluate many sensor-actuator networ
 dt = 1 ms, with ground contact, the network closed around the physics every step:
 
 * the bounder (``sanlab.creature.load("bounder")``) converted by the one MJCF converter,
-  ``tests/mujoco_model.py``: a plane and a 1 mm sphere at every contact point (feet, knees, hips,
+  ``sanlab.interop.mjcf``: a plane and a 1 mm sphere at every contact point (feet, knees, hips,
   body corners), friction 0.6, MuJoCo's default soft contacts, semi-implicit ``Euler`` at 1 ms;
 * every step, for every creature, in NumPy: 8 binary sensors (2 foot touches: the foot's contact
   point at or below the ground, z < 1 mm; 6 joint-angle range checks, angles wrapped to
@@ -25,7 +25,6 @@ creature-steps per second. Setup (imports, model compilation) is not timed.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import sys
@@ -36,22 +35,23 @@ _ROOT = Path(__file__).resolve().parent.parent
 TOUCH_HEIGHT = 1.0e-3  # m: a contact point below this height counts as touching
 
 
+def _sanlab_path() -> None:
+    """Make this checkout's sanlab importable when it is not installed."""
+    if str(_ROOT) not in sys.path:
+        sys.path.insert(0, str(_ROOT))
+
+
 def _converter():
-    """``tests/mujoco_model.py`` (the only copy of the converter), loaded by path."""
-    name = "mujoco_model"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, _ROOT / "tests" / "mujoco_model.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    """``sanlab.interop.mjcf``, the one copy of the converter."""
+    _sanlab_path()
+    from sanlab.interop import mjcf
+
+    return mjcf
 
 
 def bounder_spec():
     """The built-in bounder (sanlab.creature.load)."""
-    if str(_ROOT) not in sys.path:
-        sys.path.insert(0, str(_ROOT))
+    _sanlab_path()
     from sanlab.creature import load
 
     return load("bounder")

@@ -1,8 +1,8 @@
 """sanlab's dynamics against MuJoCo, an independent rigid-body engine.
 
-The creature specs are converted with ``tests/mujoco_model.py``: the same bodies, masses, inertias,
+The creature specs are converted with ``sanlab.interop.mjcf``: the same bodies, masses, inertias,
 joints and generalised coordinates (sanlab's q maps one to one onto MuJoCo's qpos, see
-:func:`mujoco_model.qpos_index`).
+:func:`sanlab.interop.mjcf.qpos_index`).
 
 Without contacts both simulators integrate the same ODE M(q) q'' = f(q, q') with the same scheme,
 semi-implicit Euler (velocity first, then position; MuJoCo's ``integrator="Euler"``), at the same
@@ -30,8 +30,8 @@ mujoco = pytest.importorskip("mujoco")
 
 import jax.numpy as jnp  # noqa: E402
 
-import mujoco_model as mm  # noqa: E402
 from sanlab import sim  # noqa: E402
+from sanlab.interop import mjcf as mm  # noqa: E402
 from sanlab.creature.spec import Creature, Ground, JointSpring, Link, Shape, World  # noqa: E402
 
 SAME_SCHEME_TOL = 1e-6  # rad or m: same discrete map, round-off only
@@ -190,7 +190,7 @@ class _PoseObserver:
 def test_angle_convention_and_kinematics():
     """A positive sanlab angle turns x toward y; in MuJoCo's x-z plane it must turn x toward z.
     Link origins and absolute angles agree between sanlab's kinematics, the NumPy reference
-    (``mujoco_model.link_poses``) and MuJoCo at a random, far-from-zero pose."""
+    (``mjcf.link_poses``) and MuJoCo at a random, far-from-zero pose."""
     spec = tumbler()
     rng = np.random.default_rng(0)
     q = np.concatenate([[0.3, 1.7], rng.uniform(-2.5, 2.5, spec.dofs - 2)])
