@@ -8,8 +8,8 @@ what is stored.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from sanlab import __version__
 from sanlab.creature import loads
 from sanlab.evaluate import Evaluator
 from sanlab.library import Library
+from sanlab.search.base import Strategy
 from sanlab.search.random_search import RandomSearch
 
 
@@ -66,8 +67,10 @@ def run_search(
         params = run.params
         creature_text = run.creature_text
         spec = loads(creature_text, source=params.get("source", run.creature))
-        controllers, seconds, seed = params["controllers"], params["seconds"], run.seed
-        metric, batch, dtype = params["metric"], params["batch"], run.dtype
+        controllers, seconds = params["controllers"], params["seconds"]
+        seed = run.seed if run.seed is not None else seed  # a search run always stores both
+        dtype = run.dtype or dtype
+        metric, batch = params["metric"], params["batch"]
         run_id = run.run_id
     else:
         spec = loads(creature_text, source=creature_source)
@@ -90,13 +93,14 @@ def run_search(
         run_id = run.run_id
     library.set_status(run_id, "running")
     done = library.done_indices(run_id)
-    strategy = RandomSearch(ev.san, controllers, seed, ev.delays(), done)
+    strategy: Strategy = RandomSearch(ev.san, controllers, seed, ev.delays(), done)
     best = max(library.scores(run_id), default=0.0)
     evaluated, t0, fresh = len(done), time.perf_counter(), 0
     report = reporter or (lambda p: None)
     report(SearchProgress(run_id, evaluated, controllers, best, 0.0))
     try:
-        while cands := strategy.ask(batch):
+        while not strategy.done:
+            cands = strategy.ask(batch)
             res = ev(np.stack([c.weights for c in cands]))
             rows = [
                 {
