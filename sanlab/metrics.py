@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -32,14 +33,16 @@ from sanlab.sim.dynamics import _wrap as wrap_angle  # the angle sensors' wrap t
 from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare
 
 
-
 class MetricAcc(NamedTuple):
-    p0: tuple  # COM at the start (m)
-    y0: object  # COM height at the start (m)
-    hop: object  # ∫ max(0, y - y0)^2 dt (m^2 s)
-    pursuit: object  # ∫ v . F dt (m)
-    fell: object  # bool: the fell link passed its limit at some step
-    p: tuple  # COM at the end (m), set by finish
+    """What :class:`Metric` accumulates along one rollout (a leading batch axis on every array
+    once batched)."""
+
+    p0: tuple[jax.Array, jax.Array]  # COM (x, y) at the start (m)
+    y0: jax.Array  # COM height at the start (m)
+    hop: jax.Array  # ∫ max(0, y - y0)^2 dt (m^2 s)
+    pursuit: jax.Array  # ∫ v . F dt (m)
+    fell: jax.Array  # bool: the fell link passed its limit at some step
+    p: tuple[jax.Array, jax.Array]  # COM (x, y) at the end (m), set by finish
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from sanlab.creature import load, read_source
 from sanlab.creature.spec import Terrain
 from sanlab.creature.table1 import TABLE1
 
+
 @dataclass
 class Row:
     creature: str
@@ -68,9 +69,10 @@ def tracking(lib, run_id: str, tuned_gait: str) -> dict:
     for label, gid in (("best", tuned_gait), ("median random", f"{run_id}#{median.idx}")):
         g = Gait.from_library(lib, gid)
         model = g.model()
-        r = g.replay(fps=10, model=model)
-        com = jax.vmap(lambda q: sim.poses(model, q)["com"])(r.frames.q[0])
-        target = jax.vmap(lambda t: jax.numpy.stack(sim.follow_point(model, t)))(jax.numpy.asarray(r.frames.t, model.dtype))
+        frames = g.replay(fps=10, model=model).frames
+        assert frames is not None  # recorded at 10 fps
+        com = jax.vmap(lambda q, m=model: sim.poses(m, q)["com"])(frames.q[0])
+        target = jax.vmap(lambda t, m=model: jax.numpy.stack(sim.follow_point(m, t)))(jax.numpy.asarray(frames.t, model.dtype))
         dist = np.linalg.norm(np.asarray(com) - np.asarray(target), axis=1)
         out[label] = {"gait": gid, "mean_distance_m": float(dist.mean()), "pursuit": float(lib.gait(gid).score)}
     return out

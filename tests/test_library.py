@@ -498,7 +498,7 @@ def test_an_older_schema_is_upgraded_through_the_migration_seam(tmp_path, monkey
     with pytest.raises(LibraryError) as err:
         Library(path)
     assert_one_line(err, str(path), f"no upgrade from library schema version {SCHEMA_VERSION}")
-    step = lambda conn: conn.execute("ALTER TABLE runs ADD COLUMN note TEXT")  # noqa: E731
+    step = lambda conn: conn.execute("ALTER TABLE runs ADD COLUMN note TEXT")
     monkeypatch.setattr(_schema, "MIGRATIONS", {SCHEMA_VERSION: step})
     with Library(path) as lib:
         assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION + 1

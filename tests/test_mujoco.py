@@ -31,8 +31,8 @@ mujoco = pytest.importorskip("mujoco")
 import jax.numpy as jnp  # noqa: E402
 
 from sanlab import sim  # noqa: E402
-from sanlab.interop import mjcf as mm  # noqa: E402
 from sanlab.creature.spec import Creature, Ground, JointSpring, Link, Shape, World  # noqa: E402
+from sanlab.interop import mjcf as mm  # noqa: E402
 
 SAME_SCHEME_TOL = 1e-6  # rad or m: same discrete map, round-off only
 REFERENCE_TOL = 1e-3  # rad: against MuJoCo RK4 (the continuous-time motion)

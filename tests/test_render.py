@@ -14,11 +14,11 @@ import typer
 from PIL import Image
 from typer.testing import CliRunner
 
+from sanlab.cli.render import gait_scene, render, render_top
 from sanlab.creature import read_source
 from sanlab.library import Library
 from sanlab.render import draw, film, strobe
 from sanlab.render.canvas import PillowCanvas, View
-from sanlab.cli.render import gait_scene, render, render_top
 from sanlab.render.plots import plot_scores, plot_trace
 from sanlab.search import run_search
 

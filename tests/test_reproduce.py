@@ -8,8 +8,8 @@ import sys
 
 import pytest
 
-from sanlab.library import Library
 from sanlab.creature.table1 import TABLE1
+from sanlab.library import Library
 
 SANLAB = [sys.executable, "-m", "sanlab"]
 

@@ -39,12 +39,13 @@ qvel address).
 from __future__ import annotations
 
 import math
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from sanlab.creature.geometry import link_frames
-from sanlab.creature.spec import Creature
+from sanlab.creature.spec import AngularActuator, Creature
 
 CONTACT_RADIUS = 1.0e-3  # m, radius of the spheres standing in for contact points
 
@@ -179,6 +180,7 @@ def to_mjcf(
     if motors and spec.actuators:
         out.append("  <actuator>")
         for a in spec.actuators:
+            assert isinstance(a, AngularActuator)  # checked above: linear ones are refused
             jname = quoteattr(a.joint + ":joint")
             out.append(f'    <motor name={quoteattr(a.name)} joint={jname} gear="1"/>')
         out.append("  </actuator>")
@@ -214,7 +216,7 @@ def initial_q(spec: Creature) -> np.ndarray:
 def link_poses(spec: Creature, q) -> tuple[np.ndarray, np.ndarray]:
     """Forward kinematics from the spec's definitions (``creature.geometry.link_frames``): each
     link's frame origin [L, 2] (m) and absolute angle [L] (rad) at sanlab coordinates q [D]."""
-    frames = link_frames(spec.links, np.asarray(q, float))
+    frames = link_frames(spec.links, np.asarray(q, float).tolist())
     pose = np.array([frames[link.name] for link in spec.links], float).reshape(-1, 3)
     return pose[:, :2], pose[:, 2]
 
@@ -246,12 +248,13 @@ def get_q(spec: Creature, mjmodel, mjdata) -> tuple[np.ndarray, np.ndarray]:
     return mjdata.qpos[idx].copy(), mjdata.qvel[idx].copy()
 
 
-def load(spec: Creature, **kw):
+def load(spec: Creature, **kw: Any) -> tuple[Any, Any]:
     """(MjModel, MjData) of ``spec`` at its initial pose (``to_mjcf`` keyword arguments)."""
     import mujoco
 
-    m = mujoco.MjModel.from_xml_string(to_mjcf(spec, **kw))
-    d = mujoco.MjData(m)
+    mj: Any = mujoco  # compiled bindings: nothing a type checker can read
+    m = mj.MjModel.from_xml_string(to_mjcf(spec, **kw))
+    d = mj.MjData(m)
     set_state(spec, m, d, initial_q(spec))
-    mujoco.mj_forward(m, d)
+    mj.mj_forward(m, d)
     return m, d

@@ -14,6 +14,13 @@ scores, a trace) and reads no gait library; the ``sanlab render`` command, which
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # for type checkers; at run time __getattr__ imports each on first use
+    from sanlab.render.film import animate
+    from sanlab.render.plots import plot_scores, plot_trace
+    from sanlab.render.strobe import contact_sheet, write_strobe
+
 __all__ = ["animate", "contact_sheet", "plot_scores", "plot_trace", "write_strobe"]
 
 

@@ -45,7 +45,8 @@ class TrialInfo(Protocol):
     def accepted(self) -> bool: ...
 
 
-def _figure(w: float, h: float, ncols: int = 1, **kw):
+def _figure(w: float, h: float, ncols: int = 1, **kw: Any) -> tuple[Any, Any]:
+    """(figure, axes) of ``w`` x ``h`` inches at 100 dpi: one Axes, or an array of ``ncols``."""
     from matplotlib.figure import Figure  # no pyplot: rendered by Agg, no global backend change
 
     fig = Figure(figsize=(w, h), dpi=100, layout="constrained")
@@ -64,8 +65,8 @@ def plot_scores(run: RunInfo, scores: Sequence[float], path: str, top: int = 10)
     """The sorted phase-1 ``scores`` of ``run`` (NaN: not a number, left out) -> PNG at ``path``,
     the ``top`` best marked. Returns {"path", "points": finite scores plotted, "best"}; raises
     ValueError if no score is finite."""
-    scores = np.asarray(scores, float)
-    finite = scores[np.isfinite(scores)]
+    every = np.asarray(scores, float)
+    finite = every[np.isfinite(every)]
     if finite.size == 0:
         raise ValueError(f"run {run.run_id} has no finite scores to plot")
     s = np.sort(finite)[::-1]
@@ -78,7 +79,7 @@ def plot_scores(run: RunInfo, scores: Sequence[float], path: str, top: int = 10)
     ax.set_xlabel("rank (best first)")
     metric = run.params.get("metric", "score")
     ax.set_ylabel(f"score ({metric})")
-    ax.set_title(f"run {run.run_id}: {run.creature}, {scores.size} controllers", loc="left", fontsize=11)
+    ax.set_title(f"run {run.run_id}: {run.creature}, {every.size} controllers", loc="left", fontsize=11)
     for q in (1, 10, 50):
         if s.size >= 10:
             v = float(np.percentile(finite, 100 - q))
@@ -91,7 +92,7 @@ def plot_scores(run: RunInfo, scores: Sequence[float], path: str, top: int = 10)
     hx.set_yscale("log")
     hx.set_xlabel(f"score ({metric})")
     hx.set_ylabel("controllers")
-    nonfinite = scores.size - finite.size
+    nonfinite = every.size - finite.size
     hx.set_title(f"{nonfinite} non-finite left out" if nonfinite else "distribution", loc="left", fontsize=10)
     _style(hx)
     fig.savefig(path, format="png", metadata=_METADATA)

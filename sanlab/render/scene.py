@@ -199,7 +199,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
 
 def cut_frames(fr, n: int):
     """Frames (batch 1) cut to the first ``n``."""
-    cut = lambda x: np.asarray(x)[:, :n]  # noqa: E731
+    cut = lambda x: np.asarray(x)[:, :n]
     import jax
 
     return fr._replace(t=np.asarray(fr.t)[:n], q=cut(fr.q), qd=cut(fr.qd), bits=cut(fr.bits), u=cut(fr.u),

@@ -110,7 +110,7 @@ class SymMatrix:
             col = {i: mul(v, inv[k]) for i, v in below.items()}
             cols[k] = col
             items = list(below.items())
-            for x, (i, bi) in enumerate(items):
+            for x, (i, _) in enumerate(items):
                 li = col[i]
                 for j, bj in items[: x + 1]:
                     key = self._key(i, j)
