@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from sanlab import creature, sim
-
-DATA = Path(__file__).parent / "data"
+from tests.helpers import DATA
 
 
 @pytest.mark.parametrize("name", creature.builtin_names() + ["kitchen_sink"])
