@@ -8,17 +8,21 @@ what is drawn is exactly what was simulated.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from sanlab.creature.spec import Creature
+    from sanlab.sim.model import Model
 
 
 @dataclass
 class Scene:
     """One recorded rollout of one creature. F frames, L links, C contacts."""
 
-    spec: Any  # Creature
-    model: Any  # sim.Model (the gait's, with its parameter overrides)
+    spec: Creature
+    model: Model  # the gait's, with its parameter overrides
     t: np.ndarray  # [F] s
     links: np.ndarray  # [F, L, 3] origin x, y and absolute angle of each link frame
     contacts: np.ndarray  # [F, C, 2]
