@@ -31,6 +31,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 START = """
 import time; t0 = time.perf_counter()
+import sanlab; sanlab.configure()
 import jax
 from sanlab import creature, sim
 from sanlab.engine_report import random_san_params
@@ -46,6 +47,9 @@ print(time.perf_counter() - t0)
 def sanlab_route(batch: int, steps: int, repeats: int) -> tuple[float, float]:
     """(creature-steps/s, cold compile seconds)."""
     os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # this process measures the cold compile
+    import sanlab
+
+    sanlab.configure()
     import jax
 
     from sanlab import creature, sim
@@ -83,7 +87,7 @@ def cached_start(batch: int) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--batch", type=int, default=2048)
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--repeats", type=int, default=3)

@@ -4,7 +4,7 @@ The same job as sanlab's batched simulator: evaluate many sensor-actuator networ
 dt = 1 ms, with ground contact, the network closed around the physics every step:
 
 * the bounder (``sanlab.creature.load("bounder")``) converted by the one MJCF converter,
-  ``tests/mujoco_model.py``: a plane and a 1 mm sphere at every contact point (feet, knees, hips,
+  ``sanlab.interop.mjcf``: a plane and a 1 mm sphere at every contact point (feet, knees, hips,
   body corners), friction 0.6, MuJoCo's default soft contacts, semi-implicit ``Euler`` at 1 ms;
 * every step, for every creature, in NumPy: 8 binary sensors (2 foot touches: the foot's contact
   point at or below the ground, z < 1 mm; 6 joint-angle range checks, angles wrapped to
@@ -25,33 +25,34 @@ creature-steps per second. Setup (imports, model compilation) is not timed.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 _ROOT = Path(__file__).resolve().parent.parent
 TOUCH_HEIGHT = 1.0e-3  # m: a contact point below this height counts as touching
 
 
+def _sanlab_path() -> None:
+    """Make this checkout's sanlab importable when it is not installed."""
+    if str(_ROOT) not in sys.path:
+        sys.path.insert(0, str(_ROOT))
+
+
 def _converter():
-    """``tests/mujoco_model.py`` (the only copy of the converter), loaded by path."""
-    name = "mujoco_model"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, _ROOT / "tests" / "mujoco_model.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
+    """``sanlab.interop.mjcf``, the one copy of the converter."""
+    _sanlab_path()
+    from sanlab.interop import mjcf
+
+    return mjcf
 
 
 def bounder_spec():
     """The built-in bounder (sanlab.creature.load)."""
-    if str(_ROOT) not in sys.path:
-        sys.path.insert(0, str(_ROOT))
+    _sanlab_path()
     from sanlab.creature import load
 
     return load("bounder")
@@ -60,13 +61,16 @@ def bounder_spec():
 def job(spec=None) -> dict:
     """Everything a worker needs, as plain picklable values (the worker imports no sanlab)."""
     mm = _converter()
+    from sanlab.creature.spec import AngularActuator
+
     spec = bounder_spec() if spec is None else spec
     if spec.dt != 1e-3:
         raise ValueError(f"the benchmark runs at dt = 1 ms, {spec.name} has {spec.dt}")
     xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="Euler")
     import mujoco
 
-    m = mujoco.MjModel.from_xml_string(xml)
+    mj: Any = mujoco  # compiled bindings: nothing a type checker can read
+    m = mj.MjModel.from_xml_string(xml)
     idx = [int(i) for i in mm.qpos_index(spec, m)]
     names = {l.name: i for i, l in enumerate(spec.links)}
     rot_dof = {name: idx[k] for name, k in mm.rotation_dofs(spec).items()}
@@ -94,7 +98,7 @@ def job(spec=None) -> dict:
     qpos0 = [0.0] * m.nq
     for d, v in zip(idx, mm.initial_q(spec)):
         qpos0[d] = float(v)
-    hidden = spec.san.hidden if spec.san.hidden is not None else len(spec.sensors)
+    hidden = spec.n_hidden
     return dict(
         xml=xml,
         qpos0=qpos0,
@@ -103,7 +107,7 @@ def job(spec=None) -> dict:
         angle_dofs=angle_dofs,
         angle_min=angle_min,
         angle_max=angle_max,
-        act_dofs=[rot_dof[a.joint] for a in spec.actuators],
+        act_dofs=[rot_dof[a.joint] for a in spec.actuators if isinstance(a, AngularActuator)],  # all (to_mjcf refuses others)
         act_min=[a.min for a in spec.actuators],
         act_max=[a.max for a in spec.actuators],
         act_ks=[a.ks for a in spec.actuators],
@@ -123,9 +127,10 @@ class _Batch:
         import mujoco
         import numpy as np
 
-        self.mj, self.np = mujoco, np
-        self.model = m = mujoco.MjModel.from_xml_string(job["xml"])
-        self.data = [mujoco.MjData(m) for _ in range(n)]
+        mj: Any = mujoco  # compiled bindings: nothing a type checker can read
+        self.mj, self.np = mj, np
+        self.model = m = mj.MjModel.from_xml_string(job["xml"])
+        self.data = [mj.MjData(m) for _ in range(n)]
         self.n = n
         self.rng = np.random.default_rng(seed)
         self.qpos0 = np.asarray(job["qpos0"])
@@ -146,8 +151,8 @@ class _Batch:
         self.out = np.zeros((n, self.N))
         self.x = np.zeros((n, self.S + self.N))
         # state rows [qpos | qvel] and control rows, bound once: one C call each per creature
-        self.sig_state = mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL
-        self.sig_ctrl = mujoco.mjtState.mjSTATE_CTRL
+        self.sig_state = mj.mjtState.mjSTATE_QPOS | mj.mjtState.mjSTATE_QVEL
+        self.sig_ctrl = mj.mjtState.mjSTATE_CTRL
         self.state = np.zeros((n, m.nq + m.nv))
         self.ctrl = np.zeros((n, m.nu))
         self.state_rows = [self.state[i] for i in range(n)]
@@ -247,13 +252,13 @@ def _cores() -> int:
 def mujoco_steps_per_s(
     seconds_budget: float = 5.0, *, workers: int | None = None, creatures: int = 32, seed: int = 0,
     details: bool = False,
-):
+) -> Any:
     """Creature-steps per second of the MuJoCo route on the bounder (see the module docstring).
 
     seconds_budget: wall time each worker steps for (setup excluded). workers: processes (default:
     one per CPU core). creatures: MjData copies per worker, stepped in lock step with the SAN
-    vectorised over them. details: also return a dict with per-worker numbers and MuJoCo's
-    warning count (instabilities would show there).
+    vectorised over them. details: return (rate, dict) instead, the dict with per-worker numbers
+    and MuJoCo's warning count (instabilities would show there).
     """
     import multiprocessing as mp
 

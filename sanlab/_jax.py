@@ -1,4 +1,4 @@
-"""JAX set-up shared by everything that simulates: call :func:`configure` before first use.
+"""JAX set-up behind :func:`sanlab.configure` (see there): never run on import.
 
 Done once per process, before JAX creates its CPU backend: split the host into one XLA device
 per core (JAX otherwise runs a batch on one core), allow float64 on request, and turn on the
@@ -14,6 +14,8 @@ _done = False
 
 
 def cache_dir() -> Path:
+    """Where the persistent compilation cache lives: ``$SANLAB_CACHE/jax``, else
+    ``$XDG_CACHE_HOME/sanlab/jax`` (``~/.cache/sanlab/jax``)."""
     root = os.environ.get("SANLAB_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "sanlab"
     )
@@ -21,6 +23,7 @@ def cache_dir() -> Path:
 
 
 def configure() -> None:
+    """See :func:`sanlab.configure`."""
     global _done
     if _done:
         return

@@ -13,6 +13,7 @@ Replaying uses the same compiled step as the search (there is no second physics)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
 import numpy as np
 
 from sanlab.creature import loads

@@ -24,21 +24,24 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare
-
-METRICS = ("distance", "distance_upright", "hopping", "pursuit")
+from sanlab.creature.spec import METRICS
+from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare, wrap_angle
 
 
 class MetricAcc(NamedTuple):
-    p0: tuple  # COM at the start (m)
-    y0: object  # COM height at the start (m)
-    hop: object  # ∫ max(0, y - y0)^2 dt (m^2 s)
-    pursuit: object  # ∫ v . F dt (m)
-    fell: object  # bool: the fell link passed its limit at some step
-    p: tuple  # COM at the end (m), set by finish
+    """What :class:`Metric` accumulates along one rollout (a leading batch axis on every array
+    once batched)."""
+
+    p0: tuple[jax.Array, jax.Array]  # COM (x, y) at the start (m)
+    y0: jax.Array  # COM height at the start (m)
+    hop: jax.Array  # ∫ max(0, y - y0)^2 dt (m^2 s)
+    pursuit: jax.Array  # ∫ v . F dt (m)
+    fell: jax.Array  # bool: the fell link passed its limit at some step
+    p: tuple[jax.Array, jax.Array]  # COM (x, y) at the end (m), set by finish
 
 
 @dataclass(frozen=True)
@@ -72,8 +75,7 @@ class Metric:
         dt = model.params.dt
         hop, pursuit, fell = acc.hop, acc.pursuit, acc.fell
         if self.fell_link >= 0:
-            a = fr.th[self.fell_link]
-            a = a - 2 * math.pi * jnp.floor((a + math.pi) / (2 * math.pi))
+            a = wrap_angle(fr.th[self.fell_link])
             fell = fell | (jnp.abs(a) > self.fell_angle)
         if self.kind in ("hopping", "pursuit"):
             p, v = centre_of_mass(model, fr)

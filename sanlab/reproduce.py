@@ -23,20 +23,7 @@ import numpy as np
 
 from sanlab.creature import load, read_source
 from sanlab.creature.spec import Terrain
-
-# Table 1 of the paper: links, sensors, actuators, hidden nodes, speed (cm/s; None: "U")
-TABLE1 = {
-    "crawler": (4, 8, 2, 10, None),
-    "fish": (4, 6, 2, 5, 19.0),
-    "bounder": (5, 8, 4, 8, 115.0),
-    "luxo": (3, 6, 2, 6, 79.0),
-    "cart": (2, 6, 1, 5, 23.0),
-    "walker": (6, 11, 5, 6, 101.0),
-    "twolink": (2, 6, 1, 5, 12.0),
-    "threelink": (3, 8, 2, 7, 33.0),
-    "fourlink": (4, 11, 3, 8, 55.0),
-    "star": (3, 8, 2, 7, 9.0),
-}
+from sanlab.creature.table1 import TABLE1
 
 
 @dataclass
@@ -55,7 +42,8 @@ class Row:
 
 def useful_fraction(lib, run_id: str, spec, seconds: float) -> float:
     evs = lib.top(run_id, None)
-    paper = TABLE1.get(spec.name, (0, 0, 0, 0, None))[4]
+    row = TABLE1.get(spec.name)
+    paper = row.speed_cm_s if row else None
     n = 0
     for e in evs:
         if e.nonfinite or e.fell:
@@ -81,9 +69,10 @@ def tracking(lib, run_id: str, tuned_gait: str) -> dict:
     for label, gid in (("best", tuned_gait), ("median random", f"{run_id}#{median.idx}")):
         g = Gait.from_library(lib, gid)
         model = g.model()
-        r = g.replay(fps=10, model=model)
-        com = jax.vmap(lambda q: sim.poses(model, q)["com"])(r.frames.q[0])
-        target = jax.vmap(lambda t: jax.numpy.stack(sim.follow_point(model, t)))(jax.numpy.asarray(r.frames.t, model.dtype))
+        frames = g.replay(fps=10, model=model).frames
+        assert frames is not None  # recorded at 10 fps
+        com = jax.vmap(lambda q, m=model: sim.poses(m, q)["com"])(frames.q[0])
+        target = jax.vmap(lambda t, m=model: jax.numpy.stack(sim.follow_point(m, t)))(jax.numpy.asarray(frames.t, model.dtype))
         dist = np.linalg.norm(np.asarray(com) - np.asarray(target), axis=1)
         out[label] = {"gait": gid, "mean_distance_m": float(dist.mean()), "pursuit": float(lib.gait(gid).score)}
     return out
@@ -118,7 +107,6 @@ def robustness(lib, tuned_gait: str) -> dict:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print) -> str:
     """Run the paper's budget on each creature; returns the Markdown report."""
-    from sanlab.san import San
     from sanlab.search import run_search
     from sanlab.search.tune import tune
 
@@ -136,8 +124,9 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
         [res] = tune(lib, [f"{run_id}/1"], method="sa", trials=trials, seed=seed, batch=32)
         wall = time.perf_counter() - t0
         tuned = lib.gait(res.tuned_gait)
-        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), San.for_creature(spec).n_hidden)
-        rows.append(Row(name, counts, TABLE1.get(name, (None,) * 5)[4], run_id, best.speed_cm_s,
+        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), spec.n_hidden)
+        paper = TABLE1[name].speed_cm_s if name in TABLE1 else None
+        rows.append(Row(name, counts, paper, run_id, best.speed_cm_s,
                         tuned.speed_cm_s, res.tuned_gait, useful_fraction(lib, run_id, spec, seconds), wall,
                         spec.evaluation.metric))
         log(f"{name}: {best.speed_cm_s:.1f} -> {tuned.speed_cm_s:.1f} cm/s ({wall:.0f} s)")

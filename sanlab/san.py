@@ -16,14 +16,9 @@ import re
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+import jax
+import jax.numpy as jnp
 import numpy as np
-
-from sanlab import _jax
-
-_jax.configure()
-
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
 MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
@@ -67,10 +62,8 @@ class San:
 
     @classmethod
     def for_creature(cls, spec) -> "San":
-        """The topology of ``spec``'s networks: hidden nodes as its file says, else one per sensor."""
-        S = len(spec.sensors)
-        H = spec.san.hidden if spec.san.hidden is not None else S
-        return cls(S, H, len(spec.actuators))
+        """The topology of ``spec``'s networks (hidden nodes: ``spec.n_hidden``)."""
+        return cls(len(spec.sensors), spec.n_hidden, len(spec.actuators))
 
     def random_weights(self, seed: int, index: int) -> np.ndarray:
         """Weights [N, I] (int8, uniform in [-2, 2]) of controller ``index`` of a run seeded

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 
 import pytest
 
+from sanlab.creature.table1 import TABLE1
 from sanlab.library import Library
-from sanlab.reproduce import TABLE1
-
-SANLAB = [sys.executable, "-m", "sanlab"]
+from tests.helpers import SANLAB
 
 
 @pytest.mark.slow  # about 2 min: ten compiled models, the fish's 30 s evaluations

@@ -127,7 +127,7 @@ def test_topology_sizes_of_every_builtin(name):
     spec = creature.load(name)
     san = San.for_creature(spec)
     S, A = len(spec.sensors), len(spec.actuators)
-    H = spec.san.hidden if spec.san.hidden is not None else S
+    H = spec.n_hidden
     assert (san.n_sensors, san.n_hidden, san.n_actuators) == (S, H, A)
     assert san.n_weights == (H + A) * (S + H + A)
     assert san.random_weights(0, 0).shape == (H + A, S + H + A)

@@ -1,15 +1,14 @@
-"""Creatures: the frozen spec (SI units) and the TOML file format that describes them."""
+"""Creatures: the frozen spec (SI units) and the TOML file format that describes them.
 
-from .loader import (
-    CreatureError,
-    builtin_names,
-    initial_frames,
-    load,
-    load_file,
-    loads,
-    read_source,
-    world_point,
-)
+Modules: ``spec`` (the dataclasses, every default and vocabulary), ``loader`` (the file format),
+``files`` (built-ins, loading by name or path), ``geometry`` (mass properties, link frames),
+``table1`` (the paper's Table 1); ``_checks`` and ``_toml`` are the loader's value checks and
+table reader.
+"""
+
+from .files import builtin_names, load, load_file, read_source
+from .geometry import initial_frames, world_point
+from .loader import CreatureError, loads
 from .spec import (
     Actuator,
     AngleSensor,

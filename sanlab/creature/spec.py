@@ -11,10 +11,21 @@ A point on a link is written in that link's frame.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Literal, get_args
 
 Vec2 = tuple[float, float]
+
+# The closed vocabularies of the format, each written once; the loader and the metrics read them.
+ShapeKind = Literal["segment", "polygon", "point"]
+TerrainKind = Literal["flat", "slope", "hill", "rough"]
+Plane = Literal["vertical", "horizontal"]
+MetricName = Literal["distance", "distance_upright", "hopping", "pursuit"]
+SHAPE_KINDS: tuple[ShapeKind, ...] = get_args(ShapeKind)
+TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
+PLANES: tuple[Plane, ...] = get_args(Plane)
+METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
 
 
 @dataclass(frozen=True)
@@ -25,7 +36,7 @@ class Shape:
     points, the link frame's origin is the mass).
     """
 
-    kind: Literal["segment", "polygon", "point"]
+    kind: ShapeKind
     points: tuple[Vec2, ...] = ()
 
 
@@ -34,7 +45,7 @@ class JointSpring:
     """Passive torsional spring + damper in a joint: T = -k (phi - rest) - c phi_dot."""
 
     stiffness: float  # N m / rad
-    damping: float  # N m s / rad
+    damping: float = 0.0  # N m s / rad
     rest: float = 0.0  # rad
 
 
@@ -97,6 +108,17 @@ class Link:
     @property
     def is_point(self) -> bool:
         return self.shape.kind == "point"
+
+    @property
+    def dofs(self) -> int:
+        """Generalised coordinates this link adds, in this order: a free root's x, y (m) and, unless
+        it is a point mass, its absolute angle (rad); a jointed link's joint angle (rad); a fixed
+        root none."""
+        if self.fixed:
+            return 0
+        if self.parent is not None:
+            return 1
+        return 2 if self.is_point else 3
 
 
 @dataclass(frozen=True)
@@ -237,7 +259,7 @@ class Terrain:
     ``wavelength``.
     """
 
-    kind: Literal["flat", "slope", "hill", "rough"] = "flat"
+    kind: TerrainKind = "flat"
     angle: float = 0.0  # rad, slope
     height: float = 0.0  # m, hill peak / rough RMS
     width: float = 1.0  # m, hill full width
@@ -268,11 +290,11 @@ class World:
     (``water_tangential = 0`` is the paper's normal-only model).
     """
 
-    plane: Literal["vertical", "horizontal"] = "vertical"
+    plane: Plane = "vertical"
     gravity: float = 9.81  # m/s^2
     ground: Ground = field(default_factory=Ground)
     terrain: Terrain = field(default_factory=Terrain)
-    water_drag: float = 0.0
+    water_drag: float = 0.0  # N s / m^2
     water_tangential: float = 0.1  # skin drag coefficient as a fraction of water_drag
     follow: Follow | None = None
 
@@ -281,7 +303,7 @@ class World:
 class SanConfig:
     """Defaults for this creature's sensor-actuator networks (paper §4)."""
 
-    hidden: int | None = None  # None: as many hidden nodes as sensors
+    hidden: int | None = None  # None: as many hidden nodes as sensors (see Creature.n_hidden)
     delay_on: float = 0.1  # s, T_on = 1 / k1
     delay_off: float = 0.1  # s, T_off = -1 / k2
 
@@ -290,20 +312,24 @@ class SanConfig:
 class Evaluation:
     """How this creature's gaits are scored (paper §5.1).
 
-    metric: "distance" | "distance_upright" | "hopping" | "pursuit". ``fell_link`` names the link
+    metric: one of :data:`METRICS`. ``fell_link`` names the link
     whose angle decides falling: the creature fell when that link's absolute angle leaves
     [-fell_angle, fell_angle]. ``hop_k`` is the k of the hopping metric.
     """
 
-    metric: str = "distance"
-    seconds: float = 6.0
+    metric: MetricName = "distance"
+    seconds: float = 6.0  # s of simulated time per evaluation
     fell_link: str | None = None
-    fell_angle: float = 1.5707963267948966
-    hop_k: float = 1.0
+    fell_angle: float = math.pi / 2  # rad
+    hop_k: float = 1.0  # 1/(m s): weight of the height integral (m^2 s) in the hopping score
 
 
 @dataclass(frozen=True)
 class Creature:
+    """A whole creature: its links (parents before children), sensors, actuators and passive
+    springs, the world it lives in, its SANs' defaults, how its gaits are scored, and the time
+    step ``dt`` (s) it is simulated with."""
+
     name: str
     links: tuple[Link, ...]
     sensors: tuple[Sensor, ...] = ()
@@ -323,13 +349,11 @@ class Creature:
 
     @property
     def dofs(self) -> int:
-        """Number of generalised coordinates."""
-        n = 0
-        for link in self.links:
-            if link.fixed:
-                continue
-            if link.parent is not None:
-                n += 1
-            else:
-                n += 2 if link.is_point else 3
-        return n
+        """Number of generalised coordinates: each link's :attr:`Link.dofs`, in link order."""
+        return sum(link.dofs for link in self.links)
+
+    @property
+    def n_hidden(self) -> int:
+        """Hidden nodes of this creature's SANs: ``san.hidden`` when the file gives it (0 is
+        allowed), else one per sensor (Table 1's usual choice)."""
+        return self.san.hidden if self.san.hidden is not None else len(self.sensors)

@@ -5,15 +5,23 @@
     sc = scene(Gait.from_library(lib, "3fa1c2d0/1"))      # replay once, keep the poses
     animate(sc, "gait.gif"); write_strobe(sc, "gait.png")
 
-Modules: ``canvas`` (view and the Pillow canvas), ``draw`` (all drawing), ``scene`` (a replayed
-gait as arrays), ``film`` (camera and animations), ``strobe`` (strobe pictures, contact sheets),
-``plots`` (matplotlib), ``command`` (``sanlab render`` and :func:`render_top`).
-Nothing heavy is imported until used.
+Modules: ``canvas`` (view, the Canvas protocol and the Pillow canvas), ``draw`` (all drawing),
+``scene`` (a replayed gait as arrays), ``film`` (camera and animations), ``strobe`` (strobe
+pictures, contact sheets), ``plots`` (matplotlib). Everything here takes data (a gait, a scene,
+scores, a trace) and reads no gait library; the ``sanlab render`` command, which does, is
+``sanlab.cli.render``. Nothing heavy is imported until used.
 """
 
 from __future__ import annotations
 
-__all__ = ["animate", "contact_sheet", "plot_scores", "plot_trace", "render", "render_top", "write_strobe"]
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # for type checkers; at run time __getattr__ imports each on first use
+    from sanlab.render.film import animate
+    from sanlab.render.plots import plot_scores, plot_trace
+    from sanlab.render.strobe import contact_sheet, write_strobe
+
+__all__ = ["animate", "contact_sheet", "plot_scores", "plot_trace", "write_strobe"]
 
 
 def __getattr__(name: str):
@@ -29,8 +37,4 @@ def __getattr__(name: str):
         from sanlab.render import plots
 
         return getattr(plots, name)
-    if name in ("render", "render_top"):
-        from sanlab.render import command
-
-        return getattr(command, name)
     raise AttributeError(f"module 'sanlab.render' has no attribute {name!r}")

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import importlib.util
 import os
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Iterable, Protocol, Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -77,37 +78,51 @@ class View:
         v = (self.y1 - np.asarray(y, float)) * s if self.y_up else (np.asarray(y, float) - self.y0) * s
         return u, v
 
-    def world(self, u, v):
-        """Pixel -> world (inverse of :meth:`px`)."""
-        s = self.scale
-        x = self.x0 + np.asarray(u, float) / s
-        y = self.y1 - np.asarray(v, float) / s if self.y_up else self.y0 + np.asarray(v, float) / s
-        return x, y
-
-    def moved(self, dx: float = 0.0, dy: float = 0.0) -> "View":
-        return View(self.x0 + dx, self.y0 + dy, self.x1 + dx, self.y1 + dy, self.width, self.height, self.y_up)
 
 
 class Canvas(Protocol):
-    """What the drawing code needs. Positions in world metres through ``view``; widths, radii and
-    text sizes in output pixels."""
+    """Everything the drawing code (``draw``, ``strobe``) calls: a second backend (SVG,
+    matplotlib) implements exactly this. Positions are in the current ``view``'s coordinates
+    (world metres, or output pixels under ``View.screen``); widths, radii and text sizes are in
+    output pixels; colours are RGB 0-255."""
 
-    view: View
+    view: View  # may be swapped at any time (overlays draw under View.screen(width, height))
+    width: int  # output picture size, pixels
+    height: int
 
-    def segment(self, p0: Point, p1: Point, width: float, color: Color) -> None: ...
+    def segment(self, p0: Point, p1: Point, width: float, color: Color) -> None:
+        """A thick line with round caps."""
+        ...
 
-    def polyline(self, points: Iterable[Point], width: float, color: Color) -> None: ...
+    def polyline(self, points: Iterable[Point], width: float, color: Color) -> None:
+        """Connected segments with round joins and caps."""
+        ...
 
-    def circle(self, center: Point, radius: float, color: Color, fill: bool = True) -> None: ...
+    def circle(self, center: Point, radius: float, color: Color, fill: bool = True, width: float = 1.0) -> None:
+        """A disc, or (``fill=False``) a ring with an outline ``width`` pixels wide."""
+        ...
 
-    def polygon(self, points: Iterable[Point], color: Color, fill: bool = True) -> None: ...
+    def polygon(self, points: Sequence[Point], color: Color, fill: bool = True, width: float = 1.0) -> None:
+        """A filled polygon, or (``fill=False``) its closed outline ``width`` pixels wide."""
+        ...
 
-    def text(self, pos: Point, string: str, color: Color, size: float, anchor: str = "la") -> None: ...
+    def rect(self, box: tuple[float, float, float, float], color: Color, fill: bool = True, width: float = 1.0) -> None:
+        """An axis-aligned rectangle (x0, y0, x1, y1)."""
+        ...
+
+    def text(self, pos: Point, string: str, color: Color, size: float, anchor: str = "la") -> None:
+        """``anchor``: Pillow's two letters (horizontal l/m/r, vertical a(scender)/m/s/d)."""
+        ...
+
+    def raster(self, rgb: np.ndarray, box: tuple[float, float, float, float]) -> None:
+        """An RGB array [rows, cols, 3] (uint8) stretched over the output-pixel box (x0, y0, x1, y1)."""
+        ...
 
 
 def mix(color: Color, other: Color, t: float) -> Color:
     """``color`` moved a fraction ``t`` of the way towards ``other``."""
-    return tuple(int(round(a + (b - a) * t)) for a, b in zip(color, other))  # type: ignore[return-value]
+    r, g, b = (int(round(a + (b - a) * t)) for a, b in zip(color, other))
+    return (r, g, b)
 
 
 def _font_path() -> str | None:
@@ -160,7 +175,7 @@ class PillowCanvas:
         """A thick line with round caps."""
         self.polyline([p0, p1], width, color)
 
-    def polyline(self, points, width: float, color: Color) -> None:
+    def polyline(self, points: Iterable[Point], width: float, color: Color) -> None:
         """Connected segments with round joins and caps."""
         xy = self._xy(points)
         if not xy:
@@ -181,31 +196,26 @@ class PillowCanvas:
         else:
             self._draw.ellipse(box, outline=color, width=max(1, int(round(width * self.ss))))
 
-    def polygon(self, points, color: Color, fill: bool = True, width: float = 1.0) -> None:
+    def polygon(self, points: Sequence[Point], color: Color, fill: bool = True, width: float = 1.0) -> None:
         xy = self._xy(points)
         if len(xy) < 2:
             return
         if fill:
             self._draw.polygon(xy, fill=color)
         else:
-            self.polyline(list(points) + [list(points)[0]], width, color)
+            self.polyline([*points, points[0]], width, color)
 
     def text(self, pos: Point, string: str, color: Color, size: float, anchor: str = "la") -> None:
         """``anchor``: Pillow's two letters (horizontal l/m/r, vertical a(scender)/m/s/d)."""
         (x, y) = self._xy([pos])[0]
         self._draw.text((x, y), string, fill=color, font=font(max(4, int(round(size * self.ss)))), anchor=anchor)
 
-    def text_width(self, string: str, size: float) -> float:
-        """Width of ``string`` in output pixels."""
-        f = font(max(4, int(round(size * self.ss))))
-        return f.getlength(string) / self.ss
-
-    def rect(self, box, color: Color, fill: bool = True, width: float = 1.0) -> None:
+    def rect(self, box: tuple[float, float, float, float], color: Color, fill: bool = True, width: float = 1.0) -> None:
         """An axis-aligned rectangle (x0, y0, x1, y1) in the current view's coordinates."""
         x0, y0, x1, y1 = box
         self.polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)], color, fill, width)
 
-    def raster(self, rgb: np.ndarray, box) -> None:
+    def raster(self, rgb: np.ndarray, box: tuple[float, float, float, float]) -> None:
         """Paste an RGB array [rows, cols, 3] stretched (nearest) over the pixel box
         (x0, y0, x1, y1) of the output image."""
         from PIL import Image

@@ -179,7 +179,7 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
     """The creature at ``frame``. ``fade`` in [0, 1] mixes colours towards the background;
     ``detail`` adds joints, contact points and actuators/springs; ``com`` the centre of mass."""
     spec = scene.spec
-    f = lambda c: mix(c, BACKGROUND, fade) if fade else c  # noqa: E731
+    f = lambda c: mix(c, BACKGROUND, fade) if fade else c
     colors = link_colors(spec)
     world = [scene.to_world(frame, i, scene.shape_points(i)) for i in range(len(spec.links))]
 
@@ -313,7 +313,7 @@ def draw_panel(canvas: Canvas, scene, box, frames=None) -> None:
     cursor at each frame of ``frames`` (an int or a list)."""
     x0, y0, x1, y1 = box
     saved = canvas.view
-    canvas.view = View.screen(canvas.width, canvas.height)  # type: ignore[attr-defined]
+    canvas.view = View.screen(canvas.width, canvas.height)
     canvas.rect((x0, y0, x1, y1), PANEL_BG, True)
     canvas.segment((x0, y0 + 0.5), (x1, y0 + 0.5), 1.0, GRID_AXIS)
     groups = panel_rows(scene)
@@ -325,7 +325,7 @@ def draw_panel(canvas: Canvas, scene, box, frames=None) -> None:
     F = scene.n_frames
     for name, vals, color in groups:
         k = vals.shape[1]
-        canvas.raster(_panel_image(scene, name, vals, color, rh), (gx0, y, gx1, y + k * rh))  # type: ignore[attr-defined]
+        canvas.raster(_panel_image(scene, name, vals, color, rh), (gx0, y, gx1, y + k * rh))
         canvas.text((gx0 - 6, y + k * rh / 2), f"{name}", color if name != "sensors" else MUTED, 10, anchor="rm")
         y += k * rh + 4
     canvas.text((gx0, y + 1), f"{scene.t[0]:g} s", MUTED, 9, anchor="la")
@@ -355,5 +355,5 @@ def draw_frame(canvas: Canvas, scene, frame: int, view: View, nodes: bool = Fals
     draw_label(canvas, view, scene.title, "tr", 12, MUTED)
     draw_scale_bar(canvas, view)
     if nodes:
-        draw_panel(canvas, scene, (0, view.height, view.width, canvas.height), frame)  # type: ignore[attr-defined]
+        draw_panel(canvas, scene, (0, view.height, view.width, canvas.height), frame)
     canvas.view = view

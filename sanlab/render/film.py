@@ -26,7 +26,8 @@ from run to run with the same ffmpeg build (imageio-ffmpeg's wheel pins one).
 from __future__ import annotations
 
 import os
-from typing import Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -187,7 +188,10 @@ def write_mp4(path: str, images, fps: float, size: tuple[int, int]) -> int:
     """H.264 (yuv420p, crf 18) at ``fps``; returns the number of frames written."""
     import imageio_ffmpeg
 
-    gen = imageio_ffmpeg.write_frames(
+    # Its annotations say int for fps and quality; it documents (and we need) a float frame rate
+    # and quality=None (no -qscale, so that crf decides).
+    write_frames: Any = imageio_ffmpeg.write_frames
+    gen = write_frames(
         path, size, fps=float(fps), codec="libx264", quality=None, macro_block_size=2,
         ffmpeg_log_level="error", output_params=["-crf", "18", *MP4_PARAMS],
     )

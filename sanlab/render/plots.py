@@ -1,4 +1,5 @@
-"""Plots of runs (matplotlib, Agg backend, PNG).
+"""Plots of runs (matplotlib, Agg backend, PNG), from data: a run's description and its scores or
+tuning trace, as read from a gait library by the caller (this module reads no library).
 
 - :func:`plot_scores`: a run's scores sorted best first against rank (log rank axis: the paper's
   long tail, a few good controllers among many that go nowhere), with a histogram beside it.
@@ -10,12 +11,42 @@ PNG files are deterministic (no software/date metadata).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any, Protocol
+
 import numpy as np
 
 _METADATA = {"Software": None}
 
 
-def _figure(w: float, h: float, ncols: int = 1, **kw):
+class RunInfo(Protocol):
+    """What a plot says about its run (``sanlab.library.Run`` is one)."""
+
+    @property
+    def run_id(self) -> str: ...
+    @property
+    def kind(self) -> str: ...
+    @property
+    def creature(self) -> str: ...
+    @property
+    def params(self) -> dict[str, Any]: ...  # "metric" names the score's metric
+    @property
+    def parent_gait(self) -> str | None: ...
+
+
+class TrialInfo(Protocol):
+    """One tuning trial (``sanlab.library.TracePoint`` is one)."""
+
+    @property
+    def trial(self) -> int: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def accepted(self) -> bool: ...
+
+
+def _figure(w: float, h: float, ncols: int = 1, **kw: Any) -> tuple[Any, Any]:
+    """(figure, axes) of ``w`` x ``h`` inches at 100 dpi: one Axes, or an array of ``ncols``."""
     from matplotlib.figure import Figure  # no pyplot: rendered by Agg, no global backend change
 
     fig = Figure(figsize=(w, h), dpi=100, layout="constrained")
@@ -30,11 +61,12 @@ def _style(ax) -> None:
         ax.spines[side].set_visible(False)
 
 
-def plot_scores(library, run_id: str, path: str, top: int = 10) -> dict:
-    """Sorted phase-1 scores of ``run_id`` -> PNG at ``path``; returns a summary."""
-    run = library.get_run(run_id)
-    scores = np.asarray(library.scores(run.run_id), float)
-    finite = scores[np.isfinite(scores)]
+def plot_scores(run: RunInfo, scores: Sequence[float], path: str, top: int = 10) -> dict:
+    """The sorted phase-1 ``scores`` of ``run`` (NaN: not a number, left out) -> PNG at ``path``,
+    the ``top`` best marked. Returns {"path", "points": finite scores plotted, "best"}; raises
+    ValueError if no score is finite."""
+    every = np.asarray(scores, float)
+    finite = every[np.isfinite(every)]
     if finite.size == 0:
         raise ValueError(f"run {run.run_id} has no finite scores to plot")
     s = np.sort(finite)[::-1]
@@ -47,7 +79,7 @@ def plot_scores(library, run_id: str, path: str, top: int = 10) -> dict:
     ax.set_xlabel("rank (best first)")
     metric = run.params.get("metric", "score")
     ax.set_ylabel(f"score ({metric})")
-    ax.set_title(f"run {run.run_id}: {run.creature}, {scores.size} controllers", loc="left", fontsize=11)
+    ax.set_title(f"run {run.run_id}: {run.creature}, {every.size} controllers", loc="left", fontsize=11)
     for q in (1, 10, 50):
         if s.size >= 10:
             v = float(np.percentile(finite, 100 - q))
@@ -60,17 +92,16 @@ def plot_scores(library, run_id: str, path: str, top: int = 10) -> dict:
     hx.set_yscale("log")
     hx.set_xlabel(f"score ({metric})")
     hx.set_ylabel("controllers")
-    nonfinite = scores.size - finite.size
+    nonfinite = every.size - finite.size
     hx.set_title(f"{nonfinite} non-finite left out" if nonfinite else "distribution", loc="left", fontsize=10)
     _style(hx)
     fig.savefig(path, format="png", metadata=_METADATA)
     return {"path": path, "points": int(finite.size), "best": float(s[0])}
 
 
-def plot_trace(library, run_id: str, path: str) -> dict:
-    """A tuning run's score against trial -> PNG at ``path``; returns a summary."""
-    run = library.get_run(run_id)
-    trace = library.trace(run.run_id)
+def plot_trace(run: RunInfo, trace: Sequence[TrialInfo], path: str) -> dict:
+    """A tuning ``run``'s score against trial (``trace`` in trial order) -> PNG at ``path``.
+    Returns {"path", "points": trials, "accepted"}; raises ValueError for an empty trace."""
     if not trace:
         raise ValueError(f"run {run.run_id} ({run.kind}) has no tuning trace to plot")
     trial = np.array([p.trial for p in trace], float)

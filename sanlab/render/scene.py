@@ -8,17 +8,21 @@ what is drawn is exactly what was simulated.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from sanlab.creature.spec import Creature
+    from sanlab.sim.model import Model
 
 
 @dataclass
 class Scene:
     """One recorded rollout of one creature. F frames, L links, C contacts."""
 
-    spec: Any  # Creature
-    model: Any  # sim.Model (the gait's, with its parameter overrides)
+    spec: Creature
+    model: Model  # the gait's, with its parameter overrides
     t: np.ndarray  # [F] s
     links: np.ndarray  # [F, L, 3] origin x, y and absolute angle of each link frame
     contacts: np.ndarray  # [F, C, 2]
@@ -167,7 +171,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     ok = np.all(np.isfinite(q), axis=1)
     n = len(q) if ok.all() else max(1, int(np.argmin(ok)))  # keep the frames before it blew up
     if n < len(q):
-        fr = jax_tree_cut(fr, n)
+        fr = cut_frames(fr, n)
         q = q[:n]
         title = (title + "  " if title else "") + f"(non-finite after t = {float(fr.t[-1]):.2f} s)"
     P = poses(model, q)
@@ -197,9 +201,9 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     )
 
 
-def jax_tree_cut(fr, n: int):
+def cut_frames(fr, n: int):
     """Frames (batch 1) cut to the first ``n``."""
-    cut = lambda x: np.asarray(x)[:, :n]  # noqa: E731
+    cut = lambda x: np.asarray(x)[:, :n]
     import jax
 
     return fr._replace(t=np.asarray(fr.t)[:n], q=cut(fr.q), qd=cut(fr.qd), bits=cut(fr.bits), u=cut(fr.u),

@@ -24,6 +24,14 @@ class Candidate:
 
 
 class Strategy(Protocol):
+    """What a driver calls on a search strategy: ``ask`` while not ``done``, ``tell`` the scores
+    of what it asked for, in order (``random_search.RandomSearch``, ``chain.Chain``)."""
+
+    @property
+    def done(self) -> bool:
+        """Whether the search has nothing more to ask (then ``ask`` returns [])."""
+        ...
+
     def ask(self, n: int) -> list[Candidate]:
         """Up to n candidates to evaluate next; [] when the search is finished."""
         ...

@@ -35,6 +35,7 @@ class Chain:
 
     @property
     def done(self) -> bool:
+        """Every trial has been decided."""
         return self.t >= self.trials
 
     def ask(self, n: int) -> list[Candidate]:

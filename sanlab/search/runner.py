@@ -8,8 +8,8 @@ what is stored.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -17,7 +17,8 @@ from sanlab import __version__
 from sanlab.creature import loads
 from sanlab.evaluate import Evaluator
 from sanlab.library import Library
-from sanlab.search.random import RandomSearch
+from sanlab.search.base import Strategy
+from sanlab.search.random_search import RandomSearch
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,7 @@ class SearchProgress:
 Reporter = Callable[[SearchProgress], None]
 
 
-def _device(dtype: str) -> str:
+def _device() -> str:
     import jax
 
     devs = jax.devices()
@@ -66,8 +67,10 @@ def run_search(
         params = run.params
         creature_text = run.creature_text
         spec = loads(creature_text, source=params.get("source", run.creature))
-        controllers, seconds, seed = params["controllers"], params["seconds"], run.seed
-        metric, batch, dtype = params["metric"], params["batch"], run.dtype
+        controllers, seconds = params["controllers"], params["seconds"]
+        seed = run.seed if run.seed is not None else seed  # a search run always stores both
+        dtype = run.dtype or dtype
+        metric, batch = params["metric"], params["batch"]
         run_id = run.run_id
     else:
         spec = loads(creature_text, source=creature_source)
@@ -85,18 +88,19 @@ def run_search(
         }
         run = library.create_run(
             kind="search", creature=spec.name, creature_text=creature_text, params=params, seed=seed,
-            total=controllers, dtype=dtype, device=_device(dtype), sanlab_version=__version__,
+            total=controllers, dtype=dtype, device=_device(), sanlab_version=__version__,
         )
         run_id = run.run_id
     library.set_status(run_id, "running")
     done = library.done_indices(run_id)
-    strategy = RandomSearch(ev.san, controllers, seed, ev.delays(), done)
+    strategy: Strategy = RandomSearch(ev.san, controllers, seed, ev.delays(), done)
     best = max(library.scores(run_id), default=0.0)
     evaluated, t0, fresh = len(done), time.perf_counter(), 0
     report = reporter or (lambda p: None)
     report(SearchProgress(run_id, evaluated, controllers, best, 0.0))
     try:
-        while cands := strategy.ask(batch):
+        while not strategy.done:
+            cands = strategy.ask(batch)
             res = ev(np.stack([c.weights for c in cands]))
             rows = [
                 {

@@ -144,7 +144,6 @@ class Space:
 
     def _arrays(self, theta: np.ndarray):
         s = self.spec
-        H = self.san.n_hidden
         k1 = np.full(self.san.n_nodes, 1 / s.san.delay_on)
         k2 = np.full(self.san.n_nodes, -1 / s.san.delay_off)
         over = {
@@ -166,7 +165,6 @@ class Space:
                 scale[p.index] = v
             else:
                 over[key[p.kind]][p.index] = v
-        del H
         if self.morphology:
             over.update(self._morphology(scale, over["act_ks"]))
         return k1, k2, over

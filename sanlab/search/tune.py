@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -82,8 +82,8 @@ class TuneEvaluator:
             "score": res["score"].mean(1),
             "speed_cm_s": res["speed_cm_s"].mean(1),
             "distance_m": res["distance_m"].mean(1),
-            "fell": res["fell"].any(1),
-            "nonfinite": res["nonfinite"].any(1),
+            "fell": np.asarray(res["fell"].any(1)),
+            "nonfinite": np.asarray(res["nonfinite"].any(1)),
         }
 
 

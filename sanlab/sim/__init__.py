@@ -3,13 +3,12 @@
     model = compile_creature(spec)              # structure static, numbers as arrays
     state = step(model, state, u)               # one creature, pure
     result = rollout(model, controller, cparams, seconds=6.0)   # a batch, closed loop
+
+Importing it changes no global JAX setting: :func:`sanlab.configure` does (``compile_creature``
+calls it on first use).
 """
 
-from sanlab import _jax
-
-_jax.configure()
-
-from sanlab.sim.dynamics import (  # noqa: E402
+from sanlab.sim.dynamics import (
     State,
     advance,
     centre_of_mass,
@@ -25,8 +24,8 @@ from sanlab.sim.dynamics import (  # noqa: E402
     step,
     velocity,
 )
-from sanlab.sim.model import Model, Params, Structure, compile_creature  # noqa: E402
-from sanlab.sim.rollout import (  # noqa: E402
+from sanlab.sim.model import Model, Params, Structure, compile_creature
+from sanlab.sim.rollout import (
     ConstantController,
     Frames,
     ReflexController,

@@ -321,7 +321,7 @@ def _zero(v) -> bool:
 
 def _velocities(model: Model, fr: Frame, qd: list) -> Frame:
     """Link angular velocities, link origin and contact velocities for velocities ``qd``."""
-    st, p = model.structure, model.params
+    st = model.structure
     w: list = [None] * len(st.links)
     V: list = [None] * len(st.links)
     for ls in st.links:

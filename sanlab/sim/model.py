@@ -439,7 +439,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
 def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[TreeS], list[float]]:
     """Static link records, trees and the initial coordinates (centre of mass of each free
     tree in the file's start pose, root angle, joint angles)."""
-    from sanlab.creature.loader import initial_frames
+    from sanlab.creature.geometry import initial_frames
 
     frames = initial_frames(spec)
     roots = [i for i, l in enumerate(spec.links) if l.parent is None]
@@ -449,7 +449,7 @@ def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[Tre
         root_of[i] = i if l.parent is None else root_of[names[l.parent]]
         if l.parent is not None:
             members[root_of[i]].append(i)
-    links: list[LinkS | None] = [None] * len(spec.links)
+    made: dict[int, LinkS] = {}
     trees: list[TreeS] = []
     q0: list[float] = []
     for r in roots:
@@ -478,13 +478,13 @@ def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[Tre
                 if free and not l.is_point:
                     dof = len(q0)
                     q0.append(l.angle)
-                links[i] = LinkS(i, -1, l.is_point, dx, dy, dof, (i,), t)
+                made[i] = LinkS(i, -1, l.is_point, dx, dy, dof, (i,), t)
             else:
-                p = links[names[l.parent]]
+                p = made[names[l.parent]]
                 dof = len(q0)
                 q0.append(l.angle)
-                links[i] = LinkS(i, p.index, False, dx, dy, dof, p.chain + (i,), t)
-            if links[i].dof_rot >= 0:
+                made[i] = LinkS(i, p.index, False, dx, dy, dof, p.chain + (i,), t)
+            if made[i].dof_rot >= 0:
                 rot.append(i)
         trees.append(TreeS(r, tuple(members[r]), free, root.is_point and len(members[r]) == 1, tuple(rot)))
-    return links, trees, q0  # type: ignore[return-value]
+    return [made[i] for i in range(len(spec.links))], trees, q0

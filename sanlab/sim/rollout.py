@@ -4,13 +4,14 @@ Each step runs sensors -> controller -> actuator activations -> physics inside o
 program. The batch is sharded over every XLA device (one per CPU core, or the GPU), padded to a
 fixed size so that a search never recompiles.
 
-A controller is any hashable object with
+A controller (:class:`Controller`) is any hashable object with
 
     init(params, model) -> cstate                       (one controller, pure)
     apply(params, cstate, bits [S], dt) -> (cstate, u [A] in [0, 1])
 
 and its ``params`` pytree carries a leading batch axis when many are rolled out at once.
-An observer (optional, hashable) accumulates quantities along the way (metrics):
+An observer (:class:`Observer`; optional, hashable) accumulates quantities along the way
+(metrics):
 
     init(model, state) -> acc
     update(model, acc, state, frame, bits, u) -> acc     (called before every step)
@@ -28,14 +29,36 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sanlab.sim.dynamics import State, advance, make_state, prepare, sense, velocity
+from sanlab.sim.dynamics import Frame, State, advance, make_state, prepare, sense, velocity
 from sanlab.sim.model import Model
 
 
 class Controller(Protocol):
-    def init(self, params: Any, model: Model) -> Any: ...
+    """What :func:`rollout` calls on a controller (``sanlab.san.San`` is one); it must be hashable
+    (it is a static argument of the compiled program)."""
 
-    def apply(self, params: Any, cstate: Any, bits: Any, dt: Any) -> tuple[Any, Any]: ...
+    def init(self, params: Any, model: Model, /) -> Any:
+        """The controller state at t = 0 for one controller's ``params``."""
+        ...
+
+    def apply(self, params: Any, cstate: Any, bits: Any, dt: Any, /) -> tuple[Any, Any]:
+        """One step: sensor values ``bits`` [S] (0/1) -> (next state, activations u [A] in [0, 1])."""
+        ...
+
+
+class Observer(Protocol):
+    """What :func:`rollout` calls on an observer (``sanlab.metrics.Metric`` is one); hashable.
+    It may also define ``finish(model, acc, final_state) -> acc``, called once after the last
+    step when present."""
+
+    def init(self, model: Model, state: State, /) -> Any:
+        """The accumulator before the first step."""
+        ...
+
+    def update(self, model: Model, acc: Any, state: State, fr: Frame, bits: Any, u: Any, /) -> Any:
+        """The accumulator after seeing ``state`` (and its prepared frame ``fr``, sensor values
+        ``bits``, activations ``u``), before the step from it."""
+        ...
 
 
 class Frames(NamedTuple):
@@ -60,7 +83,8 @@ class Result(NamedTuple):
     cstate: Any = None  # final controller state (pass it back as ``cstate0`` to continue a run)
 
 
-def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, state0, cstate0, gate):
+def _one(model: Model, controller: Controller, observer: Observer | None, n_steps: int, every: int, cparams,
+         state0, cstate0, gate):
     """Roll one controller out for n_steps (static), recording a frame every ``every`` steps.
 
     cstate0: the controller's state to start from (None: ``controller.init``).
@@ -101,8 +125,9 @@ def _one(model: Model, controller, observer, n_steps: int, every: int, cparams, 
             carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=rest)
         frames = rec
     state, cstate, acc, deepest = carry
-    if observer is not None and hasattr(observer, "finish"):
-        acc = observer.finish(model, acc, state)
+    finish = getattr(observer, "finish", None)  # optional (see Observer)
+    if finish is not None:
+        acc = finish(model, acc, state)
     state = state._replace(qd=velocity(model, state))
     finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
     return state, acc, deepest, finite, frames, cstate
@@ -144,13 +169,13 @@ def _sharding(ndim: int):
 
 def rollout(
     model: Model,
-    controller,
+    controller: Controller,
     cparams: Any,
     seconds: float | None = None,
     *,
     steps: int | None = None,
     record_fps: float | None = None,
-    observer=None,
+    observer: Observer | None = None,
     state0: State | None = None,
     cstate0: Any = None,
     params_batched: bool = False,

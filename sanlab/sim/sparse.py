@@ -52,15 +52,6 @@ def sub(a: Scalar, b: Scalar) -> Scalar:
     return add(a, neg(b))
 
 
-def dot(u: dict, v: dict) -> Scalar:
-    """Sparse dot product."""
-    out: Scalar = 0.0
-    for k, a in u.items():
-        if k in v:
-            out = add(out, mul(a, v[k]))
-    return out
-
-
 def axpy(y: dict, a: Scalar, x: dict) -> None:
     """y += a x, in place."""
     if is_const(a, 0.0):
@@ -129,7 +120,7 @@ class SymMatrix:
             col = {i: mul(v, inv[k]) for i, v in below.items()}
             cols[k] = col
             items = list(below.items())
-            for x, (i, bi) in enumerate(items):
+            for x, (i, _) in enumerate(items):
                 li = col[i]
                 for j, bj in items[: x + 1]:
                     key = self._key(i, j)

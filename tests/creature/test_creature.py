@@ -1,16 +1,10 @@
-"""Creature file format: built-ins, unit conversion, defaults, validation messages, CLI."""
+"""Creature file format: built-ins, unit conversion, defaults, validation messages (the check
+and creatures commands: ``tests/cli/test_creatures.py``)."""
 
-import json
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from sanlab.cli import app
 from sanlab.creature import (
     CreatureError,
     builtin_names,
@@ -21,9 +15,8 @@ from sanlab.creature import (
     read_source,
     world_point,
 )
+from tests.helpers import BASE, DATA
 
-DATA = Path(__file__).parent / "data"
-ROOT = Path(__file__).parent.parent
 PER_DEG = 180 / math.pi
 
 
@@ -163,48 +156,29 @@ def test_default_inertia_of_triangle_ignores_explicit_com():
     assert k.com == (0.0, 0.0)
 
 
+def test_hidden_nodes_default_to_one_per_sensor_and_zero_means_none():
+    assert loads(BASE).n_hidden == 2  # two sensors, no [san] table
+    assert loads(BASE + "[san]\nhidden = 5\n").n_hidden == 5
+    assert loads(BASE + "[san]\nhidden = 0\n").n_hidden == 0
+
+
+def test_the_format_and_the_spec_share_defaults_and_vocabularies():
+    from sanlab.creature import _toml, spec
+
+    assert tuple(_toml.TERRAIN) == spec.TERRAIN_KINDS
+    c = loads(BASE)  # no [world], [san], [evaluation], dt: all defaults
+    assert (c.world, c.san, c.evaluation, c.dt) == (spec.World(), spec.SanConfig(), spec.Evaluation(), 1e-3)
+    c = loads(BASE + "[world]\n[san]\n[evaluation]\n")  # empty tables: the same defaults
+    assert (c.world, c.san, c.evaluation) == (spec.World(), spec.SanConfig(), spec.Evaluation())
+    assert c.links[0].drag and not c.links[0].fixed and c.links[0].position == (0.0, 0.0)
+
+
 def test_point_mass_defaults():
     k = loads(_one('shape = "point"\nposition = [1, 2]')).links[0]
     assert (k.inertia, k.com, k.position) == (0.0, (0.0, 0.0), (1.0, 2.0))
     assert k.contacts == ((0.0, 0.0),)
 
 
-BASE = """\
-[[links]]
-name = "L1"
-mass = 0.1
-shape = "segment"
-points = [[0, 0], [0.2, 0]]
-angle_deg = 90
-
-[[links]]
-name = "L2"
-mass = 0.1
-shape = "segment"
-points = [[0, 0], [0.2, 0]]
-parent = "L1"
-anchor = [0.2, 0]
-angle_deg = -45
-
-[[sensors]]
-type = "touch"
-link = "L1"
-contact = 0
-
-[[sensors]]
-type = "angle"
-link = "L2"
-min_deg = -90
-max_deg = 45
-
-[[actuators]]
-type = "angular"
-joint = "L2"
-min_deg = -90
-max_deg = 90
-ks = 0.002
-kd = 0.0002
-"""
 
 
 def sub(old: str, new: str, n: int = 0) -> str:
@@ -306,57 +280,3 @@ def test_error_names_the_file(tmp_path):
     good.write_text(BASE)
     assert load(str(good)).name == "walker2"  # name defaults to the file stem
     assert read_source(good)[1] == str(good.resolve())
-
-
-# --- CLI -------------------------------------------------------------------------------------
-
-runner = CliRunner()
-
-
-@pytest.mark.parametrize("name, dofs", [("cart", 4), ("bounder", 7)])
-def test_check_builtin(name, dofs):
-    r = runner.invoke(app, ["check", name])
-    assert r.exit_code == 0, r.output
-    assert name in r.stdout and f"{dofs} degrees of freedom" in r.stdout and "angular" in r.stdout
-
-
-def test_check_file_shows_counts():
-    r = runner.invoke(app, ["check", str(DATA / "kitchen_sink.toml")])
-    assert r.exit_code == 0, r.output
-    assert "horizontal" in r.stdout and "linear 1" in r.stdout and "eye 2" in r.stdout
-
-
-def _cli(*args, cwd):
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.run(
-        [sys.executable, "-m", "sanlab", *args], capture_output=True, text=True, cwd=cwd, env=env
-    )
-
-
-def test_check_bad_file_subprocess(tmp_path):
-    (tmp_path / "bad.toml").write_text(BASE.replace('link = "L1"', 'link = "L3"'))
-    r = _cli("check", "bad.toml", cwd=tmp_path)
-    assert r.returncode == 2
-    line = "bad.toml: sensors[0].link: expected one of the link names ['L1', 'L2'], got 'L3'"
-    assert r.stderr == line + "\n"
-    assert "Traceback" not in r.stderr + r.stdout
-    r = _cli("check", "missing.toml", cwd=tmp_path)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "missing.toml" in r.stderr
-    assert "Traceback" not in r.stderr
-
-
-def test_creatures_json():
-    r = runner.invoke(app, ["creatures", "--json"])
-    assert r.exit_code == 0, r.output
-    rows = {row["name"]: row for row in json.loads(r.stdout)}
-    assert rows["cart"] == {"name": "cart", "links": 2, "sensors": 6, "actuators": 1, "hidden": 5}
-    assert rows["bounder"] == dict(name="bounder", links=5, sensors=8, actuators=4, hidden=8)
-    r = runner.invoke(app, ["creatures"])
-    assert r.exit_code == 0 and "bounder" in r.stdout
-
-
-def test_cli_does_not_import_jax():
-    code = "import sys, sanlab.cli; print('jax' in sys.modules)"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert r.stdout.strip() == "False", r.stderr

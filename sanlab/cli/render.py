@@ -11,6 +11,9 @@ current directory: ``<run>_<rank>.gif``, ``<run>_top<N>.png``, ``<run>_<plot>.pn
 
 :func:`render_top` writes a run's best gaits (GIF + strobe PNG each, and a contact sheet) into a
 directory, for ``sanlab search --render DIR`` and ``sanlab tune --render DIR``.
+
+This is where the gait library meets the drawing code: gaits and runs are read here and handed
+to ``sanlab.render`` as scenes, scores and traces (``sanlab.render`` reads no library).
 """
 
 from __future__ import annotations
@@ -18,19 +21,22 @@ from __future__ import annotations
 import math
 import os
 import time
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich.markup import escape
+
+from sanlab import configure
+from sanlab.cli._common import DbOpt, console, fail, open_library
+
+if TYPE_CHECKING:
+    from sanlab.gait import Gait
+    from sanlab.library import Evaluation, Library, Run
+    from sanlab.render.scene import Scene
 
 ANIMATIONS = (".gif", ".mp4")
 PLOTS = ("scores", "trace")
 DEFAULT_WIDTH = {".gif": 640, ".mp4": 640, "strobe": 1000, "sheet": 1200, "plot": 0}
-
-
-def _fail(message: str) -> typer.Exit:
-    from sanlab.cli import fail
-
-    return fail(message)
 
 
 def _is_gait(target: str) -> bool:
@@ -41,13 +47,15 @@ def _speed(x: float) -> str:
     return "" if not math.isfinite(x) else f", {x:.1f} cm/s"
 
 
-def _gait_label(rank: int | None, gait) -> str:
+def _gait_label(rank: int | None, gait: Gait) -> str:
     speed = "" if not math.isfinite(gait.speed_cm_s) else f" {gait.speed_cm_s:.1f} cm/s"
     return (f"rank {rank}   " if rank else "") + f"{gait.gait_id}  {speed}"
 
 
-def gait_scene(library, gait_id: str, seconds: float | None = None, fps: float = 30.0):
-    """(evaluation, gait, scene) of ``gait_id`` (RUN/RANK or RUN#IDX)."""
+def gait_scene(library: Library, gait_id: str, seconds: float | None = None,
+               fps: float = 30.0) -> tuple[Evaluation, Gait, Scene]:
+    """(evaluation, gait, scene) of ``gait_id`` (RUN/RANK or RUN#IDX): the gait replayed for
+    ``seconds`` (default: its run's) at ``fps`` frames per second. Raises LibraryError."""
     from sanlab.gait import Gait
     from sanlab.render.scene import gait_title, scene
 
@@ -56,7 +64,7 @@ def gait_scene(library, gait_id: str, seconds: float | None = None, fps: float =
     return ev, gait, scene(gait, seconds, fps, gait_title(gait, ev.rank))
 
 
-def render_top(library, run_id: str, out_dir: str, top: int = 10, fps: float = 30.0, width: int = 640,
+def render_top(library: Library, run_id: str, out_dir: str, top: int = 10, fps: float = 30.0, width: int = 640,
                seconds: float | None = None, nodes: bool = False) -> list[str]:
     """Write each of the run's ``top`` best gaits as ``<run>_<rank>.gif`` (animation) and
     ``<run>_<rank>.png`` (strobe) into ``out_dir`` (created if needed), and a contact sheet
@@ -81,7 +89,16 @@ def render_top(library, run_id: str, out_dir: str, top: int = 10, fps: float = 3
     return written
 
 
-def _sheet_title(library, run, n: int) -> str:
+def render_into(lib: Library, run_ids: list[str], out_dir: str, top: int, quiet: bool) -> None:
+    """``--render DIR`` of search and tune: :func:`render_top` of each run, then one summary line
+    (unless ``quiet``)."""
+    os.makedirs(out_dir, exist_ok=True)
+    paths = [p for rid in run_ids for p in render_top(lib, rid, out_dir, top=top)]
+    if not quiet:
+        console.print(f"rendered {len(paths)} files into {escape(out_dir)}")
+
+
+def _sheet_title(library: Library, run: Run, n: int) -> str:
     metric = run.params.get("metric", "?")
     return f"run {run.run_id}: {run.creature}, best {n} of {library.count(run.run_id)} ({metric})"
 
@@ -93,37 +110,34 @@ def render(
     fps: Annotated[float, typer.Option(min=1.0, max=100.0, help="Frames recorded (and played) per second.")] = 30.0,
     width: Annotated[int | None, typer.Option(min=64, max=4096, help="Picture width in pixels; default 640 (animation), 1000 (strobe), 1200 (sheet).")] = None,
     top: Annotated[int, typer.Option(min=1, max=60, help="Gaits on a run's contact sheet.")] = 10,
-    db: Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)] = "sanlab.db",
+    db: DbOpt = "sanlab.db",
     nodes: Annotated[bool, typer.Option("--nodes/--no-nodes", help="Add a panel of the SAN's sensor and node outputs over time.")] = False,
     plot: Annotated[str | None, typer.Option("--plot", help="With a run id: scores (sorted phase-1 scores) or trace (tuning score per trial).")] = None,
     camera: Annotated[str, typer.Option(help="Animation camera: auto (follow only if the trajectory does not fit), follow, or fixed.")] = "auto",
 ) -> None:
     """Draw gaits: animations (.gif/.mp4), strobe pictures and contact sheets (.png), plots."""
-    from sanlab.library import Library, LibraryError
+    from sanlab.library import LibraryError
 
     gait = _is_gait(target)
     if plot is not None and plot not in PLOTS:
-        raise _fail(f"--plot: expected scores or trace, got {plot!r}")
+        raise fail(f"--plot: expected scores or trace, got {plot!r}")
     if plot is not None and gait:
-        raise _fail(f"--plot takes a run id, not a gait ({target!r})")
+        raise fail(f"--plot takes a run id, not a gait ({target!r})")
     if camera not in ("auto", "follow", "fixed"):
-        raise _fail(f"--camera: expected auto, follow or fixed, got {camera!r}")
+        raise fail(f"--camera: expected auto, follow or fixed, got {camera!r}")
     if out is not None:
         ext = os.path.splitext(out)[1].lower()
         allowed = (*ANIMATIONS, ".png") if gait and plot is None else (".png",)
         if ext not in allowed:
             what = "an animation (.gif, .mp4) or a strobe picture (.png)" if len(allowed) > 1 else (
                 "a plot" if plot else "a contact sheet") + " (.png)"
-            raise _fail(f"--out {out}: unknown kind {ext or '(no extension)'!r}; expected {what}")
+            raise fail(f"--out {out}: unknown kind {ext or '(no extension)'!r}; expected {what}")
         folder = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(folder):
-            raise _fail(f"--out {out}: directory {folder} does not exist")
-    if not os.path.exists(db):
-        raise _fail(f"{db}: no such gait library (give --db PATH)")
-    try:
-        lib = Library(db)
-    except LibraryError as e:
-        raise _fail(str(e)) from None
+            raise fail(f"--out {out}: directory {folder} does not exist")
+    lib = open_library(db)
+    if plot is None:
+        configure()  # before the replay's first JAX call
     try:
         if plot is not None:
             _render_plot(lib, target, plot, out)
@@ -132,14 +146,15 @@ def render(
         else:
             _render_sheet(lib, target, out, seconds, fps, width, top)
     except LibraryError as e:
-        raise _fail(str(e)) from None
+        raise fail(str(e)) from None
     except ValueError as e:
-        raise _fail(f"render: {e}") from None
+        raise fail(f"render: {e}") from None
     finally:
         lib.close()
 
 
-def _render_gait(lib, target, out, seconds, fps, width, nodes, camera) -> None:
+def _render_gait(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,
+                 width: int | None, nodes: bool, camera: str) -> None:
     from sanlab.render.film import animate
     from sanlab.render.strobe import write_strobe
 
@@ -164,7 +179,8 @@ def _render_gait(lib, target, out, seconds, fps, width, nodes, camera) -> None:
                f"{about}; simulated in {t1 - t0:.1f} s, drawn in {t2 - t1:.1f} s")
 
 
-def _render_sheet(lib, target, out, seconds, fps, width, top) -> None:
+def _render_sheet(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,
+                  width: int | None, top: int) -> None:
     from sanlab.render.strobe import contact_sheet, sheet_layout
 
     run = lib.get_run(target)
@@ -184,15 +200,15 @@ def _render_sheet(lib, target, out, seconds, fps, width, top) -> None:
                f"({lay['rows']} x {lay['cols']} tiles)")
 
 
-def _render_plot(lib, target, plot, out) -> None:
+def _render_plot(lib: Library, target: str, plot: str, out: str | None) -> None:
     from sanlab.render.plots import plot_scores, plot_trace
 
     run = lib.get_run(target)
     path = out or f"{run.run_id}_{plot}.png"
     if plot == "scores":
-        info = plot_scores(lib, run.run_id, path)
+        info = plot_scores(run, lib.scores(run.run_id), path)
         typer.echo(f"wrote {path}: {info['points']} sorted scores of run {run.run_id} (best {info['best']:.3f})")
     else:
-        info = plot_trace(lib, run.run_id, path)
+        info = plot_trace(run, lib.trace(run.run_id), path)
         typer.echo(f"wrote {path}: tuning trace of run {run.run_id}, {info['points']} trials, "
                    f"{info['accepted']} accepted")

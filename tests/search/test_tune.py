@@ -2,25 +2,18 @@
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from sanlab import creature
-from sanlab.creature import read_source
 from sanlab.gait import Gait
 from sanlab.library import Library
-from sanlab.search import run_search
 from sanlab.search.anneal import Anneal
 from sanlab.search.sga import SGA
 from sanlab.search.space import Space
 from sanlab.search.tune import TuneEvaluator, tune
-
-SANLAB = [sys.executable, "-m", "sanlab"]
 
 
 def test_the_bounder_has_the_papers_44_tunable_parameters():
@@ -135,15 +128,6 @@ def test_annealing_accepts_some_worse_changes_and_keeps_the_best():
     assert worse is not None
 
 
-@pytest.fixture(scope="module")
-def bounder_run(tmp_path_factory):
-    db = tmp_path_factory.mktemp("tune") / "gaits.db"
-    text, where = read_source("bounder")
-    with Library(str(db)) as lib:
-        run_id = run_search(lib, text, where, controllers=64, seconds=2.0, seed=1, batch=64)
-    return db, run_id
-
-
 def test_tuning_a_phase1_gait_improves_it_and_is_stored_with_its_parent(bounder_run):
     db, run_id = bounder_run
     with Library(str(db)) as lib:
@@ -205,16 +189,3 @@ def test_terrain_scores_differ_from_flat_ground(bounder_run):
     assert flat["score"][0] != rough["score"][0]
     with pytest.raises(ValueError, match="terrain"):
         TuneEvaluator(g.spec, space, metric="distance", seconds=2.0, terrain="moon")
-
-
-def test_tune_cli_json(bounder_run):
-    db, run_id = bounder_run
-    r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "5", "--batch", "64",
-                                 "--db", str(db), "--json"], capture_output=True, text=True, check=True)
-    out = json.loads(r.stdout)
-    assert set(out) == {"gait", "tuned_gait", "before", "after", "trials"}
-    assert out["trials"] == 5 and out["after"]["score"] >= out["before"]["score"]
-    assert set(out["before"]) == {"score", "speed_cm_s"}
-    bad = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "newton", "--db", str(db)],
-                         capture_output=True, text=True)
-    assert bad.returncode == 2 and "Traceback" not in bad.stderr

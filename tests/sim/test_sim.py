@@ -133,12 +133,11 @@ def test_energy_function_against_hand_formulas():
 
 
 def random_sans(spec, B, seed):
-    S, A = len(spec.sensors), len(spec.actuators)
-    H = spec.san.hidden or S
+    san = San.for_creature(spec)
     rng = np.random.default_rng(seed)
-    W = rng.integers(-2, 3, (B, H + A, S + H + A)).astype(np.float32)
-    k1 = np.full((B, H + A), 1 / spec.san.delay_on, np.float32)
-    return San(S, H, A), SanParams(jnp.asarray(W), jnp.asarray(k1), jnp.asarray(-k1))
+    W = rng.integers(-2, 3, (B, san.n_nodes, san.n_inputs)).astype(np.float32)
+    k1 = np.full((B, san.n_nodes), 1 / spec.san.delay_on, np.float32)
+    return san, SanParams(jnp.asarray(W), jnp.asarray(k1), jnp.asarray(-k1))
 
 
 def take(p, idx):

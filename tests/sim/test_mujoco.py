@@ -1,9 +1,9 @@
 """sanlab's dynamics against MuJoCo, an independent rigid-body engine.
 
-The creature specs are converted with ``tests/mujoco_model.py``: the same bodies, masses, inertias,
+The creature specs are converted with ``sanlab.interop.mjcf``: the same bodies, masses, inertias,
 joints and generalised coordinates. sanlab's coordinates of a free tree are its centre of mass;
 MuJoCo's (and the converter's) are the root link's origin: ``sim.root_coordinates`` converts, and
-the converter's :func:`mujoco_model.qpos_index` maps the order.
+:func:`sanlab.interop.mjcf.qpos_index` maps the order.
 
 Without contacts both simulators integrate the same ODE M(q) q'' = f(q, q'). sanlab's step is its
 own (semi-implicit Euler in momentum form, see ``sanlab.sim.dynamics``), so it is checked against
@@ -30,9 +30,9 @@ mujoco = pytest.importorskip("mujoco")
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-import mujoco_model as mm  # noqa: E402
 from sanlab import sim  # noqa: E402
 from sanlab.creature.spec import Creature, Ground, JointSpring, Link, Shape, World  # noqa: E402
+from sanlab.interop import mjcf as mm  # noqa: E402
 
 REFERENCE_TOL = 1e-3  # rad: against MuJoCo RK4 (the continuous-time motion), double pendulum
 TUMBLE_TOL = 1e-2  # rad or m: the fast free-flight tumble, at dt = 1e-4
@@ -195,7 +195,7 @@ class _PoseObserver:
 def test_angle_convention_and_kinematics():
     """A positive sanlab angle turns x toward y; in MuJoCo's x-z plane it must turn x toward z.
     Link origins and absolute angles agree between sanlab's kinematics, the NumPy reference
-    (``mujoco_model.link_poses``) and MuJoCo at a random, far-from-zero pose."""
+    (``mjcf.link_poses``) and MuJoCo at a random, far-from-zero pose."""
     spec = tumbler()
     rng = np.random.default_rng(0)
     q = np.concatenate([[0.3, 1.7], rng.uniform(-2.5, 2.5, spec.dofs - 2)])

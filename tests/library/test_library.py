@@ -229,7 +229,7 @@ def test_gait_ids(tmp_path):
 
 
 def test_run_id_prefixes(tmp_path, monkeypatch):
-    import sanlab.library as library
+    import sanlab.library.store as library
 
     ids = iter(["3fa1c2d0", "3fa19e77", "8b000000"])
     monkeypatch.setattr(library.secrets, "token_hex", lambda n: next(ids))
@@ -252,7 +252,7 @@ def test_run_id_prefixes(tmp_path, monkeypatch):
 
 
 def test_run_id_collision_draws_again(tmp_path, monkeypatch):
-    import sanlab.library as library
+    import sanlab.library.store as library
 
     ids = iter(["aaaaaaaa", "aaaaaaaa", "bbbbbbbb"])
     monkeypatch.setattr(library.secrets, "token_hex", lambda n: next(ids))
@@ -481,3 +481,44 @@ def test_killed_writer_leaves_complete_batches(tmp_path):
         assert lib.done_indices(run_id) == set(range(n))
         assert lib.get_run(run_id).status == "running"
         assert lib._conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+# -- schema versions and error classes -----------------------------------------------------------
+
+
+def test_an_older_schema_is_upgraded_through_the_migration_seam(tmp_path, monkeypatch):
+    from sanlab.library import _schema
+
+    path = tmp_path / "g.db"
+    with Library(path) as lib:
+        run = new_run(lib)
+        lib.add_batch(run.run_id, [row(0, 1.5)])
+    monkeypatch.setattr(_schema, "SCHEMA_VERSION", SCHEMA_VERSION + 1)
+    monkeypatch.setattr(_schema, "MIGRATIONS", {})
+    with pytest.raises(LibraryError) as err:
+        Library(path)
+    assert_one_line(err, str(path), f"no upgrade from library schema version {SCHEMA_VERSION}")
+    step = lambda conn: conn.execute("ALTER TABLE runs ADD COLUMN note TEXT")
+    monkeypatch.setattr(_schema, "MIGRATIONS", {SCHEMA_VERSION: step})
+    with Library(path) as lib:
+        assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION + 1
+        assert [tuple(r) for r in lib._conn.execute("SELECT note FROM runs")] == [(None,)]
+        assert lib.gait(f"{run.run_id}/1").score == 1.5
+
+
+def test_sqlite_errors_are_told_apart_by_result_code(tmp_path):
+    from sanlab.library import errors
+
+    assert errors.is_busy("SQLITE_BUSY") and errors.is_busy("SQLITE_BUSY_SNAPSHOT")
+    assert errors.is_busy("SQLITE_LOCKED_SHAREDCACHE") and not errors.is_busy("SQLITE_BUSYX")
+    assert errors.is_duplicate("SQLITE_CONSTRAINT_PRIMARYKEY")
+    assert not errors.is_duplicate("SQLITE_CONSTRAINT_CHECK") and not errors.is_duplicate(None)
+    with Library(tmp_path / "g.db") as lib:
+        run = new_run(lib)
+        lib.add_trace(run.run_id, [{"trial": 0, "score": 1.0, "accepted": True}])
+        with pytest.raises(LibraryError) as err:
+            lib.add_trace(run.run_id, [{"trial": 1, "score": 1.0, "accepted": False},
+                                       {"trial": 0, "score": 2.0, "accepted": True}])
+        assert_one_line(err, "already has one of these trials")
+        assert err.value.sqlite_errorname == "SQLITE_CONSTRAINT_PRIMARYKEY"
+        assert [t.trial for t in lib.trace(run.run_id)] == [0]

@@ -1,7 +1,8 @@
-"""Convert a sanlab ``Creature`` into an MJCF model, so that MuJoCo can check the simulator.
+"""Export a sanlab ``Creature`` as an MJCF model, so that MuJoCo can check the simulator.
 
-The one copy of the converter: ``tests/test_mujoco.py`` and ``benchmarks/mujoco_route.py`` both
-import it. It needs only numpy (and mujoco to *load* the result); it never imports JAX.
+The one copy of the converter: the MuJoCo tests (``tests/sim/test_mujoco.py``) and
+``benchmarks/mujoco_route.py`` both use it. It needs only NumPy (and mujoco to *load* the result,
+:func:`load`); it never imports JAX. Export only: nothing reads MJCF into sanlab.
 
 Conventions (vertical plane only):
 
@@ -38,9 +39,13 @@ qvel address).
 from __future__ import annotations
 
 import math
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+
+from sanlab.creature.geometry import link_frames
+from sanlab.creature.spec import AngularActuator, Creature
 
 CONTACT_RADIUS = 1.0e-3  # m, radius of the spheres standing in for contact points
 
@@ -53,7 +58,7 @@ def _vec(*xs: float) -> str:
     return " ".join(_f(x) for x in xs)
 
 
-def joint_names(spec) -> list[str]:
+def joint_names(spec: Creature) -> list[str]:
     """MuJoCo joint name of each sanlab dof, in sanlab's dof order."""
     names = []
     for link in spec.links:
@@ -69,7 +74,7 @@ def joint_names(spec) -> list[str]:
 
 
 def to_mjcf(
-    spec,
+    spec: Creature,
     *,
     dt: float | None = None,
     integrator: str = "Euler",
@@ -175,6 +180,7 @@ def to_mjcf(
     if motors and spec.actuators:
         out.append("  <actuator>")
         for a in spec.actuators:
+            assert isinstance(a, AngularActuator)  # checked above: linear ones are refused
             jname = quoteattr(a.joint + ":joint")
             out.append(f'    <motor name={quoteattr(a.name)} joint={jname} gear="1"/>')
         out.append("  </actuator>")
@@ -182,64 +188,40 @@ def to_mjcf(
     return "\n".join(out) + "\n"
 
 
-def qpos_index(spec, mjmodel) -> np.ndarray:
+def qpos_index(spec: Creature, mjmodel) -> np.ndarray:
     """MuJoCo qpos (= qvel) address of each sanlab dof, in sanlab's dof order."""
     return np.array([mjmodel.joint(n).qposadr[0] for n in joint_names(spec)], dtype=np.int64)
 
 
-def rotation_dofs(spec) -> dict[str, int]:
+def rotation_dofs(spec: Creature) -> dict[str, int]:
     """sanlab dof index of each link's rotation (a root's absolute angle, else its joint angle);
     fixed roots have none."""
     out, k = {}, 0
     for link in spec.links:
-        if link.parent is None:
-            if not link.fixed:
-                out[link.name] = k + 2
-                k += 3
-        else:
-            out[link.name] = k
-            k += 1
+        if link.dofs in (1, 3):  # a joint angle, or a rigid root's (x, y, angle)
+            out[link.name] = k + link.dofs - 1
+        k += link.dofs
     return out
 
 
-def initial_q(spec) -> np.ndarray:
+def initial_q(spec: Creature) -> np.ndarray:
     """sanlab's initial generalised coordinates (the spec's pose), in sanlab's dof order."""
-    q = []
+    q: list[float] = []
     for link in spec.links:
-        if link.parent is None:
-            if not link.fixed:
-                q += [link.position[0], link.position[1], link.angle]
-        else:
-            q.append(link.angle)
+        own = [link.position[0], link.position[1], link.angle] if link.parent is None else [link.angle]
+        q += own[: link.dofs]
     return np.asarray(q, float)
 
 
-def link_poses(spec, q) -> tuple[np.ndarray, np.ndarray]:
-    """Forward kinematics from the spec's definitions, in NumPy: each link's frame origin [L, 2]
-    and absolute angle [L] at sanlab coordinates q."""
-    q = np.asarray(q, float)
-    names = {l.name: i for i, l in enumerate(spec.links)}
-    X = np.zeros((len(spec.links), 2))
-    th = np.zeros(len(spec.links))
-    k = 0
-    for i, link in enumerate(spec.links):
-        if link.parent is None:
-            if link.fixed:
-                X[i], th[i] = link.position, link.angle
-            else:
-                X[i], th[i] = q[k : k + 2], q[k + 2]
-                k += 3
-        else:
-            j = names[link.parent]
-            c, s = math.cos(th[j]), math.sin(th[j])
-            ax, ay = link.anchor
-            X[i] = X[j] + (c * ax - s * ay, s * ax + c * ay)
-            th[i] = th[j] + q[k]
-            k += 1
-    return X, th
+def link_poses(spec: Creature, q) -> tuple[np.ndarray, np.ndarray]:
+    """Forward kinematics from the spec's definitions (``creature.geometry.link_frames``): each
+    link's frame origin [L, 2] (m) and absolute angle [L] (rad) at sanlab coordinates q [D]."""
+    frames = link_frames(spec.links, np.asarray(q, float).tolist())
+    pose = np.array([frames[link.name] for link in spec.links], float).reshape(-1, 3)
+    return pose[:, :2], pose[:, 2]
 
 
-def com_positions(spec, q) -> np.ndarray:
+def com_positions(spec: Creature, q) -> np.ndarray:
     """World position of each link's centre of mass [L, 2] at sanlab coordinates q."""
     X, th = link_poses(spec, q)
     com = np.array([l.com for l in spec.links], float)
@@ -247,31 +229,32 @@ def com_positions(spec, q) -> np.ndarray:
     return X + np.stack([c * com[:, 0] - s * com[:, 1], s * com[:, 0] + c * com[:, 1]], 1)
 
 
-def potential_energy(spec, q) -> float:
+def potential_energy(spec: Creature, q) -> float:
     """Gravitational potential energy sum m g y_com (J, zero at y = 0) at sanlab coordinates q."""
     m = np.array([l.mass for l in spec.links], float)
     return float(spec.world.gravity * np.sum(m * com_positions(spec, q)[:, 1]))
 
 
-def set_state(spec, mjmodel, mjdata, q, qd=None) -> None:
+def set_state(spec: Creature, mjmodel, mjdata, q, qd=None) -> None:
     """Put sanlab coordinates q (and velocities qd, default 0) into ``mjdata``."""
     idx = qpos_index(spec, mjmodel)
     mjdata.qpos[idx] = np.asarray(q, float)
     mjdata.qvel[idx] = 0.0 if qd is None else np.asarray(qd, float)
 
 
-def get_q(spec, mjmodel, mjdata) -> tuple[np.ndarray, np.ndarray]:
+def get_q(spec: Creature, mjmodel, mjdata) -> tuple[np.ndarray, np.ndarray]:
     """MuJoCo's state as sanlab (q, qd)."""
     idx = qpos_index(spec, mjmodel)
     return mjdata.qpos[idx].copy(), mjdata.qvel[idx].copy()
 
 
-def load(spec, **kw):
+def load(spec: Creature, **kw: Any) -> tuple[Any, Any]:
     """(MjModel, MjData) of ``spec`` at its initial pose (``to_mjcf`` keyword arguments)."""
     import mujoco
 
-    m = mujoco.MjModel.from_xml_string(to_mjcf(spec, **kw))
-    d = mujoco.MjData(m)
+    mj: Any = mujoco  # compiled bindings: nothing a type checker can read
+    m = mj.MjModel.from_xml_string(to_mjcf(spec, **kw))
+    d = mj.MjData(m)
     set_state(spec, m, d, initial_q(spec))
-    mujoco.mj_forward(m, d)
+    mj.mj_forward(m, d)
     return m, d

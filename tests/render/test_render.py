@@ -1,60 +1,23 @@
-"""Rendering gaits: animations, strobe pictures, contact sheets, plots and the render command.
+"""Rendering gaits: animations, strobe pictures and the canvas, from scenes (data).
 
-One tiny seeded search on the cart (16 controllers, 1 s) makes the gait library; every replay
-uses the same duration and frame rate so that the rollout compiles once for the whole file.
+The scene is one gait of a tiny seeded search on the cart (the ``lib_run`` and ``scene1``
+fixtures in ``tests/conftest.py``); every replay uses the same duration and frame rate so that
+the rollout compiles once. The ``sanlab render`` command, contact sheets of a run and plots are
+tested in ``tests/cli/test_render.py``.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-import typer
 from PIL import Image
-from typer.testing import CliRunner
 
-from sanlab.creature import read_source
-from sanlab.library import Library
 from sanlab.render import draw, film, strobe
 from sanlab.render.canvas import PillowCanvas, View
-from sanlab.render.command import gait_scene, render, render_top
-from sanlab.render.plots import plot_scores, plot_trace
-from sanlab.search import run_search
+from tests.helpers import FPS
 
-FPS = 30.0
 # imageio-ffmpeg starts ffmpeg with subprocess (fork + exec), which JAX warns about: harmless here
 pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
-app = typer.Typer(add_completion=False, pretty_exceptions_enable=False)
-app.command()(render)
-
-
-@app.callback()
-def _main() -> None:
-    """A stand-in for the sanlab app: `render` as a subcommand."""
-
-
-runner = CliRunner()
-
-
-@pytest.fixture(scope="module")
-def lib_run(tmp_path_factory):
-    db = tmp_path_factory.mktemp("render") / "gaits.db"
-    text, where = read_source("cart")
-    with Library(str(db)) as lib:
-        run_id = run_search(lib, text, where, controllers=16, seconds=1.0, batch=16)
-    return str(db), run_id
-
-
-@pytest.fixture(scope="module")
-def scene1(lib_run):
-    db, run_id = lib_run
-    with Library(db) as lib:
-        return gait_scene(lib, f"{run_id}/1", None, FPS)[2]
-
-
-def cli(*args, cwd=None):
-    return runner.invoke(app, ["render", *args])
 
 
 def _close(pixel, color, tol=40) -> bool:
@@ -195,112 +158,6 @@ def test_strobe_draws_the_newest_pose_in_full(scene1, tmp_path):
     assert any(_near(img, u, v, oldest, tol=12) for u, v in _root_samples(scene1, 0, view))
 
 
-def test_contact_sheet_has_one_tile_per_gait(lib_run, tmp_path):
-    db, run_id = lib_run
-    out = tmp_path / "sheet.png"
-    r = cli(run_id, "--top", "5", "--out", str(out), "--db", db)
-    assert r.exit_code == 0, r.output
-    assert "contact sheet" in r.stdout and str(out) in r.stdout
-    lay = strobe.sheet_layout(5, 1200)
-    assert (lay["cols"], lay["rows"]) == (2, 3)
-    with Image.open(out) as im:
-        assert im.size == lay["size"]
-        img = np.asarray(im.convert("RGB")).astype(int)
-    for x0, y0, x1, y1 in lay["boxes"]:
-        tile = img[y0:y1, x0:x1]
-        label = tile[: lay["label"]]
-        pic = tile[lay["label"] :]
-        assert (np.abs(label - draw.TEXT).max(-1) < 60).sum() > 20  # the label is written
-        creature = [(np.abs(pic - c).max(-1) < 40).sum() for c in (draw.ROOT, draw.LIMBS[0])]
-        assert min(creature) > 30, creature  # both links of the newest pose are drawn
-    # the sixth slot of the 3 x 2 grid stays empty
-    tw, th = lay["tile"]
-    x0 = lay["boxes"][1][0]
-    y0 = lay["boxes"][4][1]
-    assert (np.abs(img[y0 : y0 + th, x0 : x0 + tw] - draw.GRID).max() == 0)
-
-
-# --------------------------------------------------------------------------- determinism
-
-
-def test_rendering_twice_gives_identical_files(lib_run, tmp_path):
-    db, run_id = lib_run
-    for ext in ("gif", "png", "mp4"):
-        a, b = tmp_path / f"a.{ext}", tmp_path / f"b.{ext}"
-        for path in (a, b):
-            r = cli(f"{run_id}/2", "--out", str(path), "--db", db, "--width", "320", "--nodes")
-            assert r.exit_code == 0, r.output
-        assert a.read_bytes() == b.read_bytes(), ext
-        assert a.stat().st_size > 1000
-
-
-# --------------------------------------------------------------------------- plots
-
-
-def test_plots_are_written(lib_run, tmp_path):
-    db, run_id = lib_run
-    with Library(db) as lib:
-        info = plot_scores(lib, run_id, str(tmp_path / "scores.png"))
-        assert info["points"] == 16 and info["best"] == pytest.approx(max(lib.scores(run_id)))
-        run = lib.get_run(run_id)
-        tune = lib.create_run("tune", run.creature, run.creature_text, {"metric": "distance"}, 0, 20,
-                              parent_gait=f"{run_id}/1")
-        rng = np.random.default_rng(0)
-        best, rows = 0.0, []
-        for k in range(20):
-            s = float(rng.uniform(0, 0.1))
-            rows.append({"trial": k, "score": s, "accepted": s > best})
-            best = max(best, s)
-        lib.add_trace(tune.run_id, rows)
-        info = plot_trace(lib, tune.run_id, str(tmp_path / "trace.png"))
-        assert info == {"path": str(tmp_path / "trace.png"), "points": 20, "accepted": sum(r["accepted"] for r in rows)}
-        with pytest.raises(ValueError, match="no tuning trace"):
-            plot_trace(lib, run_id, str(tmp_path / "none.png"))
-    for name in ("scores.png", "trace.png"):
-        with Image.open(tmp_path / name) as im:
-            im.load()
-            assert im.size[0] > 400 and im.size[1] > 200
-            assert len(np.unique(np.asarray(im.convert("RGB")).reshape(-1, 3), axis=0)) > 10  # not blank
-    r = cli(tune.run_id, "--plot", "trace", "--out", str(tmp_path / "t2.png"), "--db", db)
-    assert r.exit_code == 0 and "20 trials" in r.stdout, r.output
-    assert (tmp_path / "t2.png").read_bytes() == (tmp_path / "trace.png").read_bytes()
-
-
-# --------------------------------------------------------------------------- the command
-
-
-def test_default_output_name_and_summary(lib_run, tmp_path, monkeypatch):
-    db, run_id = lib_run
-    monkeypatch.chdir(tmp_path)
-    r = cli(f"{run_id}/1", "--db", db, "--width", "160")
-    assert r.exit_code == 0, r.output
-    assert (tmp_path / f"{run_id}_1.gif").exists()
-    assert r.stdout.count("\n") == 1 and f"{run_id}_1.gif" in r.stdout and "30 frames" in r.stdout
-
-
-@pytest.mark.parametrize(
-    "args, words",
-    [
-        (["{run}/99"], "no gait"),
-        (["{run}#999"], "no evaluation #999"),
-        (["nothex/1"], "malformed gait id"),
-        (["{run}/1", "--out", "x.jpg"], "unknown kind '.jpg'"),
-        (["{run}", "--out", "x.gif"], "contact sheet (.png)"),
-        (["{run}", "--plot", "nope"], "--plot: expected scores or trace"),
-        (["{run}/1", "--plot", "scores"], "--plot takes a run id"),
-        (["{run}", "--plot", "trace"], "no tuning trace"),
-        (["{run}/1", "--camera", "wobbly"], "--camera"),
-    ],
-)
-def test_bad_input_is_one_line_and_exit_2(lib_run, tmp_path, monkeypatch, args, words):
-    db, run_id = lib_run
-    monkeypatch.chdir(tmp_path)
-    r = cli(*[a.format(run=run_id) for a in args], "--db", db)
-    assert r.exit_code == 2, r.output
-    assert words in r.stderr and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
-    assert not list(tmp_path.iterdir())
-
-
 def test_too_short_to_record_a_frame_is_an_error():
     from types import SimpleNamespace
 
@@ -308,25 +165,6 @@ def test_too_short_to_record_a_frame_is_an_error():
 
     with pytest.raises(ValueError, match="too short to record a frame at 30 frames per second"):
         from_result(None, None, SimpleNamespace(frames=None), 30.0)
-
-
-def test_a_missing_library_is_not_created(tmp_path):
-    r = cli("abcd/1", "--db", str(tmp_path / "none.db"))
-    assert r.exit_code == 2 and "no such gait library" in r.stderr
-    assert not (tmp_path / "none.db").exists()
-
-
-def test_render_top_writes_gifs_strobes_and_a_sheet(lib_run, tmp_path):
-    db, run_id = lib_run
-    with Library(db) as lib:
-        paths = render_top(lib, run_id, str(tmp_path / "out"), top=2, fps=FPS, width=160)
-    names = [p.split("/")[-1] for p in paths]
-    assert names == [f"{run_id}_1.gif", f"{run_id}_1.png", f"{run_id}_2.gif", f"{run_id}_2.png", f"{run_id}_top2.png"]
-    for p in paths:
-        with Image.open(p) as im:
-            assert im.size[0] > 0
-    with Image.open(paths[0]) as im:
-        assert im.n_frames == math.floor(1000 / 33)
 
 
 def test_link_outlines_follow_tuned_length_scales(scene1):

@@ -1,0 +1,34 @@
+"""``sanlab reproduce``: the paper's Table 1 as a Markdown report (see ``sanlab.reproduce``)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from sanlab import configure
+from sanlab.cli._common import DbOpt, console, load_or_exit, open_library
+from sanlab.creature import builtin_names
+from sanlab.creature.table1 import TABLE1
+
+
+def reproduce(
+    creatures: Annotated[str | None, typer.Option(help="Comma-separated names (default: all of Table 1 that are built in).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
+    controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
+    trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
+    out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
+    db: DbOpt = "sanlab.db",
+) -> None:
+    """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report."""
+    configure()
+    from sanlab.reproduce import reproduce as run
+
+    names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
+    for n in names:
+        load_or_exit(n)
+    lib = open_library(db, create=True)
+    report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s))
+    with open(out, "w") as f:
+        f.write(report)
+    console.print(f"wrote {out}")

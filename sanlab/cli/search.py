@@ -1,0 +1,88 @@
+"""``sanlab search``: phase 1, random SANs into the gait library (resumable)."""
+
+from __future__ import annotations
+
+import json
+from typing import Annotated
+
+import typer
+
+from sanlab import configure
+from sanlab.cli._common import (
+    METRIC_HELP,
+    DbOpt,
+    DtypeOpt,
+    JsonOpt,
+    ProgressBar,
+    check_dtype,
+    console,
+    fail,
+    library_call,
+    load_or_exit,
+    open_library,
+    print_distribution,
+    print_top,
+    top_rows,
+)
+from sanlab.creature import read_source
+
+
+def search(
+    creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
+    controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
+    seconds: Annotated[float | None, typer.Option(min=0.001, help="Evaluation time (s); default: the creature file's.")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
+    metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
+    batch: Annotated[int, typer.Option(min=1, help="Controllers simulated (and committed) together.")] = 256,
+    dtype: DtypeOpt = "float32",
+    db: DbOpt = "sanlab.db",
+    resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
+    top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
+    render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits."""
+    configure()
+    from sanlab.search import run_search
+
+    check_dtype(dtype)
+    if (creature is None) == (resume is None):
+        raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
+    text = where = ""
+    if creature is not None:
+        load_or_exit(creature)
+        text, where = read_source(creature)
+    lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
+    bar = ProgressBar(console.is_terminal and not as_json)
+    run_id = resume
+
+    def report(p) -> None:
+        nonlocal run_id
+        run_id = p.run_id  # known from the first report on, so Ctrl-C names this run
+        bar.update(f"search {p.run_id}", p.evaluated, p.total, p.rate, p.best)
+
+    try:
+        with bar:
+            run_id = library_call(
+                lambda: run_search(
+                    lib, text, where, controllers=controllers, seconds=seconds, seed=seed,
+                    metric=metric, batch=batch, dtype=dtype, reporter=report, resume=resume,
+                )
+            )
+    except KeyboardInterrupt:
+        rid = lib.runs()[0].run_id if run_id is None else run_id
+        typer.echo(f"interrupted; resume with: sanlab search --resume {rid} --db {db}", err=True)
+        raise typer.Exit(130) from None
+    except ValueError as e:
+        raise fail(f"search: {e}") from None
+    rows = top_rows(lib, run_id, top)
+    if render_dir:
+        from sanlab.cli.render import render_into
+
+        render_into(lib, [run_id], render_dir, top, quiet=as_json)
+    if as_json:
+        typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
+        return
+    run = lib.get_run(run_id)
+    print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.params['metric']}")
+    print_distribution(lib.scores(run_id))

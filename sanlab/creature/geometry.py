@@ -1,0 +1,87 @@
+"""Plane geometry of creatures, in plain Python floats (SI units): mass properties of the link
+shapes and the kinematics of link frames.
+
+The loader takes a link's default centre of mass and inertia from :func:`mass_properties` and a
+spring's default rest length from :func:`link_frames`; the MuJoCo exporter
+(``sanlab.interop.mjcf``) takes its forward kinematics from :func:`link_frames` too. The simulator
+(``sanlab.sim``) has its own, compiled kinematics.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+from .spec import Creature, Link, Vec2
+
+Frame = tuple[float, float, float]  # a link frame in the world: origin x (m), y (m), angle (rad)
+
+
+def transform(frame: Frame, p: Vec2) -> Vec2:
+    """World position (m) of point ``p`` given in ``frame`` (m)."""
+    x, y, a = frame
+    c, s = math.cos(a), math.sin(a)
+    return (x + c * p[0] - s * p[1], y + s * p[0] + c * p[1])
+
+
+def polygon_moments(pts: Sequence[Vec2]) -> tuple[float, Vec2, float]:
+    """Shoelace: signed area (m^2), area centroid (m), and polar second moment of area about the
+    origin (m^4, with the sign of the area); all zero for a degenerate polygon."""
+    a = cx = cy = j = 0.0
+    pts = tuple(pts)
+    for (x0, y0), (x1, y1) in zip(pts, pts[1:] + pts[:1], strict=True):
+        c = x0 * y1 - x1 * y0
+        a += c
+        cx += (x0 + x1) * c
+        cy += (y0 + y1) * c
+        j += c * (x0 * x0 + x0 * x1 + x1 * x1 + y0 * y0 + y0 * y1 + y1 * y1)
+    a /= 2
+    if abs(a) < 1e-12:
+        return 0.0, (0.0, 0.0), 0.0
+    return a, (cx / (6 * a), cy / (6 * a)), j / 12
+
+
+def mass_properties(kind: str, pts: Sequence[Vec2], mass: float) -> tuple[Vec2, float]:
+    """Centre of mass (m, link frame) and inertia about it (kg m^2) of a uniform ``kind`` shape
+    ("segment": a thin rod, "polygon": a lamina, "point": a point mass) of ``mass`` (kg)."""
+    if kind == "segment":
+        (x0, y0), (x1, y1) = pts
+        return ((x0 + x1) / 2, (y0 + y1) / 2), mass * ((x1 - x0) ** 2 + (y1 - y0) ** 2) / 12
+    if kind == "polygon":
+        a, (cx, cy), j = polygon_moments(pts)
+        return (cx, cy), mass * (j / a - cx * cx - cy * cy)
+    return (0.0, 0.0), 0.0
+
+
+def link_frames(links: Iterable[Link], q: Sequence[float] | None = None) -> dict[str, Frame]:
+    """The world frame of every link (parents come before children in a creature).
+
+    q: generalised coordinates in the creature's dof order (each link's :attr:`Link.dofs`: a free
+    root's x, y (m) and angle (rad), a jointed link's joint angle (rad)); None: the initial pose
+    of the file (roots at ``position`` and ``angle``, joints at ``angle``).
+    """
+    frames: dict[str, Frame] = {}
+    k = 0
+    for link in links:
+        own = [float(v) for v in q[k : k + link.dofs]] if q is not None else None
+        k += link.dofs
+        if link.parent is None:
+            if own:  # a free root: x, y and, unless a point mass, its angle
+                frames[link.name] = (own[0], own[1], own[2] if len(own) == 3 else 0.0)
+            else:  # the initial pose, or a fixed root
+                frames[link.name] = (link.position[0], link.position[1], link.angle)
+        else:
+            parent = frames[link.parent]
+            x, y = transform(parent, link.anchor)
+            frames[link.name] = (x, y, parent[2] + (own[0] if own is not None else link.angle))
+    return frames
+
+
+def initial_frames(creature: Creature) -> dict[str, Frame]:
+    """World pose (x m, y m, angle rad) of every link's frame in the initial configuration."""
+    return link_frames(creature.links)
+
+
+def world_point(creature: Creature, link: str, at: Vec2 = (0.0, 0.0)) -> Vec2:
+    """Initial world position (m) of point ``at`` (link frame, m) of ``link``."""
+    return transform(initial_frames(creature)[link], at)

@@ -1,0 +1,192 @@
+"""The library file's schema: tables, header fields, and how an existing file is checked, created
+or upgraded when it is opened.
+
+A library is an SQLite file whose header says ``application_id`` = :data:`APPLICATION_ID` and
+``user_version`` = the schema version it was written with. Opening a file with an older schema
+version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is refused.
+"""
+
+from __future__ import annotations
+
+import codecs
+import os
+import sqlite3
+from collections.abc import Callable
+
+from sanlab.library.errors import LibraryError
+
+APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
+SCHEMA_VERSION = 1  # PRAGMA user_version
+
+RUN_KINDS = ("search", "tune", "import")
+RUN_STATUSES = ("running", "done", "interrupted")
+
+DDL = (
+    """
+    CREATE TABLE runs (
+        run_id         TEXT PRIMARY KEY,
+        kind           TEXT NOT NULL CHECK (kind IN ('search', 'tune', 'import')),
+        created        TEXT NOT NULL,           -- ISO 8601, UTC
+        creature       TEXT NOT NULL,           -- creature name
+        creature_text  TEXT NOT NULL,           -- the creature file, verbatim
+        creature_hash  TEXT NOT NULL,           -- sha256 hex of creature_text (UTF-8)
+        params         TEXT NOT NULL,           -- JSON object: everything about the run
+        seed           INTEGER,
+        sanlab_version TEXT NOT NULL,
+        device         TEXT,
+        dtype          TEXT,
+        status         TEXT NOT NULL CHECK (status IN ('running', 'done', 'interrupted')),
+        parent_gait    TEXT,                    -- 'RUN#IDX' a tuning run starts from
+        total          INTEGER NOT NULL CHECK (total >= 0)  -- evaluations planned
+    )
+    """,
+    "CREATE INDEX runs_by_created ON runs (created)",
+    "CREATE INDEX runs_by_creature ON runs (creature_hash)",
+    """
+    CREATE TABLE evaluations (
+        run_id     TEXT NOT NULL REFERENCES runs (run_id) ON DELETE CASCADE,
+        idx        INTEGER NOT NULL CHECK (idx >= 0),
+        encoding   TEXT NOT NULL,               -- printable controller encoding
+        params     TEXT NOT NULL,               -- JSON object: node delays etc.
+        score      REAL,                        -- NULL when the score was NaN
+        speed_cm_s REAL,
+        fell       INTEGER NOT NULL CHECK (fell IN (0, 1)),
+        nonfinite  INTEGER NOT NULL CHECK (nonfinite IN (0, 1)),
+        extra      TEXT,                        -- JSON object or NULL
+        parent     TEXT,                        -- 'RUN#IDX' of the gait this one was tuned from
+        PRIMARY KEY (run_id, idx)
+    )
+    """,
+    # Serves top() and gait('RUN/RANK') without sorting the run's evaluations.
+    "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, idx)",
+    """
+    CREATE TABLE trace (
+        run_id   TEXT NOT NULL REFERENCES runs (run_id) ON DELETE CASCADE,
+        trial    INTEGER NOT NULL CHECK (trial >= 0),
+        score    REAL,
+        accepted INTEGER NOT NULL CHECK (accepted IN (0, 1)),
+        PRIMARY KEY (run_id, trial)
+    ) WITHOUT ROWID
+    """,
+)
+TABLES = ("runs", "evaluations", "trace")
+
+# MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction (schema
+# version 2 adds its step here as MIGRATIONS[1]); DDL always creates the newest schema directly.
+Migration = Callable[[sqlite3.Connection], None]
+MIGRATIONS: dict[int, Migration] = {}
+
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def check_file(path: str) -> None:
+    """Refuse, before SQLite sees it, anything that cannot be a library at ``path``.
+
+    A missing file is fine (it will be created) if its directory exists; so is an empty file.
+    Raises LibraryError otherwise, naming ``path``.
+    """
+    if path == ":memory:" or path.startswith("file:"):
+        return
+    if os.path.isdir(path):
+        raise LibraryError(f"{path}: is a directory, not a gait library")
+    if not os.path.exists(path):
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise LibraryError(f"{path}: cannot create a gait library there: "
+                               f"directory {folder} does not exist")
+        return
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError as e:
+        raise LibraryError(f"{path}: cannot read: {e.strerror or e}") from None
+    if head and not head.startswith(_SQLITE_MAGIC):  # an empty file becomes a new library
+        what = "it is a text file" if _looks_like_text(head) else "unrecognised binary content"
+        raise LibraryError(f"{path}: not a database file ({what})")
+
+
+def open_schema(conn: sqlite3.Connection, path: str) -> None:
+    """Make ``conn`` (autocommit mode) ready to use: create the schema in an empty file, upgrade
+    an older one, refuse a foreign, newer or damaged one (LibraryError naming ``path``); then set
+    WAL journaling, ``synchronous = NORMAL`` and foreign keys."""
+    app_id = conn.execute("PRAGMA application_id").fetchone()[0]
+    version = conn.execute("PRAGMA user_version").fetchone()[0]
+    if app_id == 0 and version == 0 and _is_empty(conn):
+        _create(conn)
+    elif app_id != APPLICATION_ID:
+        raise LibraryError(f"{path}: not a sanlab gait library "
+                           "(it is an SQLite database of another application)")
+    elif version > SCHEMA_VERSION:
+        raise LibraryError(f"{path}: written by a newer sanlab (library schema version "
+                           f"{version}; this sanlab reads up to {SCHEMA_VERSION})")
+    elif version < 1:
+        raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
+    elif version < SCHEMA_VERSION:
+        _upgrade(conn, path)
+    missing = [t for t in TABLES if not _has_table(conn, t)]
+    if missing:
+        raise LibraryError(f"{path}: damaged sanlab gait library (missing table {missing[0]!r})")
+    # WAL is persistent in the file; setting it again would need a lock a writer may hold.
+    if conn.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
+        conn.execute("PRAGMA journal_mode = WAL")
+    conn.execute("PRAGMA synchronous = NORMAL")  # with WAL: durable against process crashes
+    conn.execute("PRAGMA foreign_keys = ON")
+
+
+def _create(conn: sqlite3.Connection) -> None:
+    conn.execute("PRAGMA journal_mode = WAL")
+    with _transaction(conn):
+        # Another process may have created the library since we looked.
+        if _is_empty(conn):
+            for statement in DDL:
+                conn.execute(statement)
+            # Header fields are transactional: a library is either complete or absent.
+            conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+            conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+
+
+def _upgrade(conn: sqlite3.Connection, path: str) -> None:
+    with _transaction(conn):
+        # Read again under the write lock: another process may have upgraded it meanwhile.
+        version = conn.execute("PRAGMA user_version").fetchone()[0]
+        for v in range(version, SCHEMA_VERSION):
+            if v not in MIGRATIONS:
+                raise LibraryError(f"{path}: no upgrade from library schema version {v}")
+            MIGRATIONS[v](conn)
+        conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+
+
+class _transaction:
+    """BEGIN IMMEDIATE ... COMMIT, or ROLLBACK on any exception (``conn`` in autocommit mode)."""
+
+    def __init__(self, conn: sqlite3.Connection):
+        self.conn = conn
+
+    def __enter__(self) -> sqlite3.Connection:
+        self.conn.execute("BEGIN IMMEDIATE")
+        return self.conn
+
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is None:
+            self.conn.execute("COMMIT")
+        elif self.conn.in_transaction:
+            self.conn.execute("ROLLBACK")
+
+
+def _looks_like_text(head: bytes) -> bool:
+    if b"\x00" in head:
+        return False
+    try:
+        codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def _is_empty(conn: sqlite3.Connection) -> bool:
+    return conn.execute("SELECT count(*) FROM sqlite_schema").fetchone()[0] == 0
+
+
+def _has_table(conn: sqlite3.Connection, name: str) -> bool:
+    return conn.execute("SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = ?",
+                        (name,)).fetchone() is not None

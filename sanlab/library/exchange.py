@@ -1,0 +1,85 @@
+"""The gait exchange format: one gait as a self-contained JSON object (``sanlab export`` and
+``sanlab import``), versioned on its own (:data:`GAIT_FORMAT_VERSION`), independently of the
+library's schema.
+
+Fields: ``format`` ("sanlab-gait"), ``version``, ``source`` (the exported ``RUN#IDX``),
+``creature``, ``creature_text`` (the creature file, verbatim), ``creature_hash`` (its SHA-256),
+``encoding``, ``params``, ``score``, ``speed_cm_s``, ``fell``, ``nonfinite``, ``extra``,
+``run_params`` (the source run's settings), ``dtype`` and ``sanlab_version``. Strict JSON: NaN and
+infinities are written as null.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sanlab.library._values import sha256, strict_json
+from sanlab.library.errors import LibraryError
+from sanlab.library.records import Evaluation, Run
+
+GAIT_FORMAT = "sanlab-gait"
+GAIT_FORMAT_VERSION = 1
+
+
+def export_record(run: Run, ev: Evaluation) -> dict:
+    """The exchange object of evaluation ``ev`` of ``run``."""
+    return strict_json({
+        "format": GAIT_FORMAT,
+        "version": GAIT_FORMAT_VERSION,
+        "source": ev.gait_id,
+        "creature": run.creature,
+        "creature_text": run.creature_text,
+        "creature_hash": run.creature_hash,
+        "encoding": ev.encoding,
+        "params": ev.params,
+        "score": ev.score,
+        "speed_cm_s": ev.speed_cm_s,
+        "fell": ev.fell,
+        "nonfinite": ev.nonfinite,
+        "extra": ev.extra,
+        "run_params": run.params,
+        "dtype": run.dtype,
+        "sanlab_version": run.sanlab_version,
+    })
+
+
+def validate_gait(data: Any) -> dict:
+    """``data`` if it is a well-formed exported gait; a LibraryError naming the first fault."""
+    if not isinstance(data, dict):
+        raise LibraryError(f"not a sanlab gait: expected a JSON object, got {type(data).__name__}")
+    if data.get("format") != GAIT_FORMAT:
+        raise LibraryError(f"not a sanlab gait: 'format' is {data.get('format')!r}, "
+                           f"expected {GAIT_FORMAT!r}")
+    version = data.get("version")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise LibraryError(f"bad sanlab gait: 'version' must be a positive integer, "
+                           f"not {version!r}")
+    if version > GAIT_FORMAT_VERSION:
+        raise LibraryError(f"sanlab gait format version {version} is newer than this sanlab "
+                           f"reads ({GAIT_FORMAT_VERSION})")
+    number = (int, float)
+    fields = {  # name: (accepted types, required)
+        "creature": (str, True), "creature_text": (str, True), "encoding": (str, True),
+        "params": (dict, True), "score": (number + (type(None),), True),
+        "speed_cm_s": (number + (type(None),), True), "fell": (bool, True),
+        "run_params": (dict, True), "nonfinite": (bool, False),
+        "extra": ((dict, type(None)), False), "source": ((str, type(None)), False),
+        "creature_hash": (str, False), "dtype": ((str, type(None)), False),
+        "sanlab_version": ((str, type(None)), False),
+    }
+    for name, (types, required) in fields.items():
+        if name not in data:
+            if required:
+                raise LibraryError(f"bad sanlab gait: missing field {name!r}")
+            continue
+        value = data[name]
+        bad_bool = isinstance(value, bool) and types is not bool
+        if bad_bool or not isinstance(value, types):
+            raise LibraryError(f"bad sanlab gait: field {name!r} has the wrong type "
+                               f"({type(value).__name__})")
+    if not data["encoding"].strip():
+        raise LibraryError("bad sanlab gait: field 'encoding' is empty")
+    if "creature_hash" in data and data["creature_hash"] != sha256(data["creature_text"]):
+        raise LibraryError("bad sanlab gait: 'creature_hash' does not match 'creature_text' "
+                           "(was the creature text edited?)")
+    return data

@@ -1,0 +1,60 @@
+"""Gait ids: the one grammar for naming runs and gaits.
+
+- ``RUN`` — a run: its 8 hex digits, or any unambiguous prefix (as with git commits).
+- ``RUN/RANK`` — the RANK-th best evaluation of the run (1 = best), e.g. ``3fa1c2d0/1``. Ranks
+  move while a run is still adding evaluations.
+- ``RUN#IDX`` — the evaluation with index IDX, e.g. ``3fa1c2d0#17``. Permanent; this is the form
+  stored in references (``Run.parent_gait``, ``Evaluation.parent``, exports).
+
+Ids are case-insensitive and stored in lower case.
+"""
+
+from __future__ import annotations
+
+import re
+import sqlite3
+from typing import Any
+
+from sanlab.library.errors import LibraryError
+
+_RUN_REF = re.compile(r"[0-9a-f]+")
+_GAIT_ID = re.compile(r"([0-9a-f]+)(?:/(\d+)|#(\d+))")
+_PERMANENT = re.compile(r"[0-9a-f]+#\d+")
+
+
+def parse_gait_id(gait_id: Any) -> tuple[str, int | None, int | None]:
+    """(run reference, rank, idx) of ``RUN/RANK`` or ``RUN#IDX``: exactly one of rank and idx is
+    set. Raises LibraryError for anything else."""
+    m = _GAIT_ID.fullmatch(gait_id.strip().lower()) if isinstance(gait_id, str) else None
+    if m is None:
+        raise LibraryError(f"malformed gait id {gait_id!r}: expected RUN/RANK (e.g. 3fa1c2d0/1, "
+                           "1 = best) or RUN#IDX (e.g. 3fa1c2d0#17)")
+    run_ref, rank, idx = m.group(1), m.group(2), m.group(3)
+    if rank is not None:
+        if int(rank) < 1:
+            raise LibraryError(f"malformed gait id {gait_id!r}: ranks start at 1 (the best)")
+        return run_ref, int(rank), None
+    return run_ref, None, int(idx)
+
+
+def is_permanent(gait_id: Any) -> bool:
+    """Whether ``gait_id`` is a permanent gait id ``RUN#IDX`` (lower case)."""
+    return isinstance(gait_id, str) and _PERMANENT.fullmatch(gait_id) is not None
+
+
+def resolve_run(conn: sqlite3.Connection, ref: str, path: str) -> str:
+    """The full run id in the library at ``path`` (for messages) for an exact run id or an
+    unambiguous prefix. Raises LibraryError if there is none or several."""
+    key = str(ref).strip().lower()
+    if not _RUN_REF.fullmatch(key):
+        raise LibraryError(f"no run {ref!r} in {path}")
+    ids = [r[0] for r in conn.execute(
+        "SELECT run_id FROM runs WHERE run_id GLOB ? ORDER BY run_id LIMIT 6", (key + "*",))]
+    if key in ids:
+        return key
+    if not ids:
+        raise LibraryError(f"no run {ref!r} in {path}")
+    if len(ids) > 1:
+        shown = ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "")
+        raise LibraryError(f"run id {ref!r} is ambiguous in {path}: it matches {shown}")
+    return ids[0]

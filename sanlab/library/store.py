@@ -1,0 +1,403 @@
+"""The gait library's store: runs, their evaluated controllers and tuning traces in one SQLite
+file (see :class:`Library` for what it guarantees)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+import sqlite3
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import datetime, timezone
+from typing import Any
+
+from sanlab import __version__
+from sanlab.library import _schema, errors
+from sanlab.library._values import as_float, index, integer, real, sha256, to_json
+from sanlab.library.errors import LibraryError
+from sanlab.library.exchange import export_record, validate_gait
+from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
+from sanlab.library.records import Evaluation, Run, TracePoint
+
+DEFAULT_PATH = "sanlab.db"
+
+# Best first; non-finite ones (and NaN scores, stored as NULL, which sort last under DESC) last.
+_RANK_ORDER = "nonfinite ASC, score DESC, idx ASC"
+_RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) "
+               "AS n FROM runs r")
+
+_ROW_KEYS = {"idx", "encoding", "params", "score", "speed_cm_s", "fell", "nonfinite", "extra",
+             "parent"}
+_ROW_REQUIRED = {"idx", "encoding", "score"}
+
+
+class Library:
+    """A gait library file; ``with Library(path) as lib: ...``.
+
+    A search (paper §5.2) or a tuning run (§5.3) is a *run*; each controller it simulates is an
+    *evaluation* of that run, addressed by its index ``idx`` (0..N-1) or its rank (see
+    ``sanlab.library.ids`` for gait ids). What it guarantees:
+
+    - **Opening.** A missing or empty file is created as a new library (its directory must
+      exist); an older schema is upgraded in one transaction; a foreign, damaged or newer file is
+      refused and left untouched. Every problem is a :class:`LibraryError` with a one-line
+      message naming the file (``timeout`` s: how long to wait for another writer's lock).
+    - **Atomicity.** Every method that writes is one transaction: a batch of evaluations, a
+      trace, a new run or a status change is stored whole or not at all.
+    - **Durability.** WAL journaling with ``synchronous = NORMAL``: a committed transaction
+      survives the writing process being killed at any moment (an interrupted search loses at
+      most the batch in flight); after a power cut the last commits may be lost, never the
+      file's consistency.
+    - **Concurrency.** Any number of processes may open the same file. Readers never block a
+      writer and are never blocked by one (each read sees the last commit before it); writers
+      take turns, each waiting up to ``timeout`` seconds for the write lock before a
+      LibraryError ("database is locked"). Ranks of a run that is still being written may move
+      between two calls.
+    - **Threads.** One Library belongs to the thread that opened it (sqlite3's own rule); open one
+      per thread or process instead of sharing it.
+    """
+
+    def __init__(self, path: str | os.PathLike = DEFAULT_PATH, *, timeout: float = 30.0):
+        self.path = os.fspath(path)
+        self.timeout = timeout
+        self._conn: sqlite3.Connection | None = None
+        _schema.check_file(self.path)
+        try:
+            # Autocommit mode: transactions are opened explicitly (BEGIN IMMEDIATE) by _write.
+            conn = sqlite3.connect(self.path, timeout=timeout, isolation_level=None)
+        except sqlite3.Error as e:
+            raise LibraryError(f"{self.path}: cannot open: {e}",
+                               sqlite_errorname=errors.errorname(e) or None) from None
+        conn.row_factory = sqlite3.Row
+        try:
+            _schema.open_schema(conn, self.path)
+        except LibraryError:
+            conn.close()
+            raise
+        except sqlite3.Error as e:
+            conn.close()
+            name = errors.errorname(e)
+            if errors.is_busy(name):
+                raise errors.from_sqlite(e, self.path, timeout) from None
+            raise LibraryError(f"{self.path}: not a usable database file ({e})",
+                               sqlite_errorname=name or None) from None
+        self._conn = conn
+
+    # -- plumbing --------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        if self._conn is not None:
+            self._conn.close()
+            self._conn = None
+
+    def __enter__(self) -> Library:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"Library({self.path!r})"
+
+    @contextmanager
+    def _sql(self) -> Iterator[sqlite3.Connection]:
+        """The connection, with sqlite3 errors turned into one-line LibraryErrors."""
+        if self._conn is None:
+            raise LibraryError(f"{self.path}: the library is closed")
+        try:
+            yield self._conn
+        except sqlite3.Error as e:
+            raise errors.from_sqlite(e, self.path, self.timeout) from None
+
+    @contextmanager
+    def _write(self) -> Iterator[sqlite3.Connection]:
+        """One short write transaction: all of it commits, or none of it."""
+        with self._sql() as conn:
+            # IMMEDIATE takes the write lock up front, so the busy timeout applies here rather
+            # than failing later when a read transaction tries to upgrade.
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                yield conn
+            except BaseException:
+                if conn.in_transaction:
+                    conn.execute("ROLLBACK")
+                raise
+            conn.execute("COMMIT")
+
+    def _resolve(self, ref: str) -> str:
+        """The full run id for an exact id or an unambiguous prefix."""
+        with self._sql() as conn:
+            return resolve_run(conn, ref, self.path)
+
+    def _require_run(self, conn: sqlite3.Connection, run_id: str) -> None:
+        if conn.execute("SELECT 1 FROM runs WHERE run_id = ?", (run_id,)).fetchone() is None:
+            raise LibraryError(f"no run {run_id!r} in {self.path}")
+
+    # -- runs ------------------------------------------------------------------------------------
+
+    def create_run(self, kind: str, creature: str, creature_text: str, params: dict,
+                   seed: int | None, total: int, dtype: str | None = None,
+                   device: str | None = None, sanlab_version: str | None = None,
+                   parent_gait: str | None = None) -> Run:
+        """Record a new run (status "running"; "done" for an import) and return it.
+
+        ``kind``: one of "search", "tune", "import". ``params``: a JSON-serialisable dict of the
+        run's settings. ``total``: evaluations planned. ``parent_gait`` (a tuning run's starting
+        gait) may be given in either gait id form; it is stored as the permanent ``RUN#IDX``.
+        Raises LibraryError on a bad argument.
+        """
+        if kind not in _schema.RUN_KINDS:
+            raise LibraryError(f"unknown run kind {kind!r} "
+                               f"(expected one of {', '.join(_schema.RUN_KINDS)})")
+        if not isinstance(creature_text, str):
+            raise LibraryError("creature_text must be the creature file's text (a str)")
+        if not isinstance(params, dict):
+            raise LibraryError("run params must be a dict")
+        total = index(total, "total")
+        if parent_gait is not None:
+            parent_gait = self.gait(parent_gait).gait_id
+        values = dict(
+            kind=kind, created=datetime.now(timezone.utc).isoformat(timespec="microseconds"),
+            creature=str(creature), creature_text=creature_text,
+            creature_hash=sha256(creature_text), params=to_json(params, "run params"),
+            seed=None if seed is None else integer(seed, "seed"),
+            sanlab_version=sanlab_version or __version__, device=device, dtype=dtype,
+            status="done" if kind == "import" else "running", parent_gait=parent_gait,
+            total=total)
+        for _ in range(20):
+            run_id = secrets.token_hex(4)
+            try:
+                with self._write() as conn:
+                    conn.execute(
+                        f"INSERT INTO runs (run_id, {', '.join(values)}) "
+                        f"VALUES (?{', ?' * len(values)})", (run_id, *values.values()))
+            except LibraryError as e:
+                if errors.is_duplicate(e.sqlite_errorname):
+                    continue  # 1 in 4 billion per existing run: draw another id
+                raise
+            return self.get_run(run_id)
+        raise LibraryError(f"{self.path}: could not find a free run id")
+
+    def set_status(self, run_id: str, status: str) -> None:
+        """Mark a run "running", "done" or "interrupted"."""
+        if status not in _schema.RUN_STATUSES:
+            raise LibraryError(f"unknown run status {status!r} "
+                               f"(expected one of {', '.join(_schema.RUN_STATUSES)})")
+        with self._write() as conn:
+            if conn.execute("UPDATE runs SET status = ? WHERE run_id = ?",
+                            (status, run_id)).rowcount == 0:
+                raise LibraryError(f"no run {run_id!r} in {self.path}")
+
+    def get_run(self, run_id: str) -> Run:
+        """The run with this id or unambiguous id prefix."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            row = conn.execute(_RUNS_QUERY + " WHERE r.run_id = ?", (run_id,)).fetchone()
+        return _run(row)
+
+    def runs(self) -> list[Run]:
+        """All runs, newest first."""
+        with self._sql() as conn:
+            rows = conn.execute(_RUNS_QUERY + " ORDER BY r.created DESC, r.rowid DESC").fetchall()
+        return [_run(r) for r in rows]
+
+    # -- evaluations -----------------------------------------------------------------------------
+
+    def add_batch(self, run_id: str, rows: list[dict], *, replace: bool = False) -> None:
+        """Store evaluated controllers of a run, all in one transaction.
+
+        Each row is a dict with ``idx``, ``encoding`` and ``score`` and optionally ``params``
+        (dict), ``speed_cm_s``, ``fell``, ``nonfinite``, ``extra`` (dict) and ``parent``
+        ("RUN#IDX"). A score that is not finite marks the row non-finite. Storing an idx the run
+        already has is an error unless ``replace=True``.
+        """
+        values = [_evaluation_values(run_id, i, row) for i, row in enumerate(rows)]
+        seen: set[int] = set()
+        for v in values:
+            if v[1] in seen:
+                raise LibraryError(f"the batch holds idx {v[1]} twice")
+            seen.add(v[1])
+        verb = "INSERT OR REPLACE" if replace else "INSERT"
+        try:
+            with self._write() as conn:
+                self._require_run(conn, run_id)
+                conn.executemany(
+                    f"{verb} INTO evaluations (run_id, idx, encoding, params, score, speed_cm_s, "
+                    "fell, nonfinite, extra, parent) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    values)
+        except LibraryError as e:
+            if not errors.is_duplicate(e.sqlite_errorname):
+                raise
+            with self._sql() as conn:
+                stored = {r[0] for r in conn.execute(
+                    "SELECT idx FROM evaluations WHERE run_id = ?", (run_id,))}
+            clash = sorted(seen & stored)
+            shown = ", ".join(f"#{i}" for i in clash[:5]) + (", ..." if len(clash) > 5 else "")
+            raise LibraryError(f"run {run_id} already has evaluation {shown} "
+                               "(pass replace=True to overwrite); nothing of the batch "
+                               "was stored", sqlite_errorname=e.sqlite_errorname) from None
+
+    def done_indices(self, run_id: str) -> set[int]:
+        """The indices of the run's stored evaluations (to resume an interrupted run)."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            return {r[0] for r in conn.execute("SELECT idx FROM evaluations WHERE run_id = ?",
+                                               (run_id,))}
+
+    def count(self, run_id: str) -> int:
+        """How many evaluations the run has stored."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            return conn.execute("SELECT count(*) FROM evaluations WHERE run_id = ?",
+                                (run_id,)).fetchone()[0]
+
+    def top(self, run_id: str, n: int | None = 10) -> list[Evaluation]:
+        """The run's best ``n`` evaluations (all with ``n=None``), best first, with ranks.
+
+        Ranked by score descending, ties by idx ascending; non-finite evaluations come last.
+        """
+        run_id = self._resolve(run_id)
+        limit = -1 if n is None else max(0, integer(n, "n"))
+        with self._sql() as conn:
+            rows = conn.execute(f"SELECT * FROM evaluations WHERE run_id = ? "
+                                f"ORDER BY {_RANK_ORDER} LIMIT ?", (run_id, limit)).fetchall()
+        return [_evaluation(r, rank) for rank, r in enumerate(rows, 1)]
+
+    def scores(self, run_id: str) -> list[float]:
+        """Every stored score of the run in idx order (NaN where the score was not a number)."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            return [as_float(r[0]) for r in conn.execute(
+                "SELECT score FROM evaluations WHERE run_id = ? ORDER BY idx", (run_id,))]
+
+    def gait(self, gait_id: str) -> Evaluation:
+        """The evaluation named ``RUN/RANK`` (1-based, best first) or ``RUN#IDX``."""
+        run_ref, rank, idx = parse_gait_id(gait_id)
+        run_id = self._resolve(run_ref)
+        with self._sql() as conn:
+            if rank is not None:
+                row = conn.execute(f"SELECT * FROM evaluations WHERE run_id = ? "
+                                   f"ORDER BY {_RANK_ORDER} LIMIT 1 OFFSET ?",
+                                   (run_id, rank - 1)).fetchone()
+                if row is None:
+                    n = self.count(run_id)
+                    raise LibraryError(f"no gait {gait_id!r}: run {run_id} has {n} "
+                                       f"evaluation{'s' * (n != 1)}")
+                return _evaluation(row, rank)
+            row = conn.execute(
+                f"SELECT * FROM (SELECT *, row_number() OVER (ORDER BY {_RANK_ORDER}) AS rank "
+                "FROM evaluations WHERE run_id = ?) WHERE idx = ?", (run_id, idx)).fetchone()
+        if row is None:
+            raise LibraryError(f"no gait {gait_id!r}: run {run_id} has no evaluation #{idx}")
+        return _evaluation(row, row["rank"])
+
+    # -- tuning history --------------------------------------------------------------------------
+
+    def add_trace(self, run_id: str, rows: list[dict]) -> None:
+        """Store tuning trials (dicts: ``trial``, ``score``, ``accepted``) in one transaction."""
+        values = []
+        for i, row in enumerate(rows):
+            if not isinstance(row, dict) or not {"trial", "score", "accepted"} <= row.keys():
+                raise LibraryError(f"trace row {i}: expected a dict with trial, score, accepted")
+            values.append((run_id, index(row["trial"], f"trace row {i}: trial"),
+                           real(row["score"], f"trace row {i}: score"),
+                           int(bool(row["accepted"]))))
+        try:
+            with self._write() as conn:
+                self._require_run(conn, run_id)
+                conn.executemany("INSERT INTO trace (run_id, trial, score, accepted) "
+                                 "VALUES (?, ?, ?, ?)", values)
+        except LibraryError as e:
+            if errors.is_duplicate(e.sqlite_errorname):
+                raise LibraryError(f"run {run_id}: the trace already has one of these trials; "
+                                   "nothing of the batch was stored",
+                                   sqlite_errorname=e.sqlite_errorname) from None
+            raise
+
+    def trace(self, run_id: str) -> list[TracePoint]:
+        """The run's tuning trials in trial order."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            rows = conn.execute("SELECT trial, score, accepted FROM trace WHERE run_id = ? "
+                                "ORDER BY trial", (run_id,)).fetchall()
+        return [TracePoint(r[0], as_float(r[1]), bool(r[2])) for r in rows]
+
+    # -- exchange --------------------------------------------------------------------------------
+
+    def export_gait(self, gait_id: str) -> dict:
+        """A self-contained description of one gait (``sanlab.library.exchange``): strict JSON."""
+        ev = self.gait(gait_id)
+        return export_record(self.get_run(ev.run_id), ev)
+
+    def import_gait(self, data: dict) -> str:
+        """Store an exported gait as a new run of kind "import"; return its gait id ``RUN/1``.
+
+        The run's params are the source run's params plus ``imported_from`` (the source id).
+        Raises LibraryError if ``data`` is not a well-formed exported gait.
+        """
+        d = validate_gait(data)
+        run_params = dict(d["run_params"], imported_from=d.get("source"))
+        seed = run_params.get("seed")
+        run = self.create_run(
+            "import", d["creature"], d["creature_text"], run_params,
+            seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None, total=1,
+            dtype=d.get("dtype"), device=None, sanlab_version=d.get("sanlab_version"))
+        score = d["score"]
+        self.add_batch(run.run_id, [{
+            "idx": 0, "encoding": d["encoding"], "params": d["params"],
+            "score": math.nan if score is None else score,
+            "speed_cm_s": d["speed_cm_s"], "fell": d["fell"],
+            "nonfinite": d.get("nonfinite", False), "extra": d.get("extra")}])
+        return f"{run.run_id}/1"
+
+
+# -- rows ----------------------------------------------------------------------------------------
+
+
+def _evaluation_values(run_id: str, i: int, row: Any) -> tuple:
+    if not isinstance(row, dict):
+        raise LibraryError(f"batch row {i}: expected a dict, got {type(row).__name__}")
+    missing = _ROW_REQUIRED - row.keys()
+    if missing:
+        raise LibraryError(f"batch row {i}: missing {', '.join(sorted(missing))}")
+    unknown = row.keys() - _ROW_KEYS
+    if unknown:
+        raise LibraryError(f"batch row {i}: unknown field {', '.join(sorted(map(str, unknown)))} "
+                           f"(put anything else in 'extra')")
+    where = f"batch row {i} (idx {row['idx']!r})"
+    idx = index(row["idx"], f"{where}: idx")
+    if not isinstance(row["encoding"], str):
+        raise LibraryError(f"{where}: encoding must be a str")
+    params = row.get("params") or {}
+    extra = row.get("extra")
+    if not isinstance(params, dict) or not (extra is None or isinstance(extra, dict)):
+        raise LibraryError(f"{where}: params and extra must be dicts")
+    score = real(row["score"], f"{where}: score")
+    parent = row.get("parent")
+    if parent is not None and not is_permanent(parent):
+        raise LibraryError(f"{where}: parent must be a gait id 'RUN#IDX', not {parent!r}")
+    nonfinite = bool(row.get("nonfinite", False)) or score is None or not math.isfinite(score)
+    return (run_id, idx, row["encoding"], to_json(params, f"{where}: params"), score,
+            real(row.get("speed_cm_s"), f"{where}: speed_cm_s"),
+            int(bool(row.get("fell", False))), int(nonfinite),
+            None if extra is None else to_json(extra, f"{where}: extra"), parent)
+
+
+def _run(row: sqlite3.Row) -> Run:
+    return Run(run_id=row["run_id"], kind=row["kind"], created=row["created"],
+               creature=row["creature"], creature_text=row["creature_text"],
+               creature_hash=row["creature_hash"], params=json.loads(row["params"]),
+               seed=row["seed"], sanlab_version=row["sanlab_version"], device=row["device"],
+               dtype=row["dtype"], status=row["status"], parent_gait=row["parent_gait"],
+               total=row["total"], count=row["n"])
+
+
+def _evaluation(row: sqlite3.Row, rank: int | None) -> Evaluation:
+    return Evaluation(run_id=row["run_id"], idx=row["idx"], encoding=row["encoding"],
+                      params=json.loads(row["params"]), score=as_float(row["score"]),
+                      speed_cm_s=as_float(row["speed_cm_s"]), fell=bool(row["fell"]),
+                      nonfinite=bool(row["nonfinite"]),
+                      extra=None if row["extra"] is None else json.loads(row["extra"]),
+                      parent=row["parent"], rank=rank)

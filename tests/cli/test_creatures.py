@@ -1,0 +1,65 @@
+"""``sanlab check`` and ``sanlab creatures``: summaries, one-line errors, and a start without JAX."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+from typer.testing import CliRunner
+
+from sanlab.cli import app
+from tests.helpers import BASE, DATA, ROOT
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize("name, dofs", [("cart", 4), ("bounder", 7)])
+def test_check_builtin(name, dofs):
+    r = runner.invoke(app, ["check", name])
+    assert r.exit_code == 0, r.output
+    assert name in r.stdout and f"{dofs} degrees of freedom" in r.stdout and "angular" in r.stdout
+
+
+def test_check_file_shows_counts():
+    r = runner.invoke(app, ["check", str(DATA / "kitchen_sink.toml")])
+    assert r.exit_code == 0, r.output
+    assert "horizontal" in r.stdout and "linear 1" in r.stdout and "eye 2" in r.stdout
+
+
+def _cli(*args, cwd):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "sanlab", *args], capture_output=True, text=True, cwd=cwd, env=env
+    )
+
+
+def test_check_bad_file_subprocess(tmp_path):
+    (tmp_path / "bad.toml").write_text(BASE.replace('link = "L1"', 'link = "L3"'))
+    r = _cli("check", "bad.toml", cwd=tmp_path)
+    assert r.returncode == 2
+    line = "bad.toml: sensors[0].link: expected one of the link names ['L1', 'L2'], got 'L3'"
+    assert r.stderr == line + "\n"
+    assert "Traceback" not in r.stderr + r.stdout
+    r = _cli("check", "missing.toml", cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "missing.toml" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_creatures_json():
+    r = runner.invoke(app, ["creatures", "--json"])
+    assert r.exit_code == 0, r.output
+    rows = {row["name"]: row for row in json.loads(r.stdout)}
+    assert rows["cart"] == {"name": "cart", "links": 2, "sensors": 6, "actuators": 1, "hidden": 5}
+    assert rows["bounder"] == dict(name="bounder", links=5, sensors=8, actuators=4, hidden=8)
+    r = runner.invoke(app, ["creatures"])
+    assert r.exit_code == 0 and "bounder" in r.stdout
+
+
+def test_cli_does_not_import_jax():
+    code = "import sys, sanlab.cli; print('jax' in sys.modules)"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.stdout.strip() == "False", r.stderr

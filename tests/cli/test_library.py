@@ -1,0 +1,48 @@
+"""The command line as a whole: every command that reads the gait library refuses a missing
+``--db`` (one line, exit 2, no file left behind); only those that start runs create it."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from sanlab.cli import app
+from sanlab.library import Library
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["runs"],
+        ["show", "deadbeef"],
+        ["export", "deadbeef/1"],
+        ["tune", "deadbeef/1"],
+        ["render", "deadbeef/1"],
+        ["search", "--resume", "deadbeef"],
+    ],
+)
+def test_commands_that_read_the_library_refuse_a_missing_file(tmp_path, args):
+    db = tmp_path / "mistyped.db"
+    r = runner.invoke(app, [*args, "--db", str(db)])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"{db}: no such gait library (give --db PATH)\n"
+    assert not db.exists()
+
+
+def test_import_starts_a_library_where_there_was_none(tmp_path):
+    src = tmp_path / "src.db"
+    with Library(src) as lib:
+        run = lib.create_run("search", "blob", 'name = "blob"\n', {"metric": "distance"}, 0, 1)
+        lib.add_batch(run.run_id, [{"idx": 0, "encoding": "san1-0-0-0-A", "score": 1.0}])
+        exported = lib.export_gait(f"{run.run_id}/1")
+    gait = tmp_path / "gait.json"
+    gait.write_text(json.dumps(exported))
+    db = tmp_path / "new.db"
+    r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
+    assert r.exit_code == 0, r.output
+    with Library(db) as lib:
+        assert lib.gait(r.stdout.strip()).encoding == "san1-0-0-0-A"
