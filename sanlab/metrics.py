@@ -1,21 +1,26 @@
 """Evaluation metrics (paper §5.1), computed inside the compiled rollout as an observer.
 
 Positions are those of the creature's centre of mass (COM), so a score does not depend on where
-a link's frame happens to sit. With T the evaluation time and p the COM:
+a link's frame happens to sit. With T the evaluation time, p the COM and d the displacement
+along x that the creature file's ``direction`` asks for (``either``: |x(T) - x(0)|, the paper's
+"we do usually not care whether the creature moves to the right or the left"; ``forward``:
+x(T) - x(0); ``backward``: x(0) - x(T), so moving the wrong way scores below zero):
 
-- ``distance``: |x(T) - x(0)| (m): how far it got, left or right ("we do usually not care whether
-  the creature moves to the right or the left"). In the horizontal plane (seen from above) the
+- ``distance``: d (m). In the horizontal plane (seen from above) with ``either``, the
   displacement in the plane, |p(T) - p(0)|.
-- ``distance_upright``: the same, but 0 if the creature fell at any time. The creature file says
-  what falling means: its ``fell_link`` turned past ``fell_angle`` from upright.
-- ``hopping``: |x(T) - x(0)| + k ∫ max(0, y - y(0))^2 dt, the paper's ∫ (x' + k y^2) dt with the
-  height measured above the starting height (so standing still scores nothing) and the
-  direction free as for distance.
+- ``distance_upright``: the same, but 0 if the creature fell at any time.
+- ``hopping``: d + k ∫ max(0, y - y(0))^2 dt, the paper's ∫ (x' + k y^2) dt with the height
+  measured above the starting height (so standing still scores nothing); 0 if it fell.
 - ``pursuit``: ∫ v · F dt, v the COM velocity and F the unit vector from the COM to the follow
   point: how well pursuit is maintained (m).
 
-Every evaluation also reports speed = displacement / T (cm/s, as in Table 1), whether the
-creature fell, and whether the simulation stayed finite; a non-finite run scores 0.
+Falling is what the creature file says (``Evaluation``): a fell link turned past ``fell_angle``
+from upright, or the COM (``fell_com_height``) or a fell link's COM (``fell_link_height``) came
+closer to the ground than the given height.
+
+Every evaluation also reports speed = d / T (cm/s, as in Table 1), the signed displacement along
+x (``dx_m``, for arrows in tables and pictures), whether the creature fell, and whether the
+simulation stayed finite; a non-finite run scores 0.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from sanlab.creature.spec import METRICS
-from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare, wrap_angle
+from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare, terrain_height, wrap_angle
 
 
 class MetricAcc(NamedTuple):
@@ -49,9 +54,16 @@ class Metric:
     """Observer computing one metric's ingredients (see the module docstring)."""
 
     kind: str = "distance"
-    fell_link: int = -1  # link index, -1: this creature cannot fall
+    fell_links: tuple[int, ...] = ()  # link indices judged by angle (and height, if given)
     fell_angle: float = math.pi / 2
+    fell_com_height: float | None = None  # m above the ground
+    fell_link_height: float | None = None  # m above the ground
     hop_k: float = 1.0
+    direction: str = "either"
+
+    @property
+    def can_fall(self) -> bool:
+        return bool(self.fell_links) or self.fell_com_height is not None
 
     @classmethod
     def for_creature(cls, spec, kind: str | None = None) -> "Metric":
@@ -62,8 +74,9 @@ class Metric:
         if kind == "pursuit" and spec.world.follow is None:
             raise ValueError("metric pursuit needs a follow point ([world.follow] in the creature file)")
         names = [l.name for l in spec.links]
-        fell = names.index(ev.fell_link) if ev.fell_link else -1
-        return cls(kind, fell, float(ev.fell_angle), float(ev.hop_k))
+        fell = tuple(names.index(n) for n in ev.fell_links)
+        return cls(kind, fell, float(ev.fell_angle), ev.fell_com_height, ev.fell_link_height, float(ev.hop_k),
+                   ev.direction)
 
     def init(self, model, state):
         fr = prepare(model, state)
@@ -74,11 +87,16 @@ class Metric:
     def update(self, model, acc: MetricAcc, state, fr, bits, u) -> MetricAcc:
         dt = model.params.dt
         hop, pursuit, fell = acc.hop, acc.pursuit, acc.fell
-        if self.fell_link >= 0:
-            a = wrap_angle(fr.th[self.fell_link])
-            fell = fell | (jnp.abs(a) > self.fell_angle)
+        st = model.structure
+        for i in self.fell_links:
+            fell = fell | (jnp.abs(wrap_angle(fr.th[i])) > self.fell_angle)
+            if self.fell_link_height is not None and st.plane == "vertical":
+                c = fr.com[i]
+                fell = fell | (c[1] - terrain_height(st, model.params, c[0])[0] < self.fell_link_height)
+        p, v = centre_of_mass(model, fr)
+        if self.fell_com_height is not None and st.plane == "vertical":
+            fell = fell | (p[1] - terrain_height(st, model.params, p[0])[0] < self.fell_com_height)
         if self.kind in ("hopping", "pursuit"):
-            p, v = centre_of_mass(model, fr)
             if self.kind == "hopping":
                 hop = hop + jnp.maximum(p[1] - acc.y0, 0.0) ** 2 * dt
             else:
@@ -94,18 +112,24 @@ class Metric:
 
 
 def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -> dict[str, np.ndarray]:
-    """Per-controller arrays: score, speed_cm_s, distance_m, fell, nonfinite (batched acc)."""
+    """Per-controller arrays from a batched accumulator: score, speed_cm_s (d / T), distance_m
+    (d), dx_m (signed displacement along x), fell, nonfinite."""
     dx = np.asarray(acc.p[0]) - np.asarray(acc.p0[0])
     dy = np.asarray(acc.p[1]) - np.asarray(acc.p0[1])
-    disp = np.hypot(dx, dy) if plane == "horizontal" else np.abs(dx)
-    fell = np.asarray(acc.fell)
+    if metric.direction == "forward":
+        disp = dx
+    elif metric.direction == "backward":
+        disp = -dx
+    else:
+        disp = np.hypot(dx, dy) if plane == "horizontal" else np.abs(dx)
+    fell = np.asarray(acc.fell) if metric.can_fall else np.zeros(np.shape(dx), bool)
     finite = np.asarray(finite) & np.isfinite(disp)
     if metric.kind == "distance":
         score = disp
     elif metric.kind == "distance_upright":
         score = np.where(fell, 0.0, disp)
     elif metric.kind == "hopping":
-        score = disp + metric.hop_k * np.asarray(acc.hop)
+        score = np.where(fell, 0.0, disp + metric.hop_k * np.asarray(acc.hop))
     else:
         score = np.asarray(acc.pursuit)
     score = np.where(finite & np.isfinite(score), score, 0.0)
@@ -113,6 +137,7 @@ def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -
         "score": score.astype(float),
         "speed_cm_s": np.where(finite, disp / seconds * 100.0, 0.0).astype(float),
         "distance_m": np.where(finite, disp, 0.0).astype(float),
-        "fell": fell & finite if metric.fell_link >= 0 else np.zeros_like(fell),
+        "dx_m": np.where(finite, dx, 0.0).astype(float),
+        "fell": fell & finite,
         "nonfinite": ~finite,
     }

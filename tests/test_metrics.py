@@ -49,7 +49,7 @@ def test_distance_is_how_far_the_centre_of_mass_got_either_way():
 
 
 def test_distance_upright_is_zero_once_the_creature_fell():
-    spec = resting_box(0.5, metric="distance_upright", fell_link="box", fell_angle=math.radians(60))
+    spec = resting_box(0.5, metric="distance_upright", fell_links=("box",), fell_angle=math.radians(60))
     ok = evaluate(spec, None, qd0=[1.0, 0, 0])
     assert ok["score"] > 0.05 and not ok["fell"]
     # thrown into a somersault: it moves, but it fell
@@ -113,3 +113,32 @@ def test_evaluator_scores_do_not_depend_on_batch_composition():
     b = ev(W[::-1])
     np.testing.assert_array_equal(a["score"], b["score"][::-1])
     assert np.ptp(a["score"]) > 0
+
+
+def test_direction_forward_counts_only_motion_along_plus_x():
+    # The same slide to the left and to the right, scored with direction "forward": +d to the
+    # right, -d to the left (the wrong way ranks below standing still); "backward" the mirror.
+    mu = 0.5
+    d = 1.5 * 1.5 / (2 * mu * G)
+    for direction, sign in (("forward", 1.0), ("backward", -1.0)):
+        spec = resting_box(mu, direction=direction)
+        right = evaluate(spec, "distance", qd0=[1.5, 0, 0])
+        left = evaluate(spec, "distance", qd0=[-1.5, 0, 0])
+        assert right["score"] == pytest.approx(sign * d, rel=0.03)
+        assert left["score"] == pytest.approx(-sign * d, rel=0.03)
+        assert right["dx_m"] == pytest.approx(d, rel=0.03) and left["dx_m"] == pytest.approx(-d, rel=0.03)
+        assert right["speed_cm_s"] == pytest.approx(100 * sign * d, rel=0.03)
+
+
+def test_a_low_centre_of_mass_means_fallen_and_a_fallen_hop_scores_zero():
+    # A box lying on the ground with its COM 5 cm up: with fell_com_height = 0.1 it has fallen
+    # (upright by angle, but down by height, like a hopper lying with its torso upright on its
+    # hip); with 0.02 it has not. A fallen hopper scores 0 like distance_upright.
+    low = evaluate(resting_box(0.5, metric="hopping", fell_com_height=0.1), None, qd0=[1.0, 0, 0])
+    assert low["fell"] and low["score"] == 0.0
+    ok = evaluate(resting_box(0.5, metric="hopping", fell_com_height=0.02), None, qd0=[1.0, 0, 0])
+    assert not ok["fell"] and ok["score"] > 0.05
+    # the same criterion on a fell link's own centre of mass
+    by_link = evaluate(resting_box(0.5, metric="distance_upright", fell_links=("box",), fell_link_height=0.1), None,
+                       qd0=[1.0, 0, 0])
+    assert by_link["fell"] and by_link["score"] == 0.0

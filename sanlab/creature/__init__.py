@@ -30,6 +30,7 @@ from .spec import (
     Sensor,
     Shape,
     Terrain,
+    TiltSensor,
     TouchSensor,
     World,
 )
@@ -37,7 +38,7 @@ from .spec import (
 __all__ = [
     "Actuator", "AngleSensor", "AngularActuator", "Creature", "CreatureError", "Evaluation",
     "EyeSensor", "Follow", "Friction", "Ground", "JointLimit", "JointSpring", "LengthSensor", "LinearActuator",
-    "LinearSpring", "Link", "PointRef", "SanConfig", "Sensor", "Shape", "Terrain", "TouchSensor",
+    "LinearSpring", "Link", "PointRef", "SanConfig", "Sensor", "Shape", "Terrain", "TiltSensor", "TouchSensor",
     "World", "builtin_names", "initial_frames", "load", "load_file", "loads", "read_source",
     "world_point",
 ]  # fmt: skip

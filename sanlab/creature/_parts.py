@@ -25,6 +25,7 @@ from ._checks import (
 from ._toml import (
     ACTUATOR,
     FRICTION,
+    LIMIT,
     LINK,
     POINT,
     SENSOR,
@@ -40,6 +41,7 @@ from .spec import (
     AngularActuator,
     EyeSensor,
     Friction,
+    JointLimit,
     JointSpring,
     LengthSensor,
     LinearActuator,
@@ -47,6 +49,7 @@ from .spec import (
     Link,
     PointRef,
     Shape,
+    TiltSensor,
     TouchSensor,
     Vec2,
 )
@@ -108,6 +111,7 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
     else:
         t.forbid("anchor", "on a root link (it has no joint)")
         t.forbid("spring", "on a root link (it has no joint)")
+        t.forbid("limit", "on a root link (it has no joint)")
 
     spring = None
     s = t.table("spring", SPRING)
@@ -116,6 +120,16 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
             stiffness=s.get("stiffness", nonneg("N m/deg")) * PER_DEG,
             damping=s.get("damping", nonneg("N m s/deg"), spec_default(JointSpring, "damping")) * PER_DEG,
             rest=radians_field(s, "rest_deg", number("deg"), spec_default(JointSpring, "rest")),
+        )
+    limit = None
+    lt = t.table("limit", LIMIT)
+    if lt:
+        lo, hi = _range(lt, "min_deg", "max_deg", within(-360, 360, "deg"))
+        limit = JointLimit(
+            min=math.radians(lo),
+            max=math.radians(hi),
+            stiffness=lt.get("stiffness", positive("N m/deg"), spec_default(JointLimit, "stiffness") / PER_DEG) * PER_DEG,
+            damping=lt.get("damping", nonneg("N m s/deg"), spec_default(JointLimit, "damping") / PER_DEG) * PER_DEG,
         )
     friction = None
     f = t.table("friction", FRICTION)
@@ -139,6 +153,7 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
         position=t.get("position", vec2(), spec_default(Link, "position")),
         angle=radians_field(t, "angle_deg", number("deg"), spec_default(Link, "angle")),
         spring=spring,
+        limit=limit,
         friction=friction,
         drag=t.get("drag", boolean, spec_default(Link, "drag")),
         fixed=t.get("fixed", boolean, spec_default(Link, "fixed")),
@@ -224,6 +239,9 @@ def _sensor(t: _Table, nm: str, links: tuple[Link, ...]):
     if kind == "angle":
         link = _link_ref(t, "link", links, not_point="point masses have no angle")
         return AngleSensor(nm, link.name, *_deg_range(t))
+    if kind == "tilt":
+        link = _link_ref(t, "link", links, not_point="point masses have no angle")
+        return TiltSensor(nm, link.name, *_deg_range(t))
     if kind == "eye":
         link = _link_ref(t, "link", links)
         at = PointRef(link.name, t.get("at", vec2(), spec_default(PointRef, "at")))

@@ -90,7 +90,7 @@ TOP = {
     "name", "description", "dt", "world", "san", "evaluation", "links", "sensors", "actuators",
     "springs",
 }  # fmt: skip
-WORLD = {"plane", "gravity", "water_drag", "ground", "terrain", "follow"}
+WORLD = {"plane", "gravity", "water_drag", "water_tangential", "ground", "terrain", "follow"}
 GROUND = {"stiffness", "damping", "friction", "slip_speed"}
 TERRAIN = {
     "flat": {"kind"},
@@ -100,17 +100,22 @@ TERRAIN = {
 }
 FOLLOW = {"points", "speed", "loop"}
 SAN = {"hidden", "delay_on", "delay_off"}
-EVALUATION = {"metric", "seconds", "fell_link", "fell_angle_deg", "hop_k"}
+EVALUATION = {
+    "metric", "seconds", "fell_link", "fell_angle_deg", "fell_com_height", "fell_link_height",
+    "hop_k", "direction",
+}  # fmt: skip
 LINK = {
     "name", "mass", "shape", "points", "inertia", "com", "contacts", "position", "angle_deg",
-    "parent", "anchor", "spring", "friction", "drag", "fixed",
+    "parent", "anchor", "spring", "limit", "friction", "drag", "fixed",
 }  # fmt: skip
 SPRING = {"stiffness", "damping", "rest_deg"}
+LIMIT = {"min_deg", "max_deg", "stiffness", "damping"}
 FRICTION = {"forward", "backward", "lateral", "axis"}
 POINT = {"link", "at"}
 SENSOR = {
     "touch": {"link", "contact"},
     "angle": {"link", "min_deg", "max_deg"},
+    "tilt": {"link", "min_deg", "max_deg"},
     "eye": {"link", "at", "min_deg", "max_deg", "axis"},
     "length": {"a", "b", "min", "max"},
 }

@@ -85,3 +85,44 @@ def initial_frames(creature: Creature) -> dict[str, Frame]:
 def world_point(creature: Creature, link: str, at: Vec2 = (0.0, 0.0)) -> Vec2:
     """Initial world position (m) of point ``at`` (link frame, m) of ``link``."""
     return transform(initial_frames(creature)[link], at)
+
+
+def mass_matrix(creature: Creature) -> tuple[list[list[float]], list[str]]:
+    """The mass matrix M (kg, kg m, kg m^2) at the file's start pose, in root coordinates (a free
+    root's x, y, angle; each joint's angle, in ``Link.dofs`` order), and the name of the link
+    that owns each dof: M = sum over links of m J_c^T J_c + I r r^T, J_c the Jacobian of the
+    link's centre of mass and r the row of the joints that turn it."""
+    frames = initial_frames(creature)
+    owner: list[str] = []
+    dof_of: dict[str, list[int]] = {}
+    for link in creature.links:
+        dof_of[link.name] = list(range(len(owner), len(owner) + link.dofs))
+        owner += [link.name] * link.dofs
+    n = len(owner)
+    M = [[0.0] * n for _ in range(n)]
+    by_name = {link.name: link for link in creature.links}
+    for link in creature.links:
+        chain, k = [], link
+        while True:
+            chain.append(k)
+            if k.parent is None:
+                break
+            k = by_name[k.parent]
+        root = chain[-1]
+        if root.fixed and link is root:
+            continue
+        c = transform(frames[link.name], link.com)
+        jx, jy, rot = [0.0] * n, [0.0] * n, [0.0] * n
+        if not root.fixed:
+            jx[dof_of[root.name][0]], jy[dof_of[root.name][1]] = 1.0, 1.0
+        for k in chain:
+            d = dof_of[k.name]
+            if k.is_point or (k is root and (root.fixed or len(d) < 3)):
+                continue
+            i = d[-1]  # the link's own rotation: a joint angle, or a free root's angle
+            X, Y, _ = frames[k.name]
+            jx[i], jy[i], rot[i] = -(c[1] - Y), c[0] - X, 1.0
+        for a in range(n):
+            for b in range(n):
+                M[a][b] += link.mass * (jx[a] * jx[b] + jy[a] * jy[b]) + link.inertia * rot[a] * rot[b]
+    return M, owner

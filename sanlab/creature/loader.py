@@ -18,6 +18,7 @@ from ._checks import (
     _num,
     boolean,
     integer,
+    list_of,
     nonempty,
     nonneg,
     number,
@@ -27,6 +28,7 @@ from ._checks import (
     string,
     within,
 )
+from . import geometry
 from ._parts import _actuator, _link_ref, _links, _named, _sensor, _spring
 from ._toml import (
     EVALUATION,
@@ -42,6 +44,7 @@ from ._toml import (
     spec_default,
 )
 from .spec import (
+    DIRECTIONS,
     METRICS,
     PLANES,
     Creature,
@@ -92,6 +95,11 @@ def _creature(t: _Table, default_name: str) -> Creature:
             raise t.error(
                 "world.follow", f"a follow path (sensors[{i}] is an eye sensor)", _MISSING
             )
+    if world.plane == "horizontal":
+        for key in ("fell_com_height", "fell_link_height"):
+            if getattr(evaluation, key) is not None:
+                raise t.error(f"evaluation.{key}", "no height in a horizontal plane (seen from above there is no up)",
+                              getattr(evaluation, key))
     if evaluation.metric == "pursuit" and world.follow is None:
         raise t.error("world.follow", "a follow path (evaluation.metric is 'pursuit')", _MISSING)
     driven: dict[str, int] = {}
@@ -102,7 +110,7 @@ def _creature(t: _Table, default_name: str) -> Creature:
                 f"a joint not driven by actuators[{driven[a.joint]}]",
                 a.joint,
             )
-    return Creature(
+    creature = Creature(
         name=t.get("name", nonempty, default_name),
         description=t.get("description", string, spec_default(Creature, "description")),
         dt=t.get("dt", positive("s"), spec_default(Creature, "dt")),
@@ -114,6 +122,31 @@ def _creature(t: _Table, default_name: str) -> Creature:
         san=_san(t.table("san", SAN)),
         evaluation=evaluation,
     )
+    _check_inertia(t, creature)
+    return creature
+
+
+# Smallest over largest eigenvalue of M below which a dof has, for float32 arithmetic, no inertia.
+DEGENERATE = 1e-9
+
+
+def _check_inertia(t: _Table, creature: Creature) -> None:
+    """Every degree of freedom must carry inertia, as MuJoCo's compiler demands: a joint whose
+    link has no inertia about it (its mass at the joint, zero inertia, nothing hanging from it)
+    makes M(q) singular and every simulation non-finite."""
+    import numpy as np
+
+    M, owner = geometry.mass_matrix(creature)
+    if not owner:
+        return
+    w, v = np.linalg.eigh(np.asarray(M))
+    if w[0] > DEGENERATE * max(w[-1], 1e-300):
+        return
+    name = owner[int(np.argmax(np.abs(v[:, 0])))]
+    i = [link.name for link in creature.links].index(name)
+    link = creature.links[i]
+    raise t.error(f"links[{i}].inertia", "inertia about the link's own degree of freedom (inertia > 0, or the "
+                  "centre of mass away from the joint; without it the mass matrix is singular)", link.inertia)
 
 
 def _san(t: _Table | None) -> SanConfig:
@@ -174,6 +207,7 @@ def _world(t: _Table | None) -> World:
         ground=ground,
         terrain=terrain,
         water_drag=t.get("water_drag", nonneg("N s/m^2"), w.water_drag),
+        water_tangential=t.get("water_tangential", nonneg(), w.water_tangential),
         follow=follow,
     )
 
@@ -183,15 +217,31 @@ def _evaluation(t: _Table | None, links: tuple[Link, ...]) -> Evaluation:
     if t is None:
         return d
     metric = t.get("metric", one_of(METRICS), d.metric)
-    fell = None
+    fell: tuple[str, ...] = ()
     if "fell_link" in t:
-        fell = _link_ref(t, "fell_link", links, not_point="a point mass has no angle").name
-    elif metric == "distance_upright":
-        raise t.error("fell_link", "a link name (metric 'distance_upright' needs one)", _MISSING)
+        names = [k.name for k in links]
+        raw = t.data["fell_link"]
+        if isinstance(raw, str):
+            fell = (_link_ref(t, "fell_link", links, not_point="a point mass has no angle").name,)
+        else:
+            what = "one of the link names, or a list of them"
+            fell = t.get("fell_link", list_of(one_of(names, "one of the link names"), what, 1))
+            for i, name in enumerate(fell):
+                if next(k for k in links if k.name == name).is_point:
+                    raise t.error(f"fell_link[{i}]", "a link that is not a point mass (a point mass has no angle)", name)
+    com_height = t.get("fell_com_height", number("m"), d.fell_com_height)
+    link_height = t.get("fell_link_height", number("m"), d.fell_link_height)
+    if link_height is not None and not fell:
+        raise t.error("fell_link", "a link name (fell_link_height needs one)", _MISSING)
+    if metric == "distance_upright" and not fell and com_height is None:
+        raise t.error("fell_link", "a link name (metric 'distance_upright' needs one, or fell_com_height)", _MISSING)
     return Evaluation(
         metric=metric,
         seconds=t.get("seconds", positive("s"), d.seconds),
-        fell_link=fell,
+        fell_links=fell,
         fell_angle=radians_field(t, "fell_angle_deg", within(0, 180, "deg", open_lo=True), d.fell_angle),
+        fell_com_height=com_height,
+        fell_link_height=link_height,
         hop_k=t.get("hop_k", nonneg(), d.hop_k),
+        direction=t.get("direction", one_of(DIRECTIONS), d.direction),
     )

@@ -22,10 +22,12 @@ ShapeKind = Literal["segment", "polygon", "point"]
 TerrainKind = Literal["flat", "slope", "hill", "rough"]
 Plane = Literal["vertical", "horizontal"]
 MetricName = Literal["distance", "distance_upright", "hopping", "pursuit"]
+Direction = Literal["either", "forward", "backward"]
 SHAPE_KINDS: tuple[ShapeKind, ...] = get_args(ShapeKind)
 TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
 PLANES: tuple[Plane, ...] = get_args(Plane)
 METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
+DIRECTIONS: tuple[Direction, ...] = get_args(Direction)
 
 
 @dataclass(frozen=True)
@@ -155,6 +157,18 @@ class AngleSensor:
 
 
 @dataclass(frozen=True)
+class TiltSensor:
+    """On while the link's absolute (world) angle lies in [min, max] (rad, wrapped to [-pi, pi)):
+    a balance organ, the counterpart of the joint-angle sensor."""
+
+    name: str
+    link: str
+    min: float
+    max: float
+    kind: Literal["tilt"] = "tilt"
+
+
+@dataclass(frozen=True)
 class EyeSensor:
     """On while the follow point lies in the cone [min, max] (rad, wrapped to [-pi, pi)).
 
@@ -183,7 +197,7 @@ class LengthSensor:
     kind: Literal["length"] = "length"
 
 
-Sensor = TouchSensor | AngleSensor | EyeSensor | LengthSensor
+Sensor = TouchSensor | AngleSensor | TiltSensor | EyeSensor | LengthSensor
 
 
 @dataclass(frozen=True)
@@ -312,16 +326,33 @@ class SanConfig:
 class Evaluation:
     """How this creature's gaits are scored (paper §5.1).
 
-    metric: one of :data:`METRICS`. ``fell_link`` names the link
-    whose angle decides falling: the creature fell when that link's absolute angle leaves
-    [-fell_angle, fell_angle]. ``hop_k`` is the k of the hopping metric.
+    metric: one of :data:`METRICS`. ``direction``: the way a gait must move along x to count,
+    "forward" (+x), "backward" (-x) or "either" (the paper's |x(T) - x(0)|).
+
+    Falling (any of these, at any time, means the creature fell): one of the ``fell_links``
+    turned so that its absolute angle left [-fell_angle, fell_angle]; the creature's centre of
+    mass came closer to the ground than ``fell_com_height``; the centre of mass of one of the
+    ``fell_links`` came closer to the ground than ``fell_link_height``. ``hop_k`` is the k of the
+    hopping metric.
     """
 
     metric: MetricName = "distance"
     seconds: float = 6.0  # s of simulated time per evaluation
-    fell_link: str | None = None
+    fell_links: tuple[str, ...] = ()
     fell_angle: float = math.pi / 2  # rad
+    fell_com_height: float | None = None  # m above the ground
+    fell_link_height: float | None = None  # m above the ground
     hop_k: float = 1.0  # 1/(m s): weight of the height integral (m^2 s) in the hopping score
+    direction: Direction = "either"
+
+    @property
+    def fell_link(self) -> str | None:
+        """The first fell link, if any (most creatures have one)."""
+        return self.fell_links[0] if self.fell_links else None
+
+    @property
+    def can_fall(self) -> bool:
+        return bool(self.fell_links) or self.fell_com_height is not None
 
 
 @dataclass(frozen=True)

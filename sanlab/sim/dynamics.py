@@ -542,9 +542,9 @@ def sense(model: Model, fr: Frame, t) -> Any:
     for s, (kind, link, idx) in enumerate(st.sensors):
         if kind == "touch":
             on = fr.depth[idx] > 0 if st.plane == "vertical" else True
-        elif kind == "angle":
+        elif kind in ("angle", "tilt"):
             ls = st.links[link]
-            ang = fr.th[link] if ls.parent < 0 else fr.th[link] - fr.th[ls.parent]
+            ang = fr.th[link] if ls.parent < 0 or kind == "tilt" else fr.th[link] - fr.th[ls.parent]
             a = _wrap(ang)
             on = (a >= p.sens_min[s]) & (a <= p.sens_max[s])
         elif kind == "eye":

@@ -331,8 +331,8 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
             smin.append(0.0)
             smax.append(0.0)
             spoints.append(((0.0, 0.0), (0.0, 0.0)))
-        elif s.kind == "angle":
-            sensors.append(("angle", names[s.link], -1))
+        elif s.kind in ("angle", "tilt"):
+            sensors.append((s.kind, names[s.link], -1))
             smin.append(s.min)
             smax.append(s.max)
             spoints.append(((0.0, 0.0), (0.0, 0.0)))
@@ -437,54 +437,55 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
 
 
 def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[TreeS], list[float]]:
-    """Static link records, trees and the initial coordinates (centre of mass of each free
-    tree in the file's start pose, root angle, joint angles)."""
+    """Static link records, trees and the initial coordinates.
+
+    Dofs are numbered in the file's link order (a root's x, y and angle where the root is
+    listed, a joint's angle where its link is; ``Link.dofs``), as the MuJoCo exporter and the
+    creature geometry number them; a free tree's x, y are its centre of mass in the file's start
+    pose."""
     from sanlab.creature.geometry import initial_frames
 
     frames = initial_frames(spec)
     roots = [i for i, l in enumerate(spec.links) if l.parent is None]
-    members = {r: [r] for r in roots}
-    root_of = {}
+    members: dict[int, list[int]] = {r: [] for r in roots}
+    root_of: dict[int, int] = {}
     for i, l in enumerate(spec.links):
         root_of[i] = i if l.parent is None else root_of[names[l.parent]]
-        if l.parent is not None:
-            members[root_of[i]].append(i)
-    made: dict[int, LinkS] = {}
-    trees: list[TreeS] = []
+        members[root_of[i]].append(i)
+    tree_of = {r: t for t, r in enumerate(roots)}
     q0: list[float] = []
-    for r in roots:
-        root = spec.links[r]
-        t = len(trees)
-        free = not root.fixed
-        dx = dy = -1
-        if free:
-            dx, dy = len(q0), len(q0) + 1
-            if root.is_point:
-                q0 += list(root.position)
-            else:
-                mass = sum(spec.links[i].mass for i in members[r])
-                com = np.zeros(2)
-                for i in members[r]:
-                    x, y, a = frames[spec.links[i].name]
-                    c, s_ = math.cos(a), math.sin(a)
-                    cx, cy = spec.links[i].com
-                    com += spec.links[i].mass * np.array([x + c * cx - s_ * cy, y + s_ * cx + c * cy])
-                q0 += list(com / mass)
-        rot = []
-        for i in members[r]:
-            l = spec.links[i]
-            if l.parent is None:
-                dof = -1
-                if free and not l.is_point:
+    made: dict[int, LinkS] = {}
+    for i, l in enumerate(spec.links):
+        t = tree_of[root_of[i]]
+        if l.parent is None:
+            dx = dy = dof = -1
+            if not l.fixed:
+                dx, dy = len(q0), len(q0) + 1
+                q0 += list(_tree_com(spec, members[i], frames))
+                if not l.is_point:
                     dof = len(q0)
                     q0.append(l.angle)
-                made[i] = LinkS(i, -1, l.is_point, dx, dy, dof, (i,), t)
-            else:
-                p = made[names[l.parent]]
-                dof = len(q0)
-                q0.append(l.angle)
-                made[i] = LinkS(i, p.index, False, dx, dy, dof, p.chain + (i,), t)
-            if made[i].dof_rot >= 0:
-                rot.append(i)
-        trees.append(TreeS(r, tuple(members[r]), free, root.is_point and len(members[r]) == 1, tuple(rot)))
+            made[i] = LinkS(i, -1, l.is_point, dx, dy, dof, (i,), t)
+        else:
+            p = made[names[l.parent]]
+            made[i] = LinkS(i, p.index, False, p.dof_x, p.dof_y, len(q0), p.chain + (i,), t)
+            q0.append(l.angle)
+    trees = []
+    for r in roots:
+        rot = tuple(i for i in members[r] if made[i].dof_rot >= 0)
+        root = spec.links[r]
+        trees.append(TreeS(r, tuple(members[r]), not root.fixed, root.is_point and len(members[r]) == 1, rot))
     return [made[i] for i in range(len(spec.links))], trees, q0
+
+
+def _tree_com(spec: Creature, members: list[int], frames) -> tuple[float, float]:
+    """Centre of mass (m, world) of the links ``members`` in the start pose ``frames``."""
+    mass, com = 0.0, np.zeros(2)
+    for i in members:
+        link = spec.links[i]
+        x, y, a = frames[link.name]
+        c, s_ = math.cos(a), math.sin(a)
+        cx, cy = link.com
+        com += link.mass * np.array([x + c * cx - s_ * cy, y + s_ * cx + c * cy])
+        mass += link.mass
+    return float(com[0] / mass), float(com[1] / mass)

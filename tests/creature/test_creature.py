@@ -248,6 +248,24 @@ BAD = [
     ("axis of one link", sub("angle_deg = 90", 'angle_deg = 90\nfriction = { forward = 0.1, backward = 0.5, axis = ["L1", "L1"] }'),
      "links[0].friction.axis", "got ['L1', 'L1']"),
     ("follow of one point", BASE + "[world.follow]\npoints = [[0, 0]]\nspeed = 1\n", "world.follow.points", "at least 2 points"),
+    ("limit on a root", sub("angle_deg = 90", "angle_deg = 90\nlimit = { min_deg = -10, max_deg = 10 }"),
+     "links[0].limit", "no limit on a root link"),
+    ("limit min above max", sub('parent = "L1"', 'parent = "L1"\nlimit = { min_deg = 30, max_deg = 10 }'),
+     "links[1].limit.max_deg", "got 10"),
+    ("limit typo", sub('parent = "L1"', 'parent = "L1"\nlimit = { min_deg = -30, max = 10 }'),
+     "links[1].limit.max: unknown field", "'max_deg'"),
+    ("negative skin drag", BASE + "[world]\nwater_tangential = -0.1\n", "world.water_tangential", "got -0.1"),
+    ("tilt on a point mass", BASE + '[[links]]\nname = "P"\nmass = 1\nshape = "point"\n'
+     '[[sensors]]\ntype = "tilt"\nlink = "P"\nmin_deg = -10\nmax_deg = 10\n', "sensors[2].link", "got 'P'"),
+    ("unknown fell link in a list", BASE + '[evaluation]\nfell_link = ["L1", "torso"]\n', "evaluation.fell_link[1]",
+     "got 'torso'"),
+    ("link height without fell link", BASE + "[evaluation]\nfell_link_height = 0.1\n", "evaluation.fell_link",
+     "got nothing"),
+    ("height in the horizontal plane", BASE + '[world]\nplane = "horizontal"\n[evaluation]\nfell_com_height = 0.1\n',
+     "evaluation.fell_com_height", "got 0.1"),
+    ("unknown direction", BASE + '[evaluation]\ndirection = "up"\n', "evaluation.direction", "got 'up'"),
+    ("joint without inertia", sub('parent = "L1"', 'parent = "L1"\ninertia = 0\ncom = [0, 0]'), "links[1].inertia",
+     "got 0.0"),
 ]
 # fmt: on
 
@@ -280,3 +298,24 @@ def test_error_names_the_file(tmp_path):
     good.write_text(BASE)
     assert load(str(good)).name == "walker2"  # name defaults to the file stem
     assert read_source(good)[1] == str(good.resolve())
+
+
+def test_new_fields_joint_limits_skin_drag_tilt_sensors_falls_and_direction():
+    text = BASE.replace('parent = "L1"', 'parent = "L1"\nlimit = { min_deg = -30, max_deg = 45, stiffness = 2 }') + (
+        '[world]\nwater_tangential = 0.25\n'
+        '[[sensors]]\ntype = "tilt"\nlink = "L1"\nmin_deg = -20\nmax_deg = 20\n'
+        '[evaluation]\nfell_link = ["L1", "L2"]\nfell_com_height = 0.05\nfell_link_height = 0.02\ndirection = "forward"\n'
+    )
+    c = loads(text)
+    lim = c.links[1].limit
+    assert lim.min == pytest.approx(math.radians(-30)) and lim.max == pytest.approx(math.radians(45))
+    assert lim.stiffness == pytest.approx(2 * PER_DEG) and lim.damping == pytest.approx(0.01 * PER_DEG)  # default
+    assert c.links[0].limit is None
+    assert c.world.water_tangential == 0.25 and load("cart").world.water_tangential == 0.1
+    tilt = c.sensors[-1]
+    assert (tilt.kind, tilt.link) == ("tilt", "L1") and tilt.max == pytest.approx(math.radians(20))
+    ev = c.evaluation
+    assert ev.fell_links == ("L1", "L2") and ev.fell_link == "L1"
+    assert (ev.fell_com_height, ev.fell_link_height, ev.direction) == (0.05, 0.02, "forward")
+    assert loads(BASE + '[evaluation]\nfell_link = "L2"\n').evaluation.fell_links == ("L2",)
+    assert load("cart").evaluation.direction == "either"  # the paper's |x(T) - x(0)|

@@ -319,3 +319,24 @@ def test_a_joint_stop_holds_a_servo_pushing_past_it():
     r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 1)), 3.0, record_fps=100)
     assert float(r.state.q[0, 0]) == pytest.approx((-30 * DEG * lim.stiffness - 2.0 * 80 * DEG) / (lim.stiffness + 2.0),
                                                    abs=1e-4)
+
+
+def test_a_tilt_sensor_reads_the_link_in_the_world_not_at_its_joint():
+    # A leg hanging from a body: its joint angle stays 0 while the body turns, so an angle sensor
+    # on it never changes; a tilt sensor on it sees the world angle (body + joint).
+    from sanlab.creature.spec import AngleSensor, TiltSensor
+
+    body = Link("body", 1.0, 0.01, (0.0, 0.0), Shape("segment", ((-0.1, 0.0), (0.1, 0.0))), contacts=())
+    leg = Link("leg", 0.2, 0.001, (0.0, -0.1), Shape("segment", ((0.0, 0.0), (0.0, -0.2))), contacts=(), parent="body")
+    sensors = (AngleSensor("joint", "leg", -10 * DEG, 10 * DEG), TiltSensor("level", "leg", -10 * DEG, 10 * DEG),
+               TiltSensor("tipped", "leg", 30 * DEG, 60 * DEG))
+    m = sim.compile_creature(Creature("tilt", (body, leg), sensors=sensors, world=World(plane="horizontal")), "float64")
+
+    @jax.jit
+    def bits(q):
+        s = sim.make_state(m, q)
+        return sim.sense(m, sim.prepare(m, s), s.t)
+
+    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 0.0, 0.0]))), [1, 1, 0])
+    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 45 * DEG, 0.0]))), [1, 0, 1])
+    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 45 * DEG, -45 * DEG]))), [0, 1, 0])
