@@ -12,6 +12,7 @@ import re
 import tomllib
 from pathlib import Path
 
+from . import geometry
 from ._checks import (
     _MISSING,
     CreatureError,
@@ -28,7 +29,6 @@ from ._checks import (
     string,
     within,
 )
-from . import geometry
 from ._parts import _actuator, _link_ref, _links, _named, _sensor, _spring
 from ._toml import (
     EVALUATION,

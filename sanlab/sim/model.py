@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from sanlab.creature.spec import Creature, Vec2
+from sanlab.creature.spec import AngleSensor, Creature, LengthSensor, TiltSensor, Vec2
 
 ROUGH_TERMS = 8  # sinusoids in rough terrain
 FOLLOW_SAMPLES = 512  # arc-length table of the follow-point spline
@@ -331,7 +331,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
             smin.append(0.0)
             smax.append(0.0)
             spoints.append(((0.0, 0.0), (0.0, 0.0)))
-        elif s.kind in ("angle", "tilt"):
+        elif isinstance(s, (AngleSensor, TiltSensor)):
             sensors.append((s.kind, names[s.link], -1))
             smin.append(s.min)
             smax.append(s.max)
@@ -344,6 +344,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
             smax.append(s.max)
             spoints.append((s.at.at, (0.0, 0.0)))
         else:
+            assert isinstance(s, LengthSensor)
             sensors.append(("length", -1, len(lengths)))
             lengths.append((names[s.a.link], names[s.b.link]))
             smin.append(s.min)
