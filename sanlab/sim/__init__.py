@@ -24,7 +24,8 @@ from sanlab.sim.dynamics import (
     step,
     velocity,
 )
-from sanlab.sim.model import Model, Params, Structure, compile_creature
+from sanlab.sim.compiler import compile_creature
+from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.rollout import (
     ConstantController,
     Frames,

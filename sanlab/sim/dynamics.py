@@ -77,11 +77,12 @@ class Frame(NamedTuple):
     cv: list  # per contact: world velocity
     depth: list  # per contact: penetration (m, > 0 when touching); horizontal plane: 1.0
     terrain: list  # per contact: (h, dh/dx) of the ground under it
-    qd: list  # per dof velocity q'_n = M_n^-1 p_n
+    qd: list  # per dof velocity q'_n = M_n^-1 p_n (state coordinates)
     gate: Any = None  # unbatched runtime-true boolean that fences XLA fusion (see _barrier)
     com: list | None = None  # per link: centre of mass, world
     S: dict | None = None  # per rotational link of a free tree: (sum over its subtree of m (c - X_k)) / m_tree
-    M: SymMatrix | None = None  # mass matrix M(q_n)
+    M: SymMatrix | None = None  # mass matrix M(q_n), tree coordinates
+    u: list | None = None  # per dof velocity in tree coordinates (root origins, angle rates)
 
 
 # ---------------------------------------------------------------- kinematics
@@ -113,27 +114,20 @@ def _point_vel(fr: Frame, i: int, p: Vec) -> Vec:
 
 
 def jacobian(st: Structure, fr: Frame, i: int, p: Vec) -> dict:
-    """Jacobian of world point ``p`` fixed on link ``i``: {dof: (dx/dq, dy/dq)}.
+    """Jacobian of world point ``p`` fixed on link ``i`` in *tree* coordinates (the velocity of
+    each free tree's root origin, then the angle rates): {dof: (dx/du, dy/du)}.
 
-    In a free tree turning dof k moves the point by perp(p - X_k) if k is on its chain, and
-    every point by -perp(S_k): the tree turns about its centre of mass, which stays put."""
+    Forces, the mass matrix and the linear solve of a step live in these coordinates, where a
+    point depends only on the dofs of its own chain (no fill-in); the state's coordinates, a
+    free tree's centre of mass, differ from them by a linear change of variables (see
+    :func:`_to_tree` and friends)."""
     ls = st.links[i]
-    if ls.dof_x < 0 and ls.dof_rot < 0 and ls.parent < 0:
-        return {}  # welded to the world
     J: dict = {ls.dof_x: (1.0, 0.0), ls.dof_y: (0.0, 1.0)} if ls.dof_x >= 0 else {}
-    if ls.point:
-        return J
-    tree = st.trees[ls.tree]
-    for k in tree.rot:
-        jx: Any = 0.0
-        jy: Any = 0.0
-        if k in ls.chain:
-            X = fr.X[k]
-            jx, jy = neg(sub(p[1], X[1])), sub(p[0], X[0])
-        if tree.free:
-            S = fr.S[k]
-            jx, jy = add(jx, S[1]), sub(jy, S[0])
-        J[st.links[k].dof_rot] = (jx, jy)
+    if not ls.point:
+        for k in ls.chain:
+            if st.links[k].dof_rot >= 0:
+                X = fr.X[k]
+                J[st.links[k].dof_rot] = (neg(sub(p[1], X[1])), sub(p[0], X[0]))
     return J
 
 
@@ -268,7 +262,7 @@ def _positions(model: Model, q, gate) -> Frame:
             # S_k = sum over the subtree of k of m (c - X_k), over the tree's mass (shift-free form)
             Xr = (sub(X[k][0], sx), sub(X[k][1], sy))
             S[k] = ((mc[k][0] - msum[k] * Xr[0]) * inv, (mc[k][1] - msum[k] * Xr[1]) * inv)
-    X, com, S = _barrier((X, com, S), gate)
+    X, com, S = _barrier((X, com, S), gate, 'pos')
     fr = Frame(X, [None] * len(X), cs, th, [None] * len(X), [], [], [], [], [], gate, com, S)
     for c, i in enumerate(st.contacts):
         pt = _point(fr, i, (p.contact[c, 0], p.contact[c, 1]))
@@ -281,37 +275,24 @@ def _positions(model: Model, q, gate) -> Frame:
         else:
             fr.terrain.append((0.0, 0.0))
             fr.depth.append(1.0)
-    cp, depth, terrain = _barrier((fr.cp, fr.depth, fr.terrain), gate)
+    cp, depth, terrain = _barrier((fr.cp, fr.depth, fr.terrain), gate, 'cp')
     return fr._replace(cp=cp, depth=depth, terrain=terrain)
 
 
 def _mass_matrix(st: Structure, p: Params, fr: Frame) -> SymMatrix:
-    """M(q): sum over links of m J_c^T J_c + I r r^T. The translational block of a free tree is its
-    mass times the identity, exactly: the rotational dofs' columns of J_c sum to zero over the
-    tree (the tree turns about its centre of mass), so they are assembled without it."""
+    """M(q) in tree coordinates: sum over links of m J_c^T J_c + I r r^T."""
     terms = _Terms()
-    for tree in st.trees:
-        r = st.links[tree.root]
-        if tree.free:
-            mt = 0.0
-            for i in tree.links:
-                mt = add(mt, p.mass[i])
-            terms.outer(mt, {r.dof_x: 1.0})
-            terms.outer(mt, {r.dof_y: 1.0})
-        for i in tree.links:
-            ls = st.links[i]
-            if ls.point or (ls.parent < 0 and not tree.free):
-                continue
-            J = jacobian(st, fr, i, fr.com[i])
-            gx = {d: v[0] for d, v in J.items() if d != r.dof_x and d != r.dof_y and not _zero(v[0])}
-            gy = {d: v[1] for d, v in J.items() if d != r.dof_x and d != r.dof_y and not _zero(v[1])}
-            if not tree.free:
-                gx = {d: v[0] for d, v in J.items() if not _zero(v[0])}
-                gy = {d: v[1] for d, v in J.items() if not _zero(v[1])}
-            terms.outer(p.mass[i], gx)
-            terms.outer(p.mass[i], gy)
+    for ls in st.links:
+        i = ls.index
+        if ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0:
+            continue  # welded to the world
+        J = jacobian(st, fr, i, fr.com[i])
+        terms.outer(p.mass[i], {d: v[0] for d, v in J.items() if not _zero(v[0])})
+        terms.outer(p.mass[i], {d: v[1] for d, v in J.items() if not _zero(v[1])})
+        if not ls.point:
             terms.outer(p.inertia[i], _rot_row(st, i))
     M, _ = terms.assemble(_elimination_order(st), fr.gate)
+    M.a = _barrier(M.a, fr.gate, "M")  # used by the velocity solve, the step's matrix and p's update
     return M
 
 
@@ -319,32 +300,80 @@ def _zero(v) -> bool:
     return isinstance(v, float) and v == 0.0
 
 
-def _velocities(model: Model, fr: Frame, qd: list) -> Frame:
-    """Link angular velocities, link origin and contact velocities for velocities ``qd``."""
+def _turn_rates(st: Structure, fr: Frame):
+    """Per free tree (by root): [(dof of link k, T_k)], T_k = (S_ky, -S_kx) the velocity of the
+    root origin relative to the centre of mass per unit rate of dof k (the tree turns about its
+    centre of mass)."""
+    out = {}
+    for tree in st.trees:
+        if tree.free and not tree.point:
+            out[tree.root] = [(st.links[k].dof_rot, (fr.S[k][1], neg(fr.S[k][0]))) for k in tree.rot]
+    return out
+
+
+def _to_tree(st: Structure, fr: Frame, v: list) -> list:
+    """Velocities: state coordinates -> tree coordinates, u = S v (root origin = centre of mass
+    velocity + turning)."""
+    u = list(v)
+    for r, rows in _turn_rates(st, fr).items():
+        ls = st.links[r]
+        for d, (tx, ty) in rows:
+            u[ls.dof_x] = add(u[ls.dof_x], mul(tx, v[d]))
+            u[ls.dof_y] = add(u[ls.dof_y], mul(ty, v[d]))
+    return u
+
+
+def _from_tree(st: Structure, fr: Frame, u: list) -> list:
+    """Velocities: tree coordinates -> state coordinates, v = S^-1 u."""
+    v = list(u)
+    for r, rows in _turn_rates(st, fr).items():
+        ls = st.links[r]
+        for d, (tx, ty) in rows:
+            v[ls.dof_x] = sub(v[ls.dof_x], mul(tx, u[d]))
+            v[ls.dof_y] = sub(v[ls.dof_y], mul(ty, u[d]))
+    return v
+
+
+def _force_to_tree(st: Structure, fr: Frame, f: list) -> list:
+    """Generalised forces or momenta: state coordinates -> tree coordinates, S^-T f."""
+    g = list(f)
+    for r, rows in _turn_rates(st, fr).items():
+        ls = st.links[r]
+        for d, (tx, ty) in rows:
+            g[d] = sub(g[d], add(mul(tx, f[ls.dof_x]), mul(ty, f[ls.dof_y])))
+    return g
+
+
+def _force_from_tree(st: Structure, fr: Frame, g: list) -> list:
+    """Generalised forces or momenta: tree coordinates -> state coordinates, S^T g."""
+    f = list(g)
+    for r, rows in _turn_rates(st, fr).items():
+        ls = st.links[r]
+        for d, (tx, ty) in rows:
+            f[d] = add(f[d], add(mul(tx, g[ls.dof_x]), mul(ty, g[ls.dof_y])))
+    return f
+
+
+def _velocities(model: Model, fr: Frame, u: list) -> Frame:
+    """Link angular velocities, link origin and contact velocities for tree velocities ``u``;
+    ``qd`` of the frame: the same velocities in state coordinates."""
     st = model.structure
     w: list = [None] * len(st.links)
     V: list = [None] * len(st.links)
     for ls in st.links:
         i = ls.index
         if ls.parent < 0:
-            w[i] = qd[ls.dof_rot] if ls.dof_rot >= 0 else 0.0
-            if ls.dof_x < 0:
-                V[i] = (0.0, 0.0)
-            elif ls.point:
-                V[i] = (qd[ls.dof_x], qd[ls.dof_y])
-            else:
-                # the root origin moves with the centre of mass, plus the tree's turning about it
-                tx, ty = _turning(st, fr, ls, qd)
-                V[i] = (add(qd[ls.dof_x], tx), add(qd[ls.dof_y], ty))
+            w[i] = u[ls.dof_rot] if ls.dof_rot >= 0 else 0.0
+            V[i] = (u[ls.dof_x], u[ls.dof_y]) if ls.dof_x >= 0 else (0.0, 0.0)
         else:
             j = ls.parent
-            w[i] = add(w[j], qd[ls.dof_rot])
+            w[i] = add(w[j], u[ls.dof_rot])
             rx, ry = sub(fr.X[i][0], fr.X[j][0]), sub(fr.X[i][1], fr.X[j][1])
             V[i] = (sub(V[j][0], mul(w[j], ry)), add(V[j][1], mul(w[j], rx)))
-    w, V = _barrier((w, V), fr.gate)
-    fr = fr._replace(w=w, V=V, qd=qd)
+    w, V = _barrier((w, V), fr.gate, 'wv')
+    fr = fr._replace(w=w, V=V, qd=_from_tree(st, fr, u), u=u)
     cv = [_point_vel(fr, i, fr.cp[c]) for c, i in enumerate(st.contacts)]
-    return fr._replace(cv=_barrier(cv, fr.gate))
+    return fr._replace(cv=_barrier(cv, fr.gate, 'cv'))
 
 
 def prepare(model: Model, state: State, gate=None) -> Frame:
@@ -357,17 +386,19 @@ def prepare(model: Model, state: State, gate=None) -> Frame:
     st = model.structure
     fr = _positions(model, state.q, gate)
     M = _mass_matrix(st, model.params, fr)
-    v = M.solve({d: state.p[d] for d in range(st.ndof)})
-    qd = _barrier([v[d] for d in range(st.ndof)], gate)
-    return _velocities(model, fr._replace(M=M), qd)
+    pt = _force_to_tree(st, fr, [state.p[d] for d in range(st.ndof)])
+    v = M.solve(dict(enumerate(pt)))
+    u = _barrier([v[d] for d in range(st.ndof)], gate, 'u')
+    return _velocities(model, fr._replace(M=M), u)
 
 
-def _barrier(tree, gate):
+def _barrier(tree, gate, name=""):
     """Force XLA to compute ``tree``'s traced leaves once and keep them in memory.
 
     XLA's CPU fusion otherwise re-derives shared intermediates (trig, kinematics) inside every
     consumer fusion. A conditional on an unbatched, runtime-unknown predicate is a boundary that
-    fusion cannot cross. Python constants (structural zeros) pass through untouched.
+    fusion cannot cross. Python constants (structural zeros) pass through untouched. ``name``
+    labels the fence for profiling.
     """
     leaves, treedef = jax.tree_util.tree_flatten(tree)
     idx = [i for i, x in enumerate(leaves) if not isinstance(x, (int, float))]
@@ -401,8 +432,10 @@ def _make_one(model: Model, q, qd, t) -> State:
     st = model.structure
     fr = _positions(model, q, None)
     M = _mass_matrix(st, model.params, fr)
-    p = M.matvec({d: qd[d] for d in range(st.ndof)})
-    return State(q, qd, t, _dense([p[d] for d in range(st.ndof)], q.dtype), _contact_points(model, fr))
+    u = _to_tree(st, fr, [qd[d] for d in range(st.ndof)])
+    Mu = M.matvec(dict(enumerate(u)))
+    p = _force_from_tree(st, fr, [Mu.get(d, 0.0) for d in range(st.ndof)])
+    return State(q, qd, t, _dense(p, q.dtype), _contact_points(model, fr))
 
 
 def make_state(model: Model, q=None, qd=None, t=0.0) -> State:
@@ -427,8 +460,9 @@ def velocity(model: Model, state: State) -> Any:
     """The velocity M(q)^-1 p [D] of one state (what ``qd`` holds outside a rollout's loop)."""
     st = model.structure
     fr = _positions(model, state.q, None)
-    v = _mass_matrix(st, model.params, fr).solve({d: state.p[d] for d in range(st.ndof)})
-    return _dense([v[d] for d in range(st.ndof)], state.q.dtype)
+    M = _mass_matrix(st, model.params, fr)
+    u = M.solve(dict(enumerate(_force_to_tree(st, fr, [state.p[d] for d in range(st.ndof)]))))
+    return _dense(_from_tree(st, fr, [u[d] for d in range(st.ndof)]), state.q.dtype)
 
 
 def seat_on_ground(model: Model, q0) -> Any:
@@ -455,16 +489,6 @@ def _free_roots(st: Structure):
     return [st.links[t.root] for t in st.trees if t.free and not t.point]
 
 
-def _turning(st: Structure, fr: Frame, root, qd) -> Vec:
-    """Velocity of a free tree's root origin relative to its centre of mass, for velocities qd."""
-    vx: Any = 0.0
-    vy: Any = 0.0
-    for k in st.trees[root.tree].rot:
-        vx = add(vx, mul(qd[st.links[k].dof_rot], fr.S[k][1]))
-        vy = sub(vy, mul(qd[st.links[k].dof_rot], fr.S[k][0]))
-    return vx, vy
-
-
 def root_coordinates(model: Model, q, qd=None):
     """Convert one state's coordinates q [D] (and velocities qd) to root-origin form: each free
     tree's centre of mass (and its velocity) replaced by its root link's origin (and that point's
@@ -477,11 +501,7 @@ def root_coordinates(model: Model, q, qd=None):
         qr = qr.at[r.dof_x].set(fr.X[r.index][0]).at[r.dof_y].set(fr.X[r.index][1])
     if qd is None:
         return qr
-    qdr = qd
-    for r in _free_roots(st):
-        vx, vy = _turning(st, fr, r, [qd[d] for d in range(st.ndof)])
-        qdr = qdr.at[r.dof_x].add(vx).at[r.dof_y].add(vy)
-    return qr, qdr
+    return qr, _dense(_to_tree(st, fr, [qd[d] for d in range(st.ndof)]), qd.dtype)
 
 
 def from_root_coordinates(model: Model, q_root, qd_root=None):
@@ -495,11 +515,7 @@ def from_root_coordinates(model: Model, q_root, qd_root=None):
         q = q.at[r.dof_x].set(q_root[r.dof_x] - fr.X[r.index][0]).at[r.dof_y].set(q_root[r.dof_y] - fr.X[r.index][1])
     if qd_root is None:
         return q
-    qd = qd_root
-    for r in _free_roots(st):
-        vx, vy = _turning(st, fr, r, [qd_root[d] for d in range(st.ndof)])
-        qd = qd.at[r.dof_x].add(-vx).at[r.dof_y].add(-vy)
-    return q, qd
+    return q, _dense(_from_tree(st, fr, [qd_root[d] for d in range(st.ndof)]), qd_root.dtype)
 
 
 # ---------------------------------------------------------------- sensors
@@ -623,7 +639,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     st, p = model.structure, model.params
     h = p.dt
     T = _Terms()
-    qd = fr.qd
+    qd = fr.u  # element rates are taken in tree coordinates, like their rows
 
     def element(g: dict, force, k, c, rate):
         """Spring-damper-like element along row g: force F, stiffness k, damping c, rate g.q'."""
@@ -632,15 +648,17 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
 
     _inertial_force(st, p, fr, T)
 
-    # gravity: on a free tree's centre of mass; link by link in a welded tree
+    # gravity: on a free tree's centre of mass (mapped to tree coordinates); link by link in a
+    # welded tree
     if st.plane == "vertical":
+        weight = [0.0] * st.ndof
         for tree in st.trees:
             r = st.links[tree.root]
             if tree.free:
                 mt = 0.0
                 for i in tree.links:
                     mt = add(mt, p.mass[i])
-                T.force(neg(mt * p.gravity), {r.dof_y: 1.0})
+                weight[r.dof_y] = neg(mt * p.gravity)
                 continue
             for i in tree.links:
                 ls = st.links[i]
@@ -648,6 +666,8 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                     continue
                 gy = {d: v[1] for d, v in jacobian(st, fr, i, fr.com[i]).items() if not _zero(v[1])}
                 T.force(neg(p.mass[i] * p.gravity), gy)
+        for d, f in enumerate(_force_to_tree(st, fr, weight)):
+            T.force(f, {d: 1.0})
 
     # passive joint springs
     for i in st.joint_springs:
@@ -682,9 +702,10 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     for n, (la, lb) in enumerate(st.springs):
         _linear(st, fr, p.spr_pts[n], la, lb, p.spr[n, 2], p.spr[n, 0], p.spr[n, 1], element)
 
-    # ground contact and friction
+    # ground contact and friction: first every contact's force laws (fenced, so that the
+    # stick-slip decisions are computed once), then their elements
     deepest = None
-    anchors = []
+    laws = []  # per contact: [(row, force, stiffness, damping, rate)], anchor
     for c, i in enumerate(st.contacts):
         pt, v = fr.cp[c], fr.cv[c]
         J = jacobian(st, fr, i, pt)
@@ -697,13 +718,10 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
             deepest = depth if deepest is None else jnp.maximum(deepest, depth)
             vn = add(mul(v[0], n[0]), mul(v[1], n[1]))
             vt = add(mul(v[0], t[0]), mul(v[1], t[1]))
-            gn, gt = _project(J, n), _project(J, t)
-            touching = depth > 0
             fn = p.ground_k * depth - p.ground_c * vn
-            on = touching & (fn > 0)
+            on = (depth > 0) & (fn > 0)
             N = jnp.where(on, fn, 0.0)
             onf = jnp.where(on, 1.0, 0.0)
-            element(gn, N, onf * p.ground_k, onf * p.ground_c, vn)
             stretch = add(mul(sub(pt[0], anchor[0]), t[0]), mul(sub(pt[1], anchor[1]), t[1]))
             if aniso:
                 # the limit depends on the way the contact is pushed to slip
@@ -713,8 +731,9 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 mu = jnp.where(fwd, mu_f, mu_b)
             else:
                 mu = mu_f
-            held = _stick(element, gt, stretch, vt, mu * N, p, on)
-            anchors.append((sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1]))))
+            ft, kt, ct, held = _stick(stretch, vt, mu * N, p)
+            laws.append(([(_project(J, n), N, onf * p.ground_k, onf * p.ground_c, vn), (_project(J, t), ft, kt, ct, vt)],
+                         (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
         else:
             N = p.contact_load[c]
             d = (sub(pt[0], anchor[0]), sub(pt[1], anchor[1]))
@@ -728,12 +747,18 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 s1 = d[0] * e1[0] + d[1] * e1[1]
                 s2 = d[0] * e2[0] + d[1] * e2[1]
                 mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
-                h1 = _stick(element, _project(J, e1), s1, va, mu * N, p, True)
-                h2 = _stick(element, _project(J, e2), s2, vl, mu_l * N, p, True)
-                anchors.append((pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1]))
+                f1, k1, c1, h1 = _stick(s1, va, mu * N, p)
+                f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p)
+                laws.append(([(_project(J, e1), f1, k1, c1, va), (_project(J, e2), f2, k2, c2, vl)],
+                             (pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1])))
             else:
-                hx, hy = _stick_disc(element, J, d, v, mu_f * N, p)
-                anchors.append((sub(pt[0], hx), sub(pt[1], hy)))
+                rows, held = _stick_disc(J, d, v, mu_f * N, p)
+                laws.append((rows, (sub(pt[0], held[0]), sub(pt[1], held[1]))))
+    laws = _barrier(laws, fr.gate, "contacts")
+    anchors = [a for _, a in laws]
+    for rows, _ in laws:
+        for g, force, k, c, rate in rows:
+            element(g, force, k, c, rate)
 
     # water drag on each edge, exact for a rigid edge: normal -k ∫ (v.N) N ds, tangential
     # (skin) -k_t ∫ (v.T) T ds (uniform along the edge, along its own line: no moment)
@@ -766,13 +791,18 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
 
     A, Q = T.assemble(_elimination_order(st), fr.gate, base=fr.M)
     rhs = {d: mul(h, v) for d, v in Q.items()}
-    A.a, rhs = _barrier((A.a, rhs), fr.gate)
-    dv = _barrier(A.solve(rhs), fr.gate)
-    vstar = [add(qd[d], dv[d]) for d in range(st.ndof)]
-    dp = fr.M.matvec(dv)
+    A.a, rhs = _barrier((A.a, rhs), fr.gate, 'A')
+    du = _barrier(A.solve(rhs), fr.gate, 'du')
+    ustar = [add(qd[d], du[d]) for d in range(st.ndof)]
+    # p_{n+1} = M v* in state coordinates = S^T (M_tree u*) = p_n + S^T M_tree du
+    Mdu = fr.M.matvec(du)
+    dp = _force_from_tree(st, fr, [Mdu.get(d, 0.0) for d in range(st.ndof)])
+    vstar = _from_tree(st, fr, ustar)
+    # fenced before stacking: a fused stack would re-derive every entry for every element
+    vstar, dp, anchors = _barrier((vstar, dp, anchors), fr.gate, "update")
     dtype = state.q.dtype
     qd_new = _dense(vstar, dtype)
-    p_new = state.p + _dense([dp.get(d, 0.0) for d in range(st.ndof)], dtype)
+    p_new = state.p + _dense(dp, dtype)
     q_new = state.q + h * qd_new
     if deepest is None:
         deepest = jnp.zeros((), q_new.dtype)
@@ -781,30 +811,30 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     return State(q_new, qd_new, state.t + h, p_new, anchor), deepest
 
 
-def _stick(element, g: dict, stretch, v, limit, p: Params, touching) -> Any:
-    """Friction along one tangent direction (row g, slip velocity v, anchor ``stretch`` m behind
-    the contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor
-    (the ground's stiffness k, and a damper mu N / slip_speed) needs at most the limit, else
-    slides with Coulomb friction. The damper bounds how fast the spring can push the contact
-    back (by k s <= mu N: at most the slip speed), so a stopped slip does not rebound.
+def _stick(stretch, v, limit, p: Params) -> tuple:
+    """Friction along one tangent direction (slip velocity v, anchor ``stretch`` m behind the
+    contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor (the
+    ground's stiffness k, and a damper mu N / slip_speed) needs at most the limit, else slides
+    with Coulomb friction. The damper bounds how fast the spring can push the contact back (by
+    k s <= mu N: at most the slip speed), so a stopped slip does not rebound.
 
-    Returns how far behind the contact its anchor stays (0 when sliding or free: the anchor
-    restarts at the contact, so a contact that stops sliding holds from where it stopped)."""
+    Returns the element's (force, stiffness, damping) and how far behind the contact its anchor
+    stays (0 when sliding or free: the anchor restarts at the contact, so a contact that stops
+    sliding holds from where it stopped)."""
     k = p.ground_k
     c = limit / p.slip  # as stiff as Coulomb friction at the slip speed: springs back at most that fast
     s = jnp.clip(stretch, -limit / k, limit / k)
     trial = -k * s - c * v
-    stick = touching & (limit > 0) & (jnp.abs(trial) <= limit)
+    stick = (limit > 0) & (jnp.abs(trial) <= limit)
     slide = limit / jnp.maximum(jnp.abs(v), p.slip)  # Coulomb as an implicit damper
-    on = jnp.where(stick, 1.0, 0.0)
-    force = jnp.where(stick, trial, -slide * v)
-    element(g, force, on * k, jnp.where(stick, c, slide), v)
-    return jnp.where(stick, s, 0.0)
+    return (jnp.where(stick, trial, -slide * v), jnp.where(stick, k, 0.0), jnp.where(stick, c, slide),
+            jnp.where(stick, s, 0.0))
 
 
-def _stick_disc(element, J: dict, d: Vec, v: Vec, limit, p: Params) -> Vec:
+def _stick_disc(J: dict, d: Vec, v: Vec, limit, p: Params) -> tuple:
     """Isotropic friction in the horizontal plane: as :func:`_stick`, with the force limited to a
-    disc (the spring to the anchor ``d`` m behind the contact, 2-D)."""
+    disc (the spring to the anchor ``d`` m behind the contact, 2-D). Returns the two elements'
+    (row, force, stiffness, damping, rate) and the anchor's offset behind the contact."""
     k = p.ground_k
     c = limit / p.slip
     r = jnp.sqrt(d[0] * d[0] + d[1] * d[1])
@@ -814,12 +844,11 @@ def _stick_disc(element, J: dict, d: Vec, v: Vec, limit, p: Params) -> Vec:
     stick = (limit > 0) & (trial[0] * trial[0] + trial[1] * trial[1] <= limit * limit)
     speed = jnp.sqrt(v[0] * v[0] + v[1] * v[1])
     slide = limit / jnp.maximum(speed, p.slip)
-    on = jnp.where(stick, 1.0, 0.0)
+    ks = jnp.where(stick, k, 0.0)
     damp = jnp.where(stick, c, slide)
-    for axis, (e, ve) in enumerate((((1.0, 0.0), v[0]), ((0.0, 1.0), v[1]))):
-        force = jnp.where(stick, trial[axis], -slide * ve)
-        element(_project(J, e), force, on * k, damp, ve)
-    return jnp.where(stick, s[0], 0.0), jnp.where(stick, s[1], 0.0)
+    rows = [(_project(J, e), jnp.where(stick, trial[a], -slide * ve), ks, damp, ve)
+            for a, (e, ve) in enumerate((((1.0, 0.0), v[0]), ((0.0, 1.0), v[1])))]
+    return rows, (jnp.where(stick, s[0], 0.0), jnp.where(stick, s[1], 0.0))
 
 
 class _Terms:
@@ -840,7 +869,7 @@ class _Terms:
             self.vec.append((f, g))
 
     def assemble(self, order: list[int], gate, base: SymMatrix | None = None) -> tuple[SymMatrix, dict]:
-        mat, vec = _barrier((self.mat, self.vec), gate)
+        mat, vec = _barrier((self.mat, self.vec), gate, 'terms' if base is not None else 'mterms')
         M = SymMatrix(order)
         if base is not None:
             M.a = dict(base.a)

@@ -249,8 +249,9 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
     return out
 
 
-def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
-    """Build the static structure and parameter arrays of ``spec``.
+def assemble(spec: Creature, dtype: Any = "float32") -> Model:
+    """Build the static structure and parameter arrays of ``spec``, bodies where the file puts
+    them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
 
     dtype: "float32" (default) or "float64".
     """
@@ -429,12 +430,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
         q0=arr(q0, (ndof,)),
         dt=arr(spec.dt),
     )
-    model = Model(structure, params, spec, dt_np)
-    if w.plane == "vertical" and contacts:
-        from sanlab.sim.dynamics import seat_on_ground
-
-        model = model.with_params(q0=seat_on_ground(model, params.q0))
-    return model
+    return Model(structure, params, spec, dt_np)
 
 
 def _trees(spec: Creature, names: dict[str, int]) -> tuple[list[LinkS], list[TreeS], list[float]]:

@@ -1,0 +1,23 @@
+"""Compile a creature: its arrays (:mod:`sanlab.sim.model`), then its bodies seated on the
+ground with the same contact geometry the step uses (:mod:`sanlab.sim.dynamics`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sanlab.creature.spec import Creature
+from sanlab.sim.dynamics import seat_on_ground
+from sanlab.sim.model import Model, assemble
+
+
+def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
+    """The compiled model of ``spec``: structure static, numbers as arrays of ``dtype``
+    ("float32", the default, or "float64").
+
+    In the vertical plane every free tree whose contact points start below the ground is lifted
+    just clear of it: a body started inside the ground would be launched by the penalty spring.
+    """
+    model = assemble(spec, dtype)
+    if spec.world.plane == "vertical" and model.structure.contacts:
+        model = model.with_params(q0=seat_on_ground(model, model.params.q0))
+    return model
