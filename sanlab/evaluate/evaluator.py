@@ -214,15 +214,23 @@ class Evaluator:
         r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
                         pad_to=R)
         s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
-        shaped = {k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}
-        member_score = shaped["score"].mean(1)
-        member_speed = shaped["speed_cm_s"].mean(1)
-        member_dist = shaped["distance_m"].mean(1)
-        fell = shaped["fell"].any(1)
-        nonfinite = shaped["nonfinite"].any(1)
-        out = ScoreBatch(np.median(member_score, 1), np.median(member_speed, 1), np.median(member_dist, 1),
-                         fell.sum(1) > K / 2, nonfinite.any(1), member_score, member_speed)
-        return out.take(slice(0, n))
+        return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}).take(slice(0, n))
+
+
+def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
+    """Evaluations' scores from their rows' (``metrics.scores`` arrays shaped [B, T terrains,
+    K members]): a member's score, speed and distance are its means over the terrains (it fell,
+    or went non-finite, if it did on any); an evaluation's are the medians over its members, it
+    fell if more than half of its members fell, and it is non-finite if any member was (that
+    member scored 0)."""
+    member_score = rows["score"].mean(1)
+    member_speed = rows["speed_cm_s"].mean(1)
+    member_dist = rows["distance_m"].mean(1)
+    fell = np.any(rows["fell"], axis=1)
+    nonfinite = np.any(rows["nonfinite"], axis=1)
+    K = member_score.shape[1]
+    return ScoreBatch(np.median(member_score, 1), np.median(member_speed, 1), np.median(member_dist, 1),
+                      np.sum(fell, axis=1) > K / 2, np.any(nonfinite, axis=1), member_score, member_speed)
 
 
 def _tree(fn, model: Model) -> Model:

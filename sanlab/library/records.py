@@ -123,6 +123,14 @@ class Run:
         """``params`` decoded (KeyError, TypeError or ValueError if they are not a sanlab run's)."""
         return settings_from_json(self.params)
 
+    @property
+    def metric(self) -> str | None:
+        """The settings' metric; None when the run has none (or its params are not sanlab's)."""
+        try:
+            return self.settings.metric
+        except (KeyError, TypeError, ValueError):
+            return None
+
 
 @dataclass(frozen=True)
 class Evaluation:

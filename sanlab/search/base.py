@@ -105,8 +105,6 @@ class Strategy(Protocol):
 
     phase: ClassVar[int]  # 1: searches SAN weights from scratch; 2: tunes a start's parameters
 
-    def __init__(self, problem: Problem, /) -> None: ...
-
     @property
     def done(self) -> bool:
         """Everything is asked, told and returned for storing."""
@@ -134,11 +132,19 @@ class Strategy(Protocol):
         ...
 
 
+class StrategyClass(Protocol):
+    """What the registry holds: a strategy class, built from a :class:`Problem`."""
+
+    phase: int
+
+    def __call__(self, problem: Problem, /) -> Strategy: ...
+
+
 class Together:
     """Several strategies driven as one (e.g. one tuning chain per gait): each ``ask`` collects
     a window from every strategy that can ask, ``tell`` routes each candidate back to its own."""
 
-    phase = 2
+    phase: ClassVar[int] = 2
 
     def __init__(self, strategies: Sequence[Strategy]):
         self.strategies = list(strategies)

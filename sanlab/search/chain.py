@@ -20,7 +20,7 @@ so an interrupted chain resumes by re-scoring its start and replaying its stored
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -34,7 +34,7 @@ class Chain:
     """Base: hill-climbing on ``problem.space`` from ``problem.start``; subclasses say what is
     accepted (:meth:`accept`) and may set up on the start's score (:meth:`started`)."""
 
-    phase = 2
+    phase: ClassVar[int] = 2
 
     def __init__(self, problem: Problem):
         if problem.space is None or problem.start is None:

@@ -9,6 +9,7 @@ as an uninterrupted one; batches may be evaluated anywhere and come back in any 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import ClassVar
 
 from sanlab.evaluate.ensemble import search_key
 from sanlab.evaluate.records import ScoreBatch
@@ -20,7 +21,7 @@ class RandomSearch:
     """``problem.budget`` random SANs, weights uniform integers in [-2, 2], each evaluated with
     the creature file's parameters and stored with ``problem.gait_params``."""
 
-    phase = 1
+    phase: ClassVar[int] = 1
 
     def __init__(self, problem: Problem):
         self.problem = problem

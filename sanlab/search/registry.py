@@ -8,11 +8,11 @@ its line here; ``tests/search/test_strategies.py`` then runs the shared API chec
 from __future__ import annotations
 
 from sanlab.search.anneal import Anneal
-from sanlab.search.base import Problem, Strategy
+from sanlab.search.base import Problem, Strategy, StrategyClass
 from sanlab.search.random_search import RandomSearch
 from sanlab.search.sga import SGA
 
-STRATEGIES: dict[str, type[Strategy]] = {
+STRATEGIES: dict[str, StrategyClass] = {
     "random": RandomSearch,  # phase 1 (§5.2)
     "sga": SGA,  # phase 2: stochastic gradient ascent (Figure 9)
     "sa": Anneal,  # phase 2: simulated annealing
