@@ -18,6 +18,7 @@ Ray worker and the projected rate per added worker; the last line is
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import tempfile
@@ -47,7 +48,7 @@ def timed_search(db: str, args, backend=None) -> tuple[float, list]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description="the same bounder search locally and on a local Ray cluster")
     ap.add_argument("--controllers", type=int, default=20_000)
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--batch", type=int, default=256)
@@ -65,7 +66,7 @@ def main() -> None:
     tmp = tempfile.mkdtemp()
     local, a = timed_search(os.path.join(tmp, "local.db"), args)
     print(f"local ({describe_devices()}): {local:.1f} evaluations/s", flush=True)
-    ray.init(num_cpus=args.workers, include_dashboard=False, log_to_driver=False, logging_level="WARNING")
+    ray.init(num_cpus=args.workers, include_dashboard=False, log_to_driver=False, logging_level=logging.WARNING)
     try:
         on_ray, b = timed_search(os.path.join(tmp, "ray.db"), args, make_backend("ray", workers=args.workers))
     finally:

@@ -21,6 +21,7 @@ workers.
 
 from __future__ import annotations
 
+import logging
 import os
 from typing import Any
 
@@ -73,6 +74,7 @@ class RayBackend:
         self._refs: dict[Any, tuple[int, int]] = {}  # in flight: object ref -> (ticket, actor)
         self._load: list[int] = []
         self._tickets = 0
+        self._pids: list[int] = []
         self._started_ray = False
 
     @property
@@ -83,12 +85,13 @@ class RayBackend:
         ray = self._ray
         if not ray.is_initialized():
             ray.init(address=self.address, include_dashboard=False, log_to_driver=False,
-                     logging_level="WARNING", configure_logging=True)
+                     logging_level=logging.WARNING)
             self._started_ray = self.address is None
         n = self.workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
         actor = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=-1)(_Worker)
         self.actors = [actor.remote(evaluator) for _ in range(n)]
         self._load = [0] * n
+        self._pids = ray.get([a.pid.remote() for a in self.actors])  # also waits for every worker to start
 
     def submit(self, request: Request) -> int:
         self._tickets += 1
@@ -109,8 +112,9 @@ class RayBackend:
         return f"ray ({where}{f', {n} workers' if n else ''})"
 
     def pids(self) -> list[int]:
-        """The worker processes' ids (to watch them, or to test what happens when one dies)."""
-        return self._ray.get([a.pid.remote() for a in self.actors])
+        """The worker processes' ids as started (to watch them, or to test what happens when one
+        dies); a restarted worker has a new one."""
+        return list(self._pids)
 
     def close(self) -> None:
         for a in self.actors:

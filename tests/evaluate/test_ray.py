@@ -5,6 +5,7 @@ nothing, the command line on the cluster, and a missing Ray said in one line."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -25,7 +26,7 @@ N, SECONDS, BATCH = 48, 0.5, 8  # six batches of the cart, an ensemble of two
 def cluster():
     ray = pytest.importorskip("ray")
     ray.init(num_cpus=2, object_store_memory=80 * 1024 * 1024, include_dashboard=False, log_to_driver=False,
-             logging_level="WARNING")
+             logging_level=logging.WARNING)
     yield ray
     ray.shutdown()
 
