@@ -79,6 +79,8 @@ def test_ensemble_scores_are_member_medians_and_do_not_depend_on_the_batch():
     np.testing.assert_array_equal(a.member_score, b.member_score[::-1])
     c = ev(W[5:9], keys=keys[5:9])  # alone, in a smaller batch
     np.testing.assert_array_equal(a.member_score[5:9], c.member_score)
+    single = Evaluator(BOUNDER, seconds=1.0, batch=32, ensemble=Ensemble(members=1))(W)
+    np.testing.assert_array_equal(a.member_score[:, 0], single.score)  # member 0: the unperturbed start
     with pytest.raises(ValueError, match="key"):
         ev(W)
 
