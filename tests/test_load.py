@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import os
 import subprocess
 import sys
@@ -33,25 +32,18 @@ ROOT = Path(__file__).resolve().parent.parent
 SANLAB = [sys.executable, "-m", "sanlab"]
 
 
-def _spin() -> None:
-    while True:
-        pass
-
-
 class Hog:
     """One busy process per core, for as long as the ``with`` lasts."""
 
     def __enter__(self) -> Hog:
         n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-        self.procs = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(n)]
-        for p in self.procs:
-            p.start()
+        self.procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
         return self
 
     def __exit__(self, *exc) -> None:
         for p in self.procs:
             p.kill()
-            p.join()
+            p.wait()
 
 
 def _run(args: list[str], cwd: str) -> tuple[int, float, str]:
