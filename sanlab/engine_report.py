@@ -1,14 +1,20 @@
-"""Run random SANs on a creature and summarise the motion: the engine's end-to-end check, and
-the CLI's ``simulate`` command. (The search with its gait library builds on the same calls.)"""
+"""Random SANs on a creature, scored and summarised: the CLI's ``simulate`` command.
+
+Controllers 0..n-1 of a search seeded ``seed`` are scored by the same evaluator, with the same
+ensemble draws, as ``sanlab search`` scores them (distance is the centre of mass's, as in every
+metric), so the same controller shows the same score and speed in both commands; nothing is
+stored.
+"""
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 
 from sanlab.creature.spec import Creature
+from sanlab.evaluate.ensemble import Ensemble, search_key
+from sanlab.evaluate.evaluator import Evaluator, describe_devices
 
 
 def random_san_params(spec: Creature, n: int, seed: int, dtype="float32"):
@@ -21,53 +27,40 @@ def random_san_params(spec: Creature, n: int, seed: int, dtype="float32"):
     return san, san.params(weights, spec.san.delay_on, spec.san.delay_off, dtype)
 
 
-def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: str = "float32") -> dict:
-    """Simulate n random SANs for ``seconds``; distances are of the first link's origin."""
-    import jax
-
-    from sanlab import sim
-
-    model = sim.compile_creature(spec, dtype)
-    san, params = random_san_params(spec, n, seed, dtype)
+def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: str = "float32",
+                    ensemble: Ensemble | None = None, metric: str | None = None) -> dict:
+    """Score controllers 0..n-1 of a search seeded ``seed`` for ``seconds`` (see the module
+    docstring); the report's ``top`` lists every controller, best score first."""
+    ens = ensemble if ensemble is not None else Ensemble()
+    ev = Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=n, ensemble=ens)
+    weights = np.stack([ev.san.random_weights(seed, i) for i in range(n)])
     t0 = time.perf_counter()
-    r = sim.rollout(model, san, params, seconds)
-    jax.block_until_ready(r.state.q)
-    first = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    r = sim.rollout(model, san, params, seconds)
-    jax.block_until_ready(r.state.q)
+    s = ev(weights, keys=[search_key(seed, i) for i in range(n)])
     wall = time.perf_counter() - t0
     steps = int(round(seconds / spec.dt))
-    q0 = np.asarray(model.params.q0)
-    q = np.asarray(r.state.q)
-    dx = q[:, 0] - q0[0]
-    root = model.structure.links[0]
-    angle = q[:, root.dof_rot] if root.dof_rot >= 0 else np.zeros(n)
-    finite = np.asarray(r.finite)
-    dx = np.where(finite, dx, 0.0)
-    order = np.argsort(-np.abs(dx), kind="stable")
+    order = np.argsort(-s.score, kind="stable")
     top = [
         {
             "controller": int(i),
-            "distance_m": float(dx[i]),
-            "speed_cm_s": float(abs(dx[i]) / seconds * 100),
-            "final_angle_deg": float(math.degrees(math.remainder(angle[i], 2 * math.pi))) if finite[i] else float("nan"),
-            "finite": bool(finite[i]),
+            "score": float(s.score[i]),
+            "distance_m": float(s.distance_m[i]),
+            "speed_cm_s": float(s.speed_cm_s[i]),
+            "fell": bool(s.fell[i]),
+            "finite": not bool(s.nonfinite[i]),
         }
         for i in order
     ]
-    devices = jax.devices()
     return {
         "creature": spec.name,
         "controllers": n,
         "seconds": seconds,
         "seed": seed,
         "dtype": dtype,
-        "devices": f"{len(devices)} x {devices[0].platform}",
-        "first_call_s": first,
-        "wall_s": wall,
-        "steps_per_s": n * steps / wall,
-        "max_penetration_m": float(np.max(np.asarray(r.max_depth))),
-        "non_finite": int(np.count_nonzero(~finite)),
+        "metric": ev.metric.kind,
+        "ensemble": ens.members,
+        "devices": describe_devices(),
+        "wall_s": wall,  # compile included on a cold cache
+        "steps_per_s": n * ens.members * steps / wall,
+        "non_finite": int(np.count_nonzero(s.nonfinite)),
         "top": top,
     }

@@ -1,11 +1,8 @@
 """A gait: a stored controller together with the creature it drives, ready to replay or tune.
 
-A stored evaluation's ``params`` say how the controller was evaluated:
-
-- ``delay_on``, ``delay_off`` (s): every node's delays (phase 1), or
-- ``k1``, ``k2`` ([N] 1/s): per-node rates (after tuning), and
-- ``model``: {Params field: nested list} overrides of the creature's numbers (after tuning:
-  actuator ranges and gains, sensor ranges, and with ``--morphology`` masses and lengths).
+Its :class:`~sanlab.evaluate.records.GaitParams` say how the controller is evaluated beside its
+weights (phase-1 delays, or a tuned gait's per-node rates and model overrides); its run's
+settings say for how long, with which metric and on which ensemble it was scored.
 
 Replaying uses the same compiled step as the search (there is no second physics).
 """
@@ -13,11 +10,14 @@ Replaying uses the same compiled step as the search (there is no second physics)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from sanlab.creature import loads
 from sanlab.creature.spec import Creature
+from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.records import GaitParams
 from sanlab.san import San, SanParams
 
 
@@ -26,46 +26,40 @@ class Gait:
     gait_id: str  # "RUN#IDX" (permanent id)
     spec: Creature
     weights: np.ndarray  # [N, I] int8
-    params: dict  # how it is evaluated (see the module docstring)
-    run_params: dict = field(default_factory=dict)  # the run's settings: seconds, metric, ...
+    params: GaitParams  # how it is evaluated
+    seconds: float  # evaluation time of its run (s)
+    metric: str  # its run's metric
+    ensemble: Ensemble = field(default_factory=lambda: Ensemble(members=1))  # its run's ensemble
     score: float = float("nan")
     speed_cm_s: float = float("nan")
     creature_text: str = ""  # the creature file, verbatim, as stored with its run
+    source: str | None = None  # where the creature file came from (its run's settings)
 
     @property
     def san(self) -> San:
         return San.for_creature(self.spec)
 
-    @property
-    def seconds(self) -> float:
-        return float(self.run_params.get("seconds", self.spec.evaluation.seconds))
-
-    @property
-    def metric(self) -> str:
-        return self.run_params.get("metric", self.spec.evaluation.metric)
-
     @classmethod
-    def from_library(cls, library, gait_id: str) -> "Gait":
-        """Look a gait up by "RUN/RANK" or "RUN#IDX" (raises LibraryError if there is none)."""
+    def from_library(cls, library: Any, gait_id: str) -> Gait:
+        """Look a gait up in a ``sanlab.library.Library`` by "RUN/RANK" or "RUN#IDX" (raises
+        LibraryError if there is none)."""
         e = library.gait(gait_id)
         run = library.get_run(e.run_id)
-        spec = loads(run.creature_text, source=run.params.get("source", run.creature))
+        s = run.settings
+        spec = loads(run.creature_text, source=s.source or run.creature)
         san = San.for_creature(spec)
-        return cls(e.gait_id, spec, san.decode(e.encoding), dict(e.params), dict(run.params), e.score,
-                   e.speed_cm_s, run.creature_text)
+        seconds = s.seconds if s.seconds is not None else spec.evaluation.seconds
+        metric = s.metric if s.metric is not None else spec.evaluation.metric
+        return cls(e.gait_id, spec, san.decode(e.encoding), e.gait_params, seconds, metric, s.ensemble,
+                   e.score, e.speed_cm_s, run.creature_text, s.source)
 
     def san_params(self, dtype: str = "float32") -> SanParams:
         """The controller's parameters with a leading batch axis of 1."""
-        p = self.params
-        if "k1" in p:
-            w = np.asarray(self.weights)[None]
-            k1, k2 = np.asarray(p["k1"], float)[None], np.asarray(p["k2"], float)[None]
-            import jax.numpy as jnp
+        import jax.numpy as jnp
 
-            return SanParams(*(jnp.asarray(x, dtype) for x in (w, k1, k2)))
-        delay_on = p.get("delay_on", self.spec.san.delay_on)
-        delay_off = p.get("delay_off", self.spec.san.delay_off)
-        return self.san.params(np.asarray(self.weights)[None], delay_on, delay_off, dtype)
+        k1, k2 = self.params.rates(self.san.n_nodes, self.spec.san.delay_on, self.spec.san.delay_off)
+        w = np.asarray(self.weights)[None]
+        return SanParams(*(jnp.asarray(x, dtype) for x in (w, k1[None], k2[None])))
 
     def model(self, dtype: str = "float32"):
         """The compiled creature with this gait's parameter overrides applied."""
@@ -74,7 +68,7 @@ class Gait:
         from sanlab import sim
 
         m = sim.compile_creature(self.spec, dtype)
-        over = self.params.get("model") or {}
+        over = self.params.model
         if over:
             m = m.with_params(**{k: jnp.asarray(np.asarray(v), m.dtype) for k, v in over.items()})
         return m

@@ -10,7 +10,7 @@ import pytest
 
 from sanlab import creature, sim
 from sanlab.creature.spec import Creature, Evaluation, Follow, Ground, Link, Shape, World
-from sanlab.evaluate import Evaluator
+from sanlab.evaluate import Ensemble, Evaluator
 from sanlab.metrics import Metric, scores
 
 G = 9.81
@@ -107,12 +107,12 @@ def test_unknown_metric_and_missing_follow_point_are_clear_errors():
 
 def test_evaluator_scores_do_not_depend_on_batch_composition():
     spec = creature.load("bounder")
-    ev = Evaluator(spec, seconds=1.0, batch=64)
+    ev = Evaluator(spec, seconds=1.0, batch=64, ensemble=Ensemble(members=1))
     W = np.stack([ev.san.random_weights(0, i) for i in range(40)])
     a = ev(W)
     b = ev(W[::-1])
-    np.testing.assert_array_equal(a["score"], b["score"][::-1])
-    assert np.ptp(a["score"]) > 0
+    np.testing.assert_array_equal(a.score, b.score[::-1])
+    assert np.ptp(a.score) > 0
 
 
 def test_direction_forward_counts_only_motion_along_plus_x():

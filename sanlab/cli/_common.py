@@ -29,6 +29,16 @@ DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", 
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")]
 DtypeOpt = Annotated[str, typer.Option(help="float32 or float64.")]
 METRIC_HELP = " | ".join(METRICS)
+EnsembleOpt = Annotated[int, typer.Option(
+    "--ensemble", help="Score each controller as the median over K perturbed copies (start pose jittered by "
+                       "1 mm and 0.5 deg); 1: a single unperturbed rollout.")]
+BackendOpt = Annotated[str, typer.Option(
+    "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
+                      "pip install 'sanlab[cluster]').")]
+AddressOpt = Annotated[str | None, typer.Option(
+    "--address", help="With --backend ray: the cluster (auto, or ray://HOST:PORT); default: start one here.")]
+WorkersOpt = Annotated[int | None, typer.Option(
+    "--workers", min=1, help="With --backend ray: workers (default: one per CPU of the cluster).")]
 
 
 def fail(message: str, code: int = 2) -> typer.Exit:
@@ -41,6 +51,29 @@ def check_dtype(dtype: str) -> None:
     """Exit 2 unless ``dtype`` is one the simulator compiles to."""
     if dtype not in ("float32", "float64"):
         raise fail(f"--dtype: expected float32 or float64, got {dtype!r}")
+
+
+def ensemble_or_exit(members: int) -> Any:
+    """The :class:`sanlab.evaluate.Ensemble` of ``--ensemble K``, or exit 2 with one line."""
+    from sanlab.evaluate import Ensemble
+
+    try:
+        return Ensemble(members=members)
+    except ValueError as e:
+        raise fail(f"--ensemble: {e}") from None
+
+
+def backend_or_exit(name: str, address: str | None, workers: int | None) -> Any:
+    """The evaluation backend of ``--backend``, ``--address``, ``--workers``, or exit 2 with one
+    line (Ray missing: how to install it)."""
+    from sanlab.evaluate import make_backend
+
+    try:
+        return make_backend(name, address=address, workers=workers)
+    except ImportError as e:
+        raise fail(str(e)) from None
+    except ValueError as e:
+        raise fail(f"--backend: {e}") from None
 
 
 def load_or_exit(name_or_path: str) -> tuple[Creature, str]:

@@ -54,7 +54,7 @@ def show(
                "evaluated": lib.count(run.run_id), "params": run.params, "top": rows}
         typer.echo(json.dumps(out, indent=2))
         return
-    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {run.params.get('metric', '?')}")
+    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {run.metric or '?'}")
     print_distribution(lib.scores(run.run_id))
 
 

@@ -99,7 +99,7 @@ def render_into(lib: Library, run_ids: list[str], out_dir: str, top: int, quiet:
 
 
 def _sheet_title(library: Library, run: Run, n: int) -> str:
-    metric = run.params.get("metric", "?")
+    metric = run.metric or "?"
     return f"run {run.run_id}: {run.creature}, best {n} of {library.count(run.run_id)} ({metric})"
 
 

@@ -17,6 +17,7 @@ def reproduce(
     seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
     controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
+    ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
     db: DbOpt = "sanlab.db",
 ) -> None:
@@ -28,7 +29,8 @@ def reproduce(
     for n in names:
         load_or_exit(n)
     lib = open_library(db, create=True)
-    report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s))
+    report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s),
+              ensemble=ensemble)
     with open(out, "w") as f:
         f.write(report)
     console.print(f"wrote {out}")

@@ -10,12 +10,18 @@ import typer
 from sanlab import configure
 from sanlab.cli._common import (
     METRIC_HELP,
+    AddressOpt,
+    BackendOpt,
     DbOpt,
     DtypeOpt,
+    EnsembleOpt,
     JsonOpt,
     ProgressBar,
+    WorkersOpt,
+    backend_or_exit,
     check_dtype,
     console,
+    ensemble_or_exit,
     fail,
     library_call,
     load_or_exit,
@@ -34,6 +40,10 @@ def search(
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
     batch: Annotated[int, typer.Option(min=1, help="Controllers simulated (and committed) together.")] = 256,
+    ensemble: EnsembleOpt = 8,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
     dtype: DtypeOpt = "float32",
     db: DbOpt = "sanlab.db",
     resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
@@ -46,12 +56,14 @@ def search(
     from sanlab.search import run_search
 
     check_dtype(dtype)
+    ens = ensemble_or_exit(ensemble)
     if (creature is None) == (resume is None):
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
     text = where = ""
     if creature is not None:
         load_or_exit(creature)
         text, where = read_source(creature)
+    engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
     bar = ProgressBar(console.is_terminal and not as_json)
     run_id = resume
@@ -66,14 +78,15 @@ def search(
             run_id = library_call(
                 lambda: run_search(
                     lib, text, where, controllers=controllers, seconds=seconds, seed=seed,
-                    metric=metric, batch=batch, dtype=dtype, reporter=report, resume=resume,
+                    metric=metric, batch=batch, dtype=dtype, ensemble=ens, reporter=report, resume=resume,
+                    backend=engine,
                 )
             )
     except KeyboardInterrupt:
         rid = lib.runs()[0].run_id if run_id is None else run_id
         typer.echo(f"interrupted; resume with: sanlab search --resume {rid} --db {db}", err=True)
         raise typer.Exit(130) from None
-    except ValueError as e:
+    except (ValueError, ConnectionError) as e:
         raise fail(f"search: {e}") from None
     rows = top_rows(lib, run_id, top)
     if render_dir:
@@ -84,5 +97,5 @@ def search(
         typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
         return
     run = lib.get_run(run_id)
-    print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.params['metric']}")
+    print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.settings.metric}")
     print_distribution(lib.scores(run_id))

@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import CreatureArg, DtypeOpt, check_dtype, console, load_or_exit
+from sanlab.cli._common import CreatureArg, DtypeOpt, EnsembleOpt, check_dtype, console, ensemble_or_exit, load_or_exit
 
 
 def simulate(
@@ -18,32 +18,33 @@ def simulate(
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to run.")] = 200,
     seconds: Annotated[float, typer.Option(min=0.001, help="Simulated time per controller (s).")] = 6.0,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
+    ensemble: EnsembleOpt = 8,
     dtype: DtypeOpt = "float32",
     top: Annotated[int, typer.Option(min=0, help="Rows in the table.")] = 10,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")] = False,
 ) -> None:
-    """Simulate random sensor-actuator networks on a creature and report how far each got."""
+    """Score random sensor-actuator networks on a creature as `sanlab search` does (same seed, same
+    scores), without storing them."""
     check_dtype(dtype)
     c, _ = load_or_exit(creature)
+    ens = ensemble_or_exit(ensemble)
     configure()
     from sanlab.engine_report import simulate_random
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:
-        rep = simulate_random(c, controllers, seconds, seed, dtype)
+        rep = simulate_random(c, controllers, seconds, seed, dtype, ens)
     if as_json:
         typer.echo(json.dumps(rep, indent=2))
         return
-    table = Table("rank", "controller", "distance (m)", "speed (cm/s)", "body angle (deg)", "ok")
+    table = Table("rank", "controller", "score", "distance (m)", "speed (cm/s)", "flags")
     for r, row in enumerate(rep["top"][:top], 1):
-        table.add_row(
-            str(r), str(row["controller"]), f"{row['distance_m']:+.3f}", f"{row['speed_cm_s']:.1f}",
-            f"{row['final_angle_deg']:.0f}", "yes" if row["finite"] else "[red]non-finite[/red]",
-        )
+        flags = ", ".join(f for f, on in (("fell", row["fell"]), ("non-finite", not row["finite"])) if on)
+        table.add_row(str(r), str(row["controller"]), f"{row['score']:.3f}", f"{row['distance_m']:.3f}",
+                      f"{row['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
     console.print(
-        f"{rep['controllers']} random SANs x {rep['seconds']:g} s on [bold]{escape(c.name)}[/bold]: "
+        f"{rep['controllers']} random SANs x {rep['seconds']:g} s on [bold]{escape(c.name)}[/bold], "
+        f"metric {rep['metric']}, ensemble of {rep['ensemble']}: "
         f"{rep['steps_per_s'] / 1e6:.2f} M creature-steps/s on {rep['devices']} "
-        f"(first call {rep['first_call_s']:.1f} s incl. compile), "
-        f"largest ground penetration {rep['max_penetration_m'] * 100:.2f} cm, "
-        f"{rep['non_finite']} non-finite"
+        f"({rep['wall_s']:.1f} s incl. compile), {rep['non_finite']} non-finite"
     )

@@ -1,4 +1,5 @@
-"""``sanlab tune``: phase 2, fine-tune stored gaits (one chain each) into new tune runs."""
+"""``sanlab tune``: phase 2, fine-tune stored gaits (one chain each) into new tune runs, every
+trial committed as it is decided; ``--resume`` finishes interrupted ones."""
 
 from __future__ import annotations
 
@@ -9,11 +10,25 @@ import typer
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, JsonOpt, ProgressBar, console, fail, library_call, open_library
+from sanlab.cli._common import (
+    AddressOpt,
+    BackendOpt,
+    DbOpt,
+    EnsembleOpt,
+    JsonOpt,
+    ProgressBar,
+    WorkersOpt,
+    backend_or_exit,
+    console,
+    ensemble_or_exit,
+    fail,
+    library_call,
+    open_library,
+)
 
 
 def tune(
-    gait: Annotated[str, typer.Argument(help="RUN/RANK or RUN#IDX; or a run id with --top K.")],
+    gait: Annotated[str | None, typer.Argument(help="RUN/RANK or RUN#IDX; or a run id with --top K (omit with --resume).")] = None,
     method: Annotated[str, typer.Option(help="sa (simulated annealing) or sga (stochastic gradient ascent).")] = "sa",
     trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
     seed: Annotated[int, typer.Option(help="Seed of the perturbations.")] = 0,
@@ -21,29 +36,54 @@ def tune(
     morphology: Annotated[bool, typer.Option("--morphology", help="Also tune link lengths (and so masses).")] = False,
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
     batch: Annotated[int, typer.Option(min=1, help="Evaluations simulated together per round.")] = 128,
+    ensemble: EnsembleOpt = 8,
+    resume: Annotated[list[str] | None, typer.Option(
+        "--resume", help="Finish an interrupted tune run (repeat for each chain of one tuning).")] = None,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
-    """Phase 2 (paper §5.3): fine-tune a gait's sensor, actuator and delay parameters."""
+    """Phase 2 (paper §5.3): fine-tune a gait's sensor, actuator and delay parameters.
+
+    Each trial is scored as the median over an ensemble of perturbed copies; the tuned gait's
+    stored score is its best vector re-scored on fresh perturbations (held out)."""
     configure()
     from sanlab.library import LibraryError
     from sanlab.search.tune import tune as run_tune
 
+    ens = ensemble_or_exit(ensemble)
+    if (gait is None) == (not resume):
+        raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
+    engine = backend_or_exit(backend, address, workers)
     lib = open_library(db)  # the gaits to tune are in it: a missing file is a mistyped --db
-    if top is not None:
+    gaits: list[str] = []
+    if gait is not None and top is not None:
         run = library_call(lib.get_run, gait)
         gaits = [f"{run.run_id}/{k}" for k in range(1, min(top, run.count) + 1)]
-    else:
+    elif gait is not None:
         library_call(lib.gait, gait)
         gaits = [gait]
     bar = ProgressBar(console.is_terminal and not as_json, f"tune ({method})")
+    run_ids: tuple[str, ...] = tuple(resume or ())
+
+    def report(p) -> None:
+        nonlocal run_ids
+        run_ids = p.run_ids  # known from the first report on, so Ctrl-C names these runs
+        bar.update("tune", p.trials, p.total, p.rate, p.best)
+
     try:
         with bar:
             results = run_tune(lib, gaits, method=method, trials=trials, seed=seed, morphology=morphology,
-                               terrain=terrain, batch=batch,
-                               reporter=lambda p: bar.update("tune", p.trials, p.total, p.rate, p.best))
-    except ValueError as e:
+                               terrain=terrain, batch=batch, ensemble=ens, reporter=report, resume=resume or (),
+                               backend=engine)
+    except KeyboardInterrupt:
+        hint = " ".join(f"--resume {r}" for r in run_ids)
+        typer.echo(f"interrupted; resume with: sanlab tune {hint} --db {db}" if run_ids else "interrupted", err=True)
+        raise typer.Exit(130) from None
+    except (ValueError, ConnectionError) as e:
         raise fail(f"tune: {e}") from None
     except LibraryError as e:
         raise fail(str(e)) from None
@@ -54,11 +94,12 @@ def tune(
 
         render_into(lib, [r.run_id for r in results], render_dir, 1, quiet=as_json)
     if as_json:
-        typer.echo(json.dumps(rows[0] if top is None else rows, indent=2))
+        typer.echo(json.dumps(rows[0] if len(rows) == 1 and top is None else rows, indent=2))
         return
     table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
     for r in results:
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
                       f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
-    console.print(f"{len(results)} chain(s) x {trials} trials ({method}) in {results[0].seconds:.0f} s")
+    console.print(f"{len(results)} chain(s) x {trials if not resume else results[0].trials} trials in "
+                  f"{results[0].seconds:.0f} s (this session; 'after' is the tuned gait re-scored on a held-out ensemble)")

@@ -1,8 +1,101 @@
-"""What the library hands back: one frozen record per run, evaluation and tuning trial."""
+"""What crosses the library's boundary, as frozen records.
+
+Read back: :class:`Run`, :class:`Evaluation` and :class:`TracePoint`. Their JSON columns are
+kept as stored (``Run.params``, ``Evaluation.params``, ``Evaluation.extra``) and decoded into
+typed records in exactly one place each: :attr:`Run.settings` (:class:`SearchSettings` or
+:class:`TuneSettings`), :attr:`Evaluation.gait_params` (``GaitParams``) and
+:attr:`Evaluation.scores` (``Scores``).
+
+Written: :class:`EvaluationRow` and :class:`TraceRow`, committed together by
+``Library.commit``; a run's settings are created from the settings records' ``to_json``.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
+
+from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.records import GaitParams, Scores
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """A phase-1 run's settings (``sanlab search``); the seed is the run's own column."""
+
+    controllers: int  # random SANs to evaluate
+    seconds: float | None  # evaluation time (s); None: the creature file's (a foreign run)
+    metric: str | None  # None: the creature file's (a foreign run)
+    batch: int  # controllers evaluated (and committed) together
+    source: str | None  # where the creature file came from (a built-in name or a path)
+    ensemble: Ensemble
+    delay_on: float  # every node's delays (s): the creature file's
+    delay_off: float
+    san: dict[str, int] = field(default_factory=dict)  # sensors, hidden, actuators
+    imported_from: str | None = None  # set on an imported gait's run: the source gait id
+
+    kind = "search"
+
+    def to_json(self) -> dict[str, Any]:
+        out = {"controllers": self.controllers, "seconds": self.seconds, "metric": self.metric,
+               "batch": self.batch, "source": self.source, "ensemble": self.ensemble.to_json(),
+               "delay_on": self.delay_on, "delay_off": self.delay_off, "san": dict(self.san)}
+        if self.imported_from is not None:
+            out["imported_from"] = self.imported_from
+        return out
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> SearchSettings:
+        seconds, metric = d.get("seconds"), d.get("metric")
+        return cls(int(d.get("controllers", 0)), None if seconds is None else float(seconds),
+                   None if metric is None else str(metric), int(d.get("batch", 256)),
+                   d.get("source"), Ensemble.from_json(d.get("ensemble")), float(d.get("delay_on", 0.1)),
+                   float(d.get("delay_off", 0.1)), dict(d.get("san") or {}), d.get("imported_from"))
+
+
+@dataclass(frozen=True)
+class TuneSettings:
+    """A phase-2 run's settings (``sanlab tune``): one chain, tuning one gait."""
+
+    method: str  # a phase-2 strategy of ``sanlab.search.registry``
+    trials: int
+    seed: int
+    chain: int  # its index among the chains started together (names its random streams)
+    morphology: bool
+    terrain: str  # a name of ``sanlab.evaluate.TERRAINS``
+    seconds: float
+    metric: str
+    batch: int
+    source: str | None
+    ensemble: Ensemble
+    parameters: tuple[str, ...] = ()  # the tuned vector's names (``Space.names``)
+    imported_from: str | None = None
+
+    kind = "tune"
+
+    def to_json(self) -> dict[str, Any]:
+        out = {"method": self.method, "trials": self.trials, "seed": self.seed, "chain": self.chain,
+               "morphology": self.morphology, "terrain": self.terrain, "seconds": self.seconds,
+               "metric": self.metric, "batch": self.batch, "source": self.source,
+               "ensemble": self.ensemble.to_json(), "parameters": list(self.parameters)}
+        if self.imported_from is not None:
+            out["imported_from"] = self.imported_from
+        return out
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> TuneSettings:
+        return cls(str(d["method"]), int(d["trials"]), int(d.get("seed", 0)), int(d.get("chain", 0)),
+                   bool(d.get("morphology", False)), str(d.get("terrain", "flat")), float(d["seconds"]),
+                   str(d["metric"]), int(d.get("batch", 128)), d.get("source"), Ensemble.from_json(d.get("ensemble")),
+                   tuple(d.get("parameters") or ()), d.get("imported_from"))
+
+
+RunSettings = SearchSettings | TuneSettings
+
+
+def settings_from_json(d: dict[str, Any]) -> RunSettings:
+    """The settings record of a run's ``params`` (a tuning run's have a ``method``)."""
+    return TuneSettings.from_json(d) if "method" in d else SearchSettings.from_json(d)
 
 
 @dataclass(frozen=True)
@@ -15,7 +108,7 @@ class Run:
     creature: str  # creature name
     creature_text: str = field(repr=False)  # the creature file, verbatim
     creature_hash: str = field(repr=False)  # sha256 hex of creature_text
-    params: dict = field(repr=False)  # everything about the run (seconds, metric, batch, ...)
+    params: dict = field(repr=False)  # the run's settings as stored (JSON); see ``settings``
     seed: int | None
     sanlab_version: str
     device: str | None
@@ -25,6 +118,19 @@ class Run:
     total: int  # evaluations planned
     count: int  # evaluations stored
 
+    @property
+    def settings(self) -> RunSettings:
+        """``params`` decoded (KeyError, TypeError or ValueError if they are not a sanlab run's)."""
+        return settings_from_json(self.params)
+
+    @property
+    def metric(self) -> str | None:
+        """The settings' metric; None when the run has none (or its params are not sanlab's)."""
+        try:
+            return self.settings.metric
+        except (KeyError, TypeError, ValueError):
+            return None
+
 
 @dataclass(frozen=True)
 class Evaluation:
@@ -33,12 +139,12 @@ class Evaluation:
     run_id: str
     idx: int  # index within the run, 0..N-1
     encoding: str  # printable controller encoding
-    params: dict  # node delays etc.
+    params: dict  # how it is evaluated, as stored (JSON); see ``gait_params``
     score: float  # NaN when the score was not a number
     speed_cm_s: float  # NaN when unknown
     fell: bool
     nonfinite: bool  # the simulation or the score went non-finite; ranked last
-    extra: dict | None  # metric details etc.
+    extra: dict | None  # the ensemble's spread, distance, a strategy's details, as stored (JSON)
     parent: str | None  # "RUN#IDX" of the gait this one was tuned from
     rank: int | None = None  # 1-based place in the run's ranking, when looked up by rank
 
@@ -47,6 +153,16 @@ class Evaluation:
         """The permanent address of this evaluation, ``RUN#IDX``."""
         return f"{self.run_id}#{self.idx}"
 
+    @property
+    def gait_params(self) -> GaitParams:
+        return GaitParams.from_json(self.params)
+
+    @property
+    def scores(self) -> Scores:
+        """The row's scores, with the ensemble's spread when it was stored."""
+        return Scores.from_json({**(self.extra or {}), "score": self.score, "speed_cm_s": self.speed_cm_s,
+                                 "fell": self.fell, "nonfinite": self.nonfinite})
+
 
 @dataclass(frozen=True)
 class TracePoint:
@@ -54,4 +170,36 @@ class TracePoint:
 
     trial: int
     score: float  # NaN when the score was not a number
+    accepted: bool
+
+
+@dataclass(frozen=True)
+class EvaluationRow:
+    """One evaluated controller to store: its scores (their spread goes into ``extra``) and what
+    a strategy keeps beside them (``extra``, JSON)."""
+
+    run_id: str
+    idx: int
+    encoding: str
+    params: GaitParams
+    scores: Scores
+    extra: dict[str, Any] = field(default_factory=dict)
+    parent: str | None = None  # "RUN#IDX"
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``Library.add_batch`` row of this record."""
+        s = self.scores.to_json()
+        extra = {"distance_m": s["distance_m"], "members": s["members"], **self.extra}
+        return {"idx": self.idx, "encoding": self.encoding, "params": self.params.to_json(),
+                "score": s["score"], "speed_cm_s": s["speed_cm_s"], "fell": s["fell"],
+                "nonfinite": s["nonfinite"], "extra": extra, "parent": self.parent}
+
+
+@dataclass(frozen=True)
+class TraceRow:
+    """One decided tuning trial to store."""
+
+    run_id: str
+    trial: int
+    score: float
     accepted: bool

@@ -8,7 +8,7 @@ import math
 import os
 import secrets
 import sqlite3
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import datetime, timezone
 from typing import Any
@@ -19,7 +19,7 @@ from sanlab.library._values import as_float, index, integer, real, sha256, to_js
 from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import export_record, validate_gait
 from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
-from sanlab.library.records import Evaluation, Run, TracePoint
+from sanlab.library.records import Evaluation, EvaluationRow, Run, TracePoint, TraceRow
 
 DEFAULT_PATH = "sanlab.db"
 
@@ -239,6 +239,30 @@ class Library:
                                "(pass replace=True to overwrite); nothing of the batch "
                                "was stored", sqlite_errorname=e.sqlite_errorname) from None
 
+    def commit(self, evaluations: Sequence[EvaluationRow] = (), trace: Sequence[TraceRow] = (),
+               done: Sequence[str] = ()) -> None:
+        """Store evaluated controllers and tuning trials of any runs, and mark the runs ``done``
+        finished, all in one transaction (a driver's batch: stored whole or not at all). Raises
+        LibraryError as :meth:`add_batch` and :meth:`add_trace` do, storing nothing."""
+        by_run: dict[str, list[tuple]] = {}
+        for i, row in enumerate(evaluations):
+            by_run.setdefault(row.run_id, []).append(_evaluation_values(row.run_id, i, row.to_json()))
+        for run_id, values in by_run.items():
+            idx = [v[1] for v in values]
+            if len(set(idx)) != len(idx):
+                raise LibraryError(f"run {run_id}: the batch holds an idx twice")
+        points = [_trace_values(t.run_id, i, {"trial": t.trial, "score": t.score, "accepted": t.accepted})
+                  for i, t in enumerate(trace)]
+        with self._write() as conn:
+            for run_id in {*by_run, *(p[0] for p in points), *done}:
+                self._require_run(conn, run_id)
+            for values in by_run.values():
+                conn.executemany(
+                    "INSERT INTO evaluations (run_id, idx, encoding, params, score, speed_cm_s, "
+                    "fell, nonfinite, extra, parent) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", values)
+            conn.executemany("INSERT INTO trace (run_id, trial, score, accepted) VALUES (?, ?, ?, ?)", points)
+            conn.executemany("UPDATE runs SET status = 'done' WHERE run_id = ?", [(r,) for r in done])
+
     def done_indices(self, run_id: str) -> set[int]:
         """The indices of the run's stored evaluations (to resume an interrupted run)."""
         run_id = self._resolve(run_id)
@@ -297,13 +321,7 @@ class Library:
 
     def add_trace(self, run_id: str, rows: list[dict]) -> None:
         """Store tuning trials (dicts: ``trial``, ``score``, ``accepted``) in one transaction."""
-        values = []
-        for i, row in enumerate(rows):
-            if not isinstance(row, dict) or not {"trial", "score", "accepted"} <= row.keys():
-                raise LibraryError(f"trace row {i}: expected a dict with trial, score, accepted")
-            values.append((run_id, index(row["trial"], f"trace row {i}: trial"),
-                           real(row["score"], f"trace row {i}: score"),
-                           int(bool(row["accepted"]))))
+        values = [_trace_values(run_id, i, row) for i, row in enumerate(rows)]
         try:
             with self._write() as conn:
                 self._require_run(conn, run_id)
@@ -383,6 +401,13 @@ def _evaluation_values(run_id: str, i: int, row: Any) -> tuple:
             real(row.get("speed_cm_s"), f"{where}: speed_cm_s"),
             int(bool(row.get("fell", False))), int(nonfinite),
             None if extra is None else to_json(extra, f"{where}: extra"), parent)
+
+
+def _trace_values(run_id: str, i: int, row: Any) -> tuple:
+    if not isinstance(row, dict) or not {"trial", "score", "accepted"} <= row.keys():
+        raise LibraryError(f"trace row {i}: expected a dict with trial, score, accepted")
+    return (run_id, index(row["trial"], f"trace row {i}: trial"), real(row["score"], f"trace row {i}: score"),
+            int(bool(row["accepted"])))
 
 
 def _run(row: sqlite3.Row) -> Run:

@@ -29,7 +29,7 @@ class RunInfo(Protocol):
     @property
     def creature(self) -> str: ...
     @property
-    def params(self) -> dict[str, Any]: ...  # "metric" names the score's metric
+    def metric(self) -> str | None: ...  # the score's metric
     @property
     def parent_gait(self) -> str | None: ...
 
@@ -77,7 +77,7 @@ def plot_scores(run: RunInfo, scores: Sequence[float], path: str, top: int = 10)
     ax.scatter(rank[:k], s[:k], s=18, color="#f58014", zorder=3, label=f"top {k}")
     ax.set_xscale("log")
     ax.set_xlabel("rank (best first)")
-    metric = run.params.get("metric", "score")
+    metric = run.metric or "score"
     ax.set_ylabel(f"score ({metric})")
     ax.set_title(f"run {run.run_id}: {run.creature}, {every.size} controllers", loc="left", fontsize=11)
     for q in (1, 10, 50):
@@ -115,7 +115,7 @@ def plot_trace(run: RunInfo, trace: Sequence[TrialInfo], path: str) -> dict:
         ax.scatter(trial[acc & ok], score[acc & ok], s=26, color="#f58014", edgecolor="#7a3d00", linewidth=0.5,
                    label="accepted", zorder=4)
     ax.set_xlabel("trial")
-    ax.set_ylabel(f"score ({run.params.get('metric', 'score')})")
+    ax.set_ylabel(f"score ({run.metric or 'score'})")
     parent = f" from {run.parent_gait}" if run.parent_gait else ""
     ax.set_title(f"run {run.run_id}: tuning {run.creature}{parent}: {int(acc.sum())} of {len(trace)} accepted",
                  loc="left", fontsize=11)

@@ -197,7 +197,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         title=title,
         follow=follow,
         follow_path=path,
-        scale=np.asarray(gait.params["scale"], float) if gait.params.get("scale") else None,
+        scale=np.asarray(gait.params.scale, float) if gait.params.scale else None,
     )
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from sanlab.search.base import Problem
 from sanlab.search.chain import Chain
 
 
@@ -20,9 +21,13 @@ class Anneal(Chain):
     PER_TEMPERATURE = 65
     COOLING = 0.75
 
-    def __init__(self, *args, t0_fraction: float = 0.05, **kw):
-        super().__init__(*args, **kw)
-        self.t0 = max(t0_fraction * abs(self.score), 1e-3)
+    def __init__(self, problem: Problem, t0_fraction: float = 0.05):
+        self.t0_fraction = t0_fraction
+        self.t0 = float("nan")
+        super().__init__(problem)
+
+    def started(self) -> None:
+        self.t0 = max(self.t0_fraction * abs(self.score), 1e-3)
 
     def temperature(self, trial: int) -> float:
         return self.t0 * self.COOLING ** (trial // self.PER_TEMPERATURE)
@@ -31,4 +36,3 @@ class Anneal(Chain):
         if new > self.score:
             return True
         return self.uniform[trial] < math.exp((new - self.score) / self.temperature(trial))
-

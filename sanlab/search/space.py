@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sanlab.creature.spec import Creature
+from sanlab.evaluate.records import GaitParams
 from sanlab.san import San
 from sanlab.sim.model import drag_edges
 
@@ -88,14 +89,13 @@ class Space:
     def names(self) -> list[str]:
         return [p.name for p in self.params]
 
-    def nominal(self, gait_params: dict | None = None) -> np.ndarray:
-        """The starting vector: the creature file's values, or a tuned gait's own values."""
-        gp = gait_params or {}
-        model = gp.get("model") or {}
+    def nominal(self, gait_params: GaitParams | None = None) -> np.ndarray:
+        """The starting vector: the creature file's values, or a gait's own values."""
+        gp = gait_params or GaitParams()
+        model = gp.model
         s = self.spec
         H = self.san.n_hidden
-        k1 = np.asarray(gp["k1"], float) if "k1" in gp else np.full(self.san.n_nodes, 1 / gp.get("delay_on", s.san.delay_on))
-        k2 = np.asarray(gp["k2"], float) if "k2" in gp else np.full(self.san.n_nodes, -1 / gp.get("delay_off", s.san.delay_off))
+        k1, k2 = gp.rates(self.san.n_nodes, s.san.delay_on, s.san.delay_off)
         arr = {
             "amin": np.asarray(model.get("act_min", [a.min for a in s.actuators]), float),
             "amax": np.asarray(model.get("act_max", [a.max for a in s.actuators]), float),
@@ -103,7 +103,7 @@ class Space:
             "kd": np.asarray(model.get("act_kd", [a.kd for a in s.actuators]), float),
             "smin": np.asarray(model.get("sens_min", [getattr(x, "min", 0.0) for x in s.sensors]), float),
             "smax": np.asarray(model.get("sens_max", [getattr(x, "max", 0.0) for x in s.sensors]), float),
-            "scale": np.asarray(gp.get("scale", [1.0] * len(s.links)), float),
+            "scale": np.asarray(gp.scale if gp.scale is not None else [1.0] * len(s.links), float),
             "t_on": 1.0 / k1[:H],
             "t_off": -1.0 / k2[:H],
         }
@@ -131,16 +131,16 @@ class Space:
                 return False
         return True
 
-    def gait_params(self, theta: np.ndarray, model) -> dict:
-        """What a tuned gait stores (see ``sanlab.gait``): per-node k1, k2 and model overrides
-        (``model`` is the nominal compiled creature, needed to re-seat a reshaped one)."""
+    def gait_params(self, theta: np.ndarray, model) -> GaitParams:
+        """What a tuned gait stores: per-node k1, k2 and model overrides (``model`` is the
+        nominal compiled creature, needed to re-seat a reshaped one)."""
         k1, k2, over = self._arrays(theta)
-        over = {k: np.asarray(v).tolist() for k, v in over.items()}
-        out = {"k1": k1.tolist(), "k2": k2.tolist(), "model": over}
+        overrides = {k: np.asarray(v).tolist() for k, v in over.items()}
+        scale = None
         if self.morphology:
-            out["scale"] = [float(theta[i]) for i, p in enumerate(self.params) if p.kind == "scale"]
-            over["q0"] = np.asarray(self.batch(theta[None], model)[2].params.q0[0]).tolist()
-        return out
+            scale = tuple(float(theta[i]) for i, p in enumerate(self.params) if p.kind == "scale")
+            overrides["q0"] = np.asarray(self.batch(theta[None], model)[2].params.q0[0]).tolist()
+        return GaitParams(k1=tuple(k1.tolist()), k2=tuple(k2.tolist()), model=overrides, scale=scale)
 
     def _arrays(self, theta: np.ndarray):
         s = self.spec

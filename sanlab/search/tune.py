@@ -1,117 +1,56 @@
-"""Phase 2 (paper §5.3): fine-tune gaits by SGA or simulated annealing, many chains at once.
+"""Phase 2 (paper §5.3) set up for the driver: fine-tune gaits by SGA or simulated annealing,
+many chains at once (``sanlab tune``).
 
-Each gait is one chain (``sga.SGA`` or ``anneal.Anneal``) over the parameters of ``space.Space``;
-the weights are never tuned. Every round asks each unfinished chain for a speculative window of
-trials, evaluates all of them in one batched rollout (the creature's numbers are batched arrays,
-so nothing recompiles), and tells each chain its results. Each tuned gait is stored as a "tune"
-run linked to its parent gait, with the score-per-trial trace.
+Each gait is one chain (a phase-2 strategy of ``registry``: ``sga.SGA`` or ``anneal.Anneal``)
+over the parameters of ``space.Space``; the weights are never tuned. Each chain is its own
+"tune" run linked to its parent gait, created before the first trial: every decided trial is
+committed with its batch (the run's trace), and the tuned gait (its best vector, scored on a
+held-out ensemble) is stored as the run's evaluation #0 when the chain ends. An interrupted
+tuning (Ctrl-C, SIGKILL) resumes with ``resume=[RUN_ID, ...]`` and ends exactly as an
+uninterrupted one.
 
-With ``terrain`` ("rough" or "hill") every proposal is scored as the mean over several terrains
-(§6.2), so the tuned gait stays robust: rough = three rough grounds (RMS height 1.5 cm, shortest
-wavelength 0.25 m, seeds 1-3); hill = four smooth hills 8 cm high and 1 m wide, centred 0.7 m and
-1.2 m ahead and behind (creatures may go either way).
+With ``terrain`` ("rough" or "hill", ``sanlab.evaluate.TERRAINS``) every proposal is scored as
+the mean over several terrains (§6.2), so the tuned gait stays robust.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
 from sanlab import __version__
-from sanlab.creature.spec import Creature, Terrain
+from sanlab.creature import loads
+from sanlab.evaluate.backends import Backend, Local
+from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.evaluator import TERRAINS, Evaluator
+from sanlab.evaluate.records import Scores
 from sanlab.gait import Gait
-from sanlab.metrics import Metric, scores
-from sanlab.search.anneal import Anneal
-from sanlab.search.sga import SGA
+from sanlab.library import Library, LibraryError, TuneSettings
+from sanlab.search import driver, registry
+from sanlab.search.base import Problem, Start, Strategy, Together
 from sanlab.search.space import Space
 
-METHODS = {"sga": SGA, "sa": Anneal}
-TERRAINS = {
-    "flat": [Terrain()],
-    "rough": [Terrain(kind="rough", height=0.015, wavelength=0.25, seed=s) for s in (1, 2, 3)],
-    "hill": [Terrain(kind="hill", height=0.08, width=1.0, center=c) for c in (0.7, -0.7, 1.2, -1.2)],
-}
-
-
-class TuneEvaluator:
-    """Score (weights, parameter vector) pairs, averaged over a set of terrains."""
-
-    def __init__(self, spec: Creature, space: Space, *, metric: str, seconds: float, terrain: str = "flat",
-                 dtype: str = "float32", batch: int = 128):
-        from sanlab import sim
-
-        if terrain not in TERRAINS:
-            raise ValueError(f"terrain: expected one of {list(TERRAINS)}, got {terrain!r}")
-        if terrain != "flat" and spec.world.plane != "vertical":
-            raise ValueError("terrain: only creatures in the vertical plane walk on terrain")
-        grounds = TERRAINS[terrain]
-        kind = grounds[0].kind
-        self.spec = dataclasses.replace(spec, world=dataclasses.replace(spec.world, terrain=grounds[0])) if terrain != "flat" else spec
-        self.space, self.seconds, self.dtype, self.batch = space, seconds, dtype, batch
-        self.metric = Metric.for_creature(self.spec, metric)
-        self.model = sim.compile_creature(self.spec, dtype)
-        self.variants = [sim.compile_creature(dataclasses.replace(
-            self.spec, world=dataclasses.replace(self.spec.world, terrain=g)), dtype).params for g in grounds]
-        self.terrain, self.kind = terrain, kind
-
-    def __call__(self, weights: np.ndarray, thetas: np.ndarray) -> dict[str, np.ndarray]:
-        """weights [B, N, I], thetas [B, P] -> per-row score, speed_cm_s, ... (terrain means;
-        nonfinite and fell if on any terrain)."""
-        import jax.numpy as jnp
-
-        from sanlab import sim
-        from sanlab.san import SanParams
-
-        T = len(self.variants)
-        B = len(thetas)
-        k1, k2, m = self.space.batch(np.repeat(thetas, T, axis=0), self.model)
-        if T > 1:
-            tp = np.tile(np.stack([np.asarray(v.terrain) for v in self.variants]), (B, 1))
-            rp = np.tile(np.stack([np.asarray(v.rough) for v in self.variants]), (B, 1, 1))
-            m = m.with_params(terrain=jnp.asarray(tp, m.dtype), rough=jnp.asarray(rp, m.dtype))
-        params = SanParams(*(jnp.asarray(x, self.dtype) for x in (np.repeat(weights, T, axis=0), k1, k2)))
-        r = sim.rollout(m, self.space.san, params, self.seconds, observer=self.metric, params_batched=True,
-                        pad_to=self.batch * T)
-        out = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
-        res = {k: v.reshape(B, T) for k, v in out.items()}
-        return {
-            "score": res["score"].mean(1),
-            "speed_cm_s": res["speed_cm_s"].mean(1),
-            "distance_m": res["distance_m"].mean(1),
-            "fell": np.asarray(res["fell"].any(1)),
-            "nonfinite": np.asarray(res["nonfinite"].any(1)),
-        }
-
-
-@dataclass(frozen=True)
-class TuneProgress:
-    trials: int  # decided so far, all chains
-    total: int
-    best: float  # best score over chains
-    rate: float  # evaluations per second (speculative ones included)
-    done: bool = False
+TuneProgress = driver.Progress  # the name reporters of phase 2 have used
+METHODS = {name: registry.STRATEGIES[name] for name in registry.names(2)}
 
 
 @dataclass(frozen=True)
 class TuneResult:
-    gait: str  # the parent gait, as given
+    gait: str  # the parent gait
     tuned_gait: str  # "RUN/1" of the stored tuned gait
     run_id: str
     before: dict  # score, speed_cm_s of the parent under the tuning conditions
-    after: dict
+    after: dict  # score, speed_cm_s of the tuned gait (held-out ensemble)
     trials: int
     accepted: int
-    evaluations: int  # including discarded speculative ones
-    seconds: float  # wall time
+    evaluations: int  # this session's, all chains, including discarded speculative ones
+    seconds: float  # this session's wall time
 
 
 def tune(
-    library,
-    gait_ids: list[str],
+    library: Library,
+    gait_ids: Sequence[str] = (),
     *,
     method: str = "sa",
     trials: int = 1000,
@@ -120,83 +59,100 @@ def tune(
     terrain: str = "flat",
     batch: int = 128,
     dtype: str = "float32",
-    reporter: Callable[[TuneProgress], None] | None = None,
+    ensemble: int | Ensemble = 8,
+    reporter: driver.Reporter | None = None,
+    resume: Sequence[str] = (),
+    backend: Backend | None = None,
 ) -> list[TuneResult]:
-    """Tune each gait as its own chain (all on the same creature), store the tuned gaits."""
+    """Tune each gait of ``gait_ids`` as its own chain (all of one creature), storing every
+    trial as it is decided; or, with ``resume``, finish the given tune runs (their own settings).
+    Each trial is scored as its ensemble's median (``ensemble`` members, drawn per chain and
+    trial); returns one result per chain. Raises ValueError on bad settings, LibraryError on
+    unknown gaits or runs."""
+    t_start = time.perf_counter()
+    backend = backend if backend is not None else Local()
+    if bool(gait_ids) == bool(resume):
+        raise ValueError("give gaits to tune, or runs to resume (not both)")
+    if resume:
+        ev, chains = _resumed(library, resume)
+    else:
+        ev, chains = _fresh(library, list(gait_ids), method, trials, seed, morphology, terrain, batch, dtype,
+                            ensemble if isinstance(ensemble, Ensemble) else Ensemble(members=int(ensemble)),
+                            backend.describe())
+    summary = driver.run(Together([c for _, c in chains]), ev, library, reporter, backend)
+    results = []
+    for parent, chain in chains:
+        run_id = chain.run_ids[0]
+        final = library.gait(f"{run_id}#0")
+        extra = final.extra or {}
+        before, after = final.scores, final.scores
+        if "before" in extra:
+            before = Scores.from_json(extra["before"])
+        s = library.get_run(run_id).settings
+        results.append(TuneResult(
+            parent, f"{run_id}/1", run_id, {"score": before.score, "speed_cm_s": before.speed_cm_s},
+            {"score": after.score, "speed_cm_s": after.speed_cm_s}, s.trials if isinstance(s, TuneSettings) else 0,
+            int(extra.get("accepted", 0)), summary.evaluations, time.perf_counter() - t_start))
+    return results
+
+
+def _fresh(library: Library, gait_ids: list[str], method: str, trials: int, seed: int, morphology: bool,
+           terrain: str, batch: int, dtype: str, ens: Ensemble, device: str) -> tuple[Evaluator, list[tuple[str, Strategy]]]:
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, got {method!r}")
-    t_start = time.perf_counter()
+    if terrain not in TERRAINS:
+        raise ValueError(f"terrain: expected one of {list(TERRAINS)}, got {terrain!r}")
+    if trials < 1:
+        raise ValueError(f"trials: expected >= 1, got {trials}")
     gaits = [Gait.from_library(library, g) for g in gait_ids]
     spec = gaits[0].spec
     if any(g.spec != spec for g in gaits):
         raise ValueError("all gaits tuned together must be of the same creature")
     space = Space(spec, morphology=morphology)
-    ev = TuneEvaluator(spec, space, metric=gaits[0].metric, seconds=gaits[0].seconds, terrain=terrain,
-                       dtype=dtype, batch=batch)
-    starts = np.stack([space.nominal(g.params) for g in gaits])
-    weights = np.stack([g.weights for g in gaits])
-    before = ev(weights, starts)
-    chains = [
-        METHODS[method](space, g.weights, starts[i], before["score"][i], trials, seed=seed * 1_000_003 + i)
-        for i, g in enumerate(gaits)
-    ]
-    report = reporter or (lambda p: None)
-    evaluations = 0
-    report(TuneProgress(0, trials * len(chains), float(max(c.best for c in chains)), 0.0))
-    window = max(1, batch // len(chains))
-    while not all(c.done for c in chains):
-        asked = [c.ask(window) if not c.done else [] for c in chains]
-        flat = [cand for a in asked for cand in a]
-        res = ev(np.stack([c.weights for c in flat]), np.stack([c.params["theta"] for c in flat]))
-        evaluations += len(flat)
-        k = 0
-        for c, a in zip(chains, asked):
-            c.tell(a, {key: v[k : k + len(a)] for key, v in res.items()})
-            k += len(a)
-        rate = evaluations / (time.perf_counter() - t_start)
-        report(TuneProgress(sum(c.t for c in chains), trials * len(chains), float(max(c.best for c in chains)), rate))
-    after = ev(weights, np.stack([c.best_theta for c in chains]))
-    wall = time.perf_counter() - t_start
-    results = []
-    for i, (g, c) in enumerate(zip(gaits, chains)):
-        params = {
-            "method": method, "trials": trials, "seed": seed, "morphology": morphology, "terrain": terrain,
-            "seconds": ev.seconds, "metric": ev.metric.kind, "batch": batch, "source": g.run_params.get("source"),
-            "parameters": space.names,
-        }
+    ev = Evaluator(spec, metric=gaits[0].metric, seconds=gaits[0].seconds, dtype=dtype, batch=batch, terrain=terrain,
+                   ensemble=ens, space=space)
+    chains = []
+    for i, g in enumerate(gaits):
+        settings = TuneSettings(method, trials, seed, i, morphology, terrain, ev.seconds, ev.metric.kind, batch,
+                                g.source, ens, tuple(space.names))
         run = library.create_run(
-            kind="tune", creature=spec.name, creature_text=g.creature_text, params=params, seed=seed,
-            total=1, dtype=dtype, device=_device(), sanlab_version=__version__, parent_gait=g.gait_id,
-        )
-        library.add_batch(run.run_id, [{
-            "idx": 0,
-            "encoding": space.san.encode(g.weights),
-            "params": space.gait_params(c.best_theta, ev.model),
-            "score": float(after["score"][i]),
-            "speed_cm_s": float(after["speed_cm_s"][i]),
-            "fell": bool(after["fell"][i]),
-            "nonfinite": bool(after["nonfinite"][i]),
-            "extra": {"distance_m": float(after["distance_m"][i]), "accepted": c.accepted, "theta": c.best_theta.tolist()},
-            "parent": g.gait_id,
-        }])
-        library.add_trace(run.run_id, [{"trial": t, "score": s, "accepted": a} for t, s, a in c.trace])
-        library.set_status(run.run_id, "done")
-        results.append(TuneResult(
-            gait_ids[i], f"{run.run_id}/1", run.run_id,
-            {"score": float(before["score"][i]), "speed_cm_s": float(before["speed_cm_s"][i])},
-            {"score": float(after["score"][i]), "speed_cm_s": float(after["speed_cm_s"][i])},
-            trials, c.accepted, evaluations, wall,
-        ))
-    report(TuneProgress(sum(c.t for c in chains), trials * len(chains), float(max(c.best for c in chains)),
-                        evaluations / wall, True))
-    return results
+            kind="tune", creature=spec.name, creature_text=g.creature_text, params=settings.to_json(), seed=seed,
+            total=1, dtype=dtype, device=device, sanlab_version=__version__, parent_gait=g.gait_id)
+        start = Start(g.weights, space.nominal(g.params), g.gait_id)
+        chains.append((g.gait_id, registry.make(method, Problem(run.run_id, space.san, trials, seed, i, space, start,
+                                                                 dtype=dtype))))
+    return ev, chains
 
 
-def _device() -> str:
-    import jax
+def _resumed(library: Library, run_refs: Sequence[str]) -> tuple[Evaluator, list[tuple[str, Strategy]]]:
+    runs = [library.get_run(r) for r in run_refs]
+    first = None
+    chains = []
+    ev = None
+    for run in runs:
+        s = run.settings
+        if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
+            raise LibraryError(f"run {run.run_id} is a {run.kind} run, not a tuning run to resume")
+        shared = (run.creature_text, s.seconds, s.metric, s.terrain, s.ensemble, s.morphology, s.batch, run.dtype)
+        if first is None:
+            first = shared
+            spec = loads(run.creature_text, source=s.source or run.creature)
+            space = Space(spec, morphology=s.morphology)
+            ev = Evaluator(spec, metric=s.metric, seconds=s.seconds, dtype=run.dtype or "float32", batch=s.batch,
+                           terrain=s.terrain, ensemble=s.ensemble, space=space)
+        elif shared != first:
+            raise ValueError(f"run {run.run_id}: runs resumed together must share creature and evaluation settings")
+        assert ev is not None and ev.space is not None
+        space = ev.space
+        assert isinstance(space, Space)
+        g = Gait.from_library(library, run.parent_gait)
+        start = Start(g.weights, space.nominal(g.params), g.gait_id)
+        chain = registry.make(s.method, Problem(run.run_id, space.san, s.trials, s.seed, s.chain, space, start,
+                                                dtype=run.dtype or "float32"))
+        chain.resume(library.top(run.run_id, None), library.trace(run.run_id))
+        chains.append((run.parent_gait, chain))
+    assert ev is not None
+    return ev, chains
 
-    d = jax.devices()
-    return f"{len(d)} x {d[0].platform}"
 
-
-__all__ = ["tune", "TuneEvaluator", "TuneResult", "TuneProgress", "METHODS", "TERRAINS"]
+__all__ = ["tune", "TuneResult", "TuneProgress", "METHODS", "TERRAINS"]

@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache
 from typing import Any, NamedTuple, Protocol
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import PartitionSpec as P
 
 from sanlab.sim.dynamics import Frame, State, advance, make_state, prepare, sense, velocity
 from sanlab.sim.model import Model
@@ -133,16 +134,6 @@ def _one(model: Model, controller: Controller, observer: Observer | None, n_step
     return state, acc, deepest, finite, frames, cstate
 
 
-@partial(jax.jit, static_argnames=("controller", "observer", "n_steps", "every", "params_batched", "fence"))
-def _batched(model, controller, observer, n_steps, every, cparams, state0, cstate0, params_batched, one, fence):
-    in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
-    fn = jax.vmap(
-        lambda m, c, s, cs, g: _one(m, controller, observer, n_steps, every, c, s, cs, (g > 0) if fence else None),
-        in_axes=(in_model, 0, 0, 0, None),
-    )
-    return fn(model, cparams, state0, cstate0, one)
-
-
 def devices():
     """The devices a batch is spread over: the GPU if JAX has one, else every CPU core."""
     return jax.devices()
@@ -153,18 +144,48 @@ def batch_quantum() -> int:
     return 8 * len(devices())
 
 
-def _pad(x, n):
+@lru_cache(maxsize=64)
+def _program(controller: Controller, observer: Observer | None, n_steps: int, every: int, params_batched: bool,
+             fence: bool, with_cstate: bool, devs: tuple):
+    """The compiled rollout of one configuration over the devices ``devs``: each device rolls out
+    its own contiguous share of the batch, and nothing in the program crosses devices.
+
+    Why shard_map and host-side results: under ``jit`` with sharded inputs the program itself is
+    collective-free, but slicing its sharded output (the padding cut) is a second multi-device
+    program with a collective-permute; XLA's CPU collectives wait for every device at a
+    rendezvous and abort the process (SIGABRT) when one device, slowed by other work on a busy
+    machine, arrives past the deadline. Here each device's share is a manual shard (no collective
+    can be inserted), inputs are placed per device from the host and results are fetched per
+    device to the host and cut in NumPy, so no device ever waits for another. It stays one
+    compiled program for all devices (compiling per device would multiply the compile time).
+    """
+    mesh = jax.sharding.Mesh(np.array(devs), ("b",))
+    B, R = P("b"), P()
+
+    def local(model, cparams, state0, cstate0, one):
+        in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
+        fn = jax.vmap(
+            lambda m, c, s, cs: _one(m, controller, observer, n_steps, every, c, s, cs, (one > 0) if fence else None),
+            in_axes=(in_model, 0, 0, 0 if with_cstate else None),
+        )
+        return fn(model, cparams, state0, cstate0)
+
+    specs = (B if params_batched else R, B, B, B if with_cstate else R, R)
+    return mesh, jax.jit(jax.shard_map(local, mesh=mesh, in_specs=specs, out_specs=B, check_vma=False))
+
+
+def _pad(x: np.ndarray, n: int) -> np.ndarray:
     pad = n - x.shape[0]
     if pad == 0:
         return x
-    return jnp.concatenate([x, jnp.repeat(x[-1:], pad, axis=0)], axis=0)
+    return np.concatenate([x, np.repeat(x[-1:], pad, axis=0)], axis=0)
 
 
-def _sharding(ndim: int):
-    devs = devices()
-    mesh = jax.sharding.Mesh(np.array(devs), ("b",))
-    spec = jax.sharding.PartitionSpec("b", *([None] * (ndim - 1)))
-    return jax.sharding.NamedSharding(mesh, spec)
+def _host(x, dtype) -> np.ndarray:
+    x = np.asarray(x)
+    if np.issubdtype(x.dtype, np.floating):
+        x = x.astype(dtype)  # float64 inputs would otherwise promote a float32 model
+    return x
 
 
 def rollout(
@@ -195,6 +216,11 @@ def rollout(
     size from 16 to 2048 on CPU (2 to 14 x). None (default): on for CPUs, off for GPUs (a
     conditional there waits for its predicate on the host every step). Results then differ in
     the last bits.
+
+    Returns a :class:`Result` of NumPy arrays (fetched from the devices, padding cut off). The
+    batch is split into one contiguous share per device, each rolled out on its own (see
+    ``_program``); a controller's result is bit-identical alone or anywhere in any batch, and
+    whatever the number of devices.
     """
     dt = float(model.structure.dt)
     if steps is None:
@@ -215,31 +241,25 @@ def rollout(
             state0 = jax.vmap(make_state, in_axes=(in_model,))(model)
         else:
             state0 = make_state(model)
-    if state0.q.ndim == 1:
-        state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), state0)
-    def pad(x):
-        x = jnp.asarray(x)
-        if jnp.issubdtype(x.dtype, jnp.floating):
-            x = x.astype(model.dtype)  # float64 inputs would otherwise promote a float32 model
-        return jax.device_put(_pad(x, n), _sharding(x.ndim))
-
-    cp = jax.tree_util.tree_map(pad, cparams)
-    s0 = jax.tree_util.tree_map(pad, state0)
-    cs0 = None if cstate0 is None else jax.tree_util.tree_map(pad, cstate0)
-    m = model
-    if params_batched:
-        m = jax.tree_util.tree_map(pad, model)
-    one = jnp.ones((), model.dtype)
-
+    if np.ndim(state0.q) == 1:
+        state0 = jax.tree_util.tree_map(lambda x: np.broadcast_to(np.asarray(x), (B, *np.shape(x))), state0)
+    dtype = model.dtype
     if fence is None:
         fence = devices()[0].platform == "cpu"
-    state, acc, deepest, finite, frames, cstate = _batched(
-        m, controller, observer, steps, every, cp, s0, cs0, params_batched, one, fence
-    )
-    cut = lambda x: x[:B]
-    state, acc, deepest, finite, cstate = jax.tree_util.tree_map(cut, (state, acc, deepest, finite, cstate))
+    mesh, program = _program(controller, observer, steps, every, params_batched, fence, cstate0 is not None,
+                             tuple(devices()))
+    shard = jax.sharding.NamedSharding(mesh, P("b"))
+    whole = jax.sharding.NamedSharding(mesh, P())
+    batched = lambda x: jax.device_put(_pad(_host(x, dtype), n), shard)
+    cp = jax.tree_util.tree_map(batched, cparams)
+    s0 = jax.tree_util.tree_map(batched, state0)
+    cs0 = None if cstate0 is None else jax.tree_util.tree_map(batched, cstate0)
+    m = jax.tree_util.tree_map(batched if params_batched else (lambda x: jax.device_put(_host(x, dtype), whole)), model)
+    one = jax.device_put(np.ones((), dtype), whole)
+    out = jax.device_get(program(m, cp, s0, cs0, one))  # each device's share, copied to the host
+    state, acc, deepest, finite, frames, cstate = jax.tree_util.tree_map(lambda x: x[:B], out)
     if frames is not None:
-        qf, qdf, bits, u, cs = jax.tree_util.tree_map(cut, frames)
+        qf, qdf, bits, u, cs = frames
         t = np.arange(qf.shape[1]) * every * dt
         frames = Frames(t, qf, qdf, bits, u, cs)
     return Result(state, acc, deepest, finite, frames, cstate)

@@ -1,17 +1,26 @@
-"""``sanlab tune`` in a fresh process: the JSON it prints, and a bad method as one line."""
+"""``sanlab tune`` in a fresh process: the JSON it prints, a bad method as one line, and Ctrl-C or
+kill -9 resumed (``--resume``) to exactly the uninterrupted result."""
 
 from __future__ import annotations
 
 import json
+import signal
+import sqlite3
 import subprocess
+import time
 
+import pytest
+
+from sanlab.library import Library
 from tests.helpers import SANLAB
 
 
 def test_tune_cli_json(bounder_run):
     db, run_id = bounder_run
+    # single samples: the tuned gait's score is then its own best (with an ensemble it is re-scored
+    # on held-out draws, which may fall below the start's)
     r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "5", "--batch", "64",
-                                 "--db", str(db), "--json"], capture_output=True, text=True, check=True)
+                                 "--ensemble", "1", "--db", str(db), "--json"], capture_output=True, text=True, check=True)
     out = json.loads(r.stdout)
     assert set(out) == {"gait", "tuned_gait", "before", "after", "trials"}
     assert out["trials"] == 5 and out["after"]["score"] >= out["before"]["score"]
@@ -19,3 +28,48 @@ def test_tune_cli_json(bounder_run):
     bad = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "newton", "--db", str(db)],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
+
+
+def _trace_count(db) -> int:
+    try:
+        with sqlite3.connect(db, timeout=5) as c:
+            return c.execute("select count(*) from trace").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, tmp_path, sig):
+    src, run_id = bounder_run
+    db, ref = tmp_path / "gaits.db", tmp_path / "ref.db"
+    with sqlite3.connect(src) as s, sqlite3.connect(db) as d, sqlite3.connect(ref) as r:
+        s.backup(d)  # two copies of the library: one to interrupt, one to run uninterrupted
+        s.backup(r)
+    args = ["tune", f"{run_id}/1", "--method", "sa", "--trials", "150", "--batch", "16", "--seed", "4"]
+    proc = subprocess.Popen(SANLAB + args + ["--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    while _trace_count(db) < 10 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert 10 <= _trace_count(db) < 150, "the tuning should have been stopped part-way"
+    with Library(str(db)) as lib:
+        run = next(r for r in lib.runs() if r.kind == "tune")
+        assert lib.count(run.run_id) == 0  # the tuned gait is stored only when the chain ends
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130
+        assert f"--resume {run.run_id}" in err and "Traceback" not in err
+        assert run.status == "interrupted"
+    resumed = json.loads(subprocess.run(SANLAB + ["tune", "--resume", run.run_id, "--db", str(db), "--json"],
+                                        capture_output=True, text=True, check=True).stdout)
+    expected = json.loads(subprocess.run(SANLAB + args + ["--db", str(ref), "--json"], capture_output=True, text=True,
+                                         check=True).stdout)
+    assert resumed["before"] == expected["before"] and resumed["after"] == expected["after"]
+    assert resumed["trials"] == expected["trials"] == 150
+    with Library(str(db)) as a, Library(str(ref)) as b:
+        x, y = a.gait(resumed["tuned_gait"]), b.gait(expected["tuned_gait"])
+        assert (x.params, x.score, x.extra) == (y.params, y.score, y.extra)
+        assert [(t.trial, t.score, t.accepted) for t in a.trace(x.run_id)] == \
+               [(t.trial, t.score, t.accepted) for t in b.trace(y.run_id)]
+        assert a.get_run(x.run_id).status == "done"

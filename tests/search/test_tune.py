@@ -8,12 +8,23 @@ import numpy as np
 import pytest
 
 from sanlab import creature
+from sanlab.evaluate import Ensemble, Evaluator, ScoreBatch, Scores
+from sanlab.evaluate.ensemble import heldout_key
 from sanlab.gait import Gait
 from sanlab.library import Library
 from sanlab.search.anneal import Anneal
+from sanlab.search.base import Problem, Start
 from sanlab.search.sga import SGA
 from sanlab.search.space import Space
-from sanlab.search.tune import TuneEvaluator, tune
+from sanlab.search.tune import tune
+
+
+def make_chain(cls, space, start, score0, trials, seed, **kw):
+    """A chain of ``cls`` on ``space`` from vector ``start`` whose score is known (``score0``)."""
+    known = Scores(score0, 0.0, 0.0, False, False, (score0,), (0.0,))
+    weights = space.san.random_weights(0, 0)
+    problem = Problem("run", space.san, trials, seed, space=space, start=Start(weights, start, scores=known))
+    return cls(problem, **kw)
 
 
 def test_the_bounder_has_the_papers_44_tunable_parameters():
@@ -62,13 +73,14 @@ class Synthetic:
     def __call__(self, thetas):
         d = thetas - self.target
         score = -np.sum(d * d, axis=1) + 0.002 * np.sin(40 * thetas).sum(axis=1)
-        return {"score": score, "nonfinite": np.zeros(len(thetas), bool)}
+        no = np.zeros(len(thetas), bool)
+        return ScoreBatch(score, score, score, no, no, score[:, None], score[:, None])
 
 
 def drive(chain, evaluate, window):
     while not chain.done:
         cands = chain.ask(window)
-        chain.tell(cands, evaluate(np.stack([c.params["theta"] for c in cands])))
+        chain.tell(cands, evaluate(np.stack([c.theta for c in cands])))
     return chain
 
 
@@ -77,9 +89,9 @@ def test_speculative_batches_do_exactly_what_one_trial_at_a_time_does(cls):
     space = Space(creature.load("bounder"))
     f = Synthetic(space)
     start = space.nominal()
-    s0 = float(f(start[None])["score"][0])
-    one = drive(cls(space, None, start, s0, 300, seed=4), f, 1)
-    many = drive(cls(space, None, start, s0, 300, seed=4), f, 37)
+    s0 = float(f(start[None]).score[0])
+    one = drive(make_chain(cls, space, start, s0, 300, seed=4), f, 1)
+    many = drive(make_chain(cls, space, start, s0, 300, seed=4), f, 37)
     assert one.trace == many.trace
     np.testing.assert_array_equal(one.best_theta, many.best_theta)
     assert one.accepted > 5 and many.wasted > 0
@@ -89,8 +101,8 @@ def test_sga_never_accepts_a_worse_score():
     space = Space(creature.load("bounder"))
     f = Synthetic(space)
     start = space.nominal()
-    chain = drive(SGA(space, None, start, float(f(start[None])["score"][0]), 400, seed=1), f, 16)
-    current = float(f(start[None])["score"][0])
+    chain = drive(make_chain(SGA, space, start, float(f(start[None]).score[0]), 400, seed=1), f, 16)
+    current = float(f(start[None]).score[0])
     for _, score, accepted in chain.trace:
         if accepted:
             assert score > current
@@ -102,7 +114,7 @@ def test_sga_never_accepts_a_worse_score():
 
 def test_annealing_schedule_is_65_trials_per_temperature_times_0_75():
     space = Space(creature.load("cart"))
-    chain = Anneal(space, None, space.nominal(), 2.0, 1000, seed=0)
+    chain = make_chain(Anneal, space, space.nominal(), 2.0, 1000, seed=0)
     assert chain.t0 == pytest.approx(0.05 * 2.0)
     assert chain.temperature(0) == chain.temperature(64) == pytest.approx(0.1)
     assert chain.temperature(65) == pytest.approx(0.075)
@@ -119,8 +131,8 @@ def test_annealing_accepts_some_worse_changes_and_keeps_the_best():
     space = Space(creature.load("bounder"))
     f = Synthetic(space)
     start = space.nominal()
-    s0 = float(f(start[None])["score"][0])
-    chain = drive(Anneal(space, None, start, s0, 600, seed=2, t0_fraction=0.5), f, 16)
+    s0 = float(f(start[None]).score[0])
+    chain = drive(make_chain(Anneal, space, start, s0, 600, seed=2, t0_fraction=0.5), f, 16)
     worse = [s for i, (_, s, a) in enumerate(chain.trace) if a and i > 0 and s < chain.trace[i - 1][1]]
     assert chain.best >= max(s for _, s, a in chain.trace if a)
     accepted_scores = [s for _, s, a in chain.trace if a]
@@ -139,14 +151,14 @@ def test_tuning_a_phase1_gait_improves_it_and_is_stored_with_its_parent(bounder_
         assert [t.trial for t in trace] == list(range(30))
         assert sum(t.accepted for t in trace) == r.accepted > 0
         g = Gait.from_library(lib, r.tuned_gait)
-        assert (np.asarray(g.params["k1"]) > 0).all() and (np.asarray(g.params["k2"]) < 0).all()
-        m = g.params["model"]
+        assert (np.asarray(g.params.k1) > 0).all() and (np.asarray(g.params.k2) < 0).all()
+        m = g.params.model
         assert (np.asarray(m["act_min"]) < np.asarray(m["act_max"])).all()
         assert (g.weights == Gait.from_library(lib, f"{run_id}/1").weights).all()  # weights untouched
-        # the stored tuned gait replays to its stored score
-        ev = TuneEvaluator(g.spec, Space(g.spec), metric=g.metric, seconds=g.seconds, batch=64)
-        again = ev(g.weights[None], Space(g.spec).nominal(g.params)[None])
-        assert again["score"][0] == pytest.approx(r.after["score"], rel=1e-6)
+        # the stored tuned gait replays to its stored score (its held-out ensemble's)
+        ev = Evaluator(g.spec, metric=g.metric, seconds=g.seconds, batch=64, ensemble=g.ensemble, space=Space(g.spec))
+        again = ev(g.weights[None], Space(g.spec).nominal(g.params)[None], [heldout_key(0, 0)])
+        assert again.score[0] == pytest.approx(r.after["score"], rel=1e-6)
 
 
 def test_a_seeded_tuning_run_is_reproducible(bounder_run):
@@ -166,9 +178,9 @@ def test_morphology_and_terrain_options(bounder_run):
     with Library(str(db)) as lib:
         [r] = tune(lib, [f"{run_id}/1"], method="sga", trials=6, seed=0, morphology=True, terrain="hill", batch=16)
         g = Gait.from_library(lib, r.tuned_gait)
-        assert len(g.params["scale"]) == 5
+        assert g.params.scale is not None and len(g.params.scale) == 5
         m = g.model()
-        scale = np.asarray(g.params["scale"])
+        scale = np.asarray(g.params.scale)
         strength = np.ones(5)
         # a link's mass follows its length (and the strength of the actuator that drives it)
         nominal = np.array([l.mass for l in g.spec.links])
@@ -184,8 +196,10 @@ def test_terrain_scores_differ_from_flat_ground(bounder_run):
         g = Gait.from_library(lib, f"{run_id}/1")
     space = Space(g.spec)
     theta = space.nominal(g.params)[None]
-    flat = TuneEvaluator(g.spec, space, metric=g.metric, seconds=2.0, batch=64)(g.weights[None], theta)
-    rough = TuneEvaluator(g.spec, space, metric=g.metric, seconds=2.0, terrain="rough", batch=16)(g.weights[None], theta)
-    assert flat["score"][0] != rough["score"][0]
+    one = Ensemble(members=1)
+    flat = Evaluator(g.spec, metric=g.metric, seconds=2.0, batch=64, ensemble=one, space=space)(g.weights[None], theta)
+    rough = Evaluator(g.spec, metric=g.metric, seconds=2.0, terrain="rough", batch=16, ensemble=one,
+                      space=space)(g.weights[None], theta)
+    assert flat.score[0] != rough.score[0]
     with pytest.raises(ValueError, match="terrain"):
-        TuneEvaluator(g.spec, space, metric="distance", seconds=2.0, terrain="moon")
+        Evaluator(g.spec, metric="distance", seconds=2.0, terrain="moon", space=space)

@@ -1,0 +1,273 @@
+"""The one evaluator of both phases: batches of controllers -> :class:`~sanlab.evaluate.records.ScoreBatch`.
+
+An :class:`Evaluator` scores controllers on one creature with one metric for a fixed time. Each
+controller is its SAN weights, optionally with a parameter vector of Figure 8 (phase 2: node
+delays, actuator and sensor ranges and gains, link lengths; mapped onto the model by a
+``sanlab.search.space.Space``), and with the key of its ensemble draws
+(``sanlab.evaluate.ensemble``). Each controller runs once per member of the ensemble and once per
+terrain of the evaluator's terrain set, all in one batched rollout (every such copy is one row);
+its score is the median over members of the member's mean over terrains.
+
+It compiles its creature once (lazily, on the first call) and always rolls out batches padded to
+the same number of rows, so a whole run, resumed or not, runs one compiled program. It pickles
+without its compiled state, so a remote worker (``sanlab.evaluate.backends``) rebuilds the same
+evaluator and compiles it once there.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import partial
+from typing import Any, Protocol
+
+import numpy as np
+
+from sanlab.creature.spec import Creature, Terrain
+from sanlab.evaluate.ensemble import Ensemble, Key
+from sanlab.evaluate.records import ScoreBatch
+from sanlab.metrics import Metric, scores
+from sanlab.san import San, SanParams
+from sanlab.sim.model import Model
+
+# Named terrain sets (§6.2), scored as the mean over their grounds: rough = three rough grounds
+# (RMS height 1.5 cm, shortest wavelength 0.25 m, seeds 1-3); hill = four smooth hills 8 cm high
+# and 1 m wide, centred 0.7 m and 1.2 m ahead and behind (creatures may go either way).
+TERRAINS: dict[str, tuple[Terrain, ...]] = {
+    "flat": (),
+    "rough": tuple(Terrain(kind="rough", height=0.015, wavelength=0.25, seed=s) for s in (1, 2, 3)),
+    "hill": tuple(Terrain(kind="hill", height=0.08, width=1.0, center=c) for c in (0.7, -0.7, 1.2, -1.2)),
+}
+
+
+class ParamSpace(Protocol):
+    """What the evaluator needs of a parameter space (``sanlab.search.space.Space`` is one)."""
+
+    def batch(self, thetas: np.ndarray, model: Model, /) -> tuple[Any, Any, Model]:
+        """Vectors [B, P] -> (k1 [B, N], k2 [B, N], the model with a leading batch axis on every
+        parameter)."""
+        ...
+
+
+@dataclass(frozen=True)
+class Request:
+    """One batch to evaluate: B controllers.
+
+    weights: [B, N, I] integers in [-2, 2]. thetas: [B, P] parameter vectors (the evaluator's
+    space), or None for the creature file's own parameters. keys: one ensemble key per
+    controller (may be empty with a one-member ensemble).
+    """
+
+    weights: np.ndarray
+    thetas: np.ndarray | None = None
+    keys: tuple[Key, ...] = ()
+
+    def __len__(self) -> int:
+        return len(self.weights)
+
+
+def describe_devices() -> str:
+    """What a local evaluation runs on, e.g. "2 x cpu (cpu)": stored with every run."""
+    import jax
+
+    devs = jax.devices()
+    return f"{len(devs)} x {devs[0].platform} ({devs[0].device_kind})"
+
+
+class Evaluator:
+    """Score controllers on ``spec`` (see the module docstring).
+
+    metric: a name of ``sanlab.creature.spec.METRICS`` (default: the creature file's). seconds:
+    evaluation time (default: the file's). dtype: "float32" or "float64". batch: controllers per
+    rollout (a larger request is split; every rollout is padded to it). terrain: a name of
+    :data:`TERRAINS` or a sequence of grounds of one kind (vertical plane only; default: the
+    creature's own ground). ensemble: :class:`~sanlab.evaluate.ensemble.Ensemble`. space: maps
+    parameter vectors onto the model (needed to evaluate vectors). Raises ValueError on a bad
+    metric, terrain or ensemble.
+    """
+
+    def __init__(self, spec: Creature, *, metric: str | None = None, seconds: float | None = None,
+                 dtype: str = "float32", batch: int = 256, terrain: str | Sequence[Terrain] = "flat",
+                 ensemble: Ensemble | None = None, space: ParamSpace | None = None):
+        if isinstance(terrain, str):
+            if terrain not in TERRAINS:
+                raise ValueError(f"terrain: expected one of {list(TERRAINS)}, got {terrain!r}")
+            grounds = TERRAINS[terrain]
+        else:
+            grounds = tuple(terrain)
+        if grounds and spec.world.plane != "vertical":
+            raise ValueError("terrain: only creatures in the vertical plane walk on terrain")
+        if len({g.kind for g in grounds}) > 1:
+            raise ValueError("terrain: the grounds of one set must be of one kind")
+        if batch < 1:
+            raise ValueError(f"batch: expected >= 1, got {batch}")
+        if grounds:
+            spec = dataclasses.replace(spec, world=dataclasses.replace(spec.world, terrain=grounds[0]))
+        self.spec = spec
+        self.terrain = terrain if isinstance(terrain, str) else "custom"
+        self.grounds = grounds
+        self.san = San.for_creature(spec)
+        self.metric = Metric.for_creature(spec, metric)
+        self.seconds = float(seconds if seconds is not None else spec.evaluation.seconds)
+        self.dtype = dtype
+        self.batch = int(batch)
+        self.ensemble = ensemble if ensemble is not None else Ensemble()
+        self.space = space
+        self._compiled: tuple[Model, list[Any]] | None = None
+
+    # A worker process receives the evaluator pickled and compiles it there.
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_compiled": None}
+
+    @property
+    def model(self) -> Model:
+        """The compiled creature (nominal parameters, the first ground of the set)."""
+        return self._compile()[0]
+
+    def _compile(self) -> tuple[Model, list[Any]]:
+        if self._compiled is None:
+            from sanlab import sim
+
+            model = sim.compile_creature(self.spec, self.dtype)
+            variants = [sim.compile_creature(dataclasses.replace(
+                self.spec, world=dataclasses.replace(self.spec.world, terrain=g)), self.dtype).params
+                for g in self.grounds] if len(self.grounds) > 1 else []
+            self._compiled = (model, variants)
+        return self._compiled
+
+    def delays(self) -> tuple[float, float]:
+        """The creature's nominal node delays (T_on, T_off) in s: a phase-1 controller's."""
+        return self.spec.san.delay_on, self.spec.san.delay_off
+
+    def evaluate(self, request: Request) -> ScoreBatch:
+        """Score one :class:`Request`."""
+        return self(request.weights, request.thetas, request.keys)
+
+    def __call__(self, weights: np.ndarray, thetas: np.ndarray | None = None,
+                 keys: Sequence[Key] | None = None) -> ScoreBatch:
+        """weights [B, N, I], thetas [B, P] or None, keys: B ensemble keys (optional with one
+        member) -> the B evaluations' scores. Each controller's scores depend only on itself and
+        its key, never on the rest of the batch."""
+        W = np.asarray(weights)
+        B = len(W)
+        if thetas is not None:
+            if self.space is None:
+                raise ValueError("parameter vectors need an evaluator with a space")
+            thetas = np.asarray(thetas, float)
+            if len(thetas) != B:
+                raise ValueError(f"{len(thetas)} parameter vectors for {B} controllers")
+        if keys is None or len(keys) == 0:
+            if self.ensemble.members > 1:
+                raise ValueError("an ensemble of several members needs each evaluation's key")
+            keys = [()] * B
+        if len(keys) != B:
+            raise ValueError(f"{len(keys)} ensemble keys for {B} controllers")
+        out = []
+        for i in range(0, B, self.batch):
+            j = min(B, i + self.batch)
+            out.append(self._rollout(W[i:j], None if thetas is None else thetas[i:j], list(keys[i:j])))
+        return ScoreBatch.concat(out)
+
+    def _rollout(self, W: np.ndarray, thetas: np.ndarray | None, keys: list[Key]) -> ScoreBatch:
+        from sanlab import sim
+
+        model, variants = self._compile()
+        n, P = len(W), self.batch
+        pad = lambda x: np.concatenate([x, np.repeat(x[-1:], P - n, axis=0)]) if P > n else x
+        W, keys = pad(W), keys + [keys[-1]] * (P - n)
+        T, K = max(1, len(variants)), self.ensemble.members
+        reps = T * K
+        R = P * reps  # rows: controller-major, then terrain, then member
+        if thetas is None:
+            on, off = self.delays()
+            k1 = np.full((P, self.san.n_nodes), 1.0 / on)
+            k2 = np.full((P, self.san.n_nodes), -1.0 / off)
+            m, batched = model, False
+        else:
+            assert self.space is not None
+            k1, k2, m = self.space.batch(pad(thetas), model)
+            batched = True
+        need = batched or T > 1 or (K > 1 and self.ensemble.friction > 0)
+        if batched:
+            m = _tree(lambda x: np.repeat(np.asarray(x), reps, axis=0), m)
+        elif need:
+            m = _tree(lambda x: np.repeat(np.asarray(x)[None], R, axis=0), m)
+        if T > 1:
+            which = (np.arange(R) // K) % T
+            m = m.with_params(terrain=np.stack([np.asarray(v.terrain) for v in variants])[which],
+                              rough=np.stack([np.asarray(v.rough) for v in variants])[which])
+        state0 = None
+        if K > 1:
+            st = model.structure
+            draws = [self.ensemble.draws(st, k, len(self.spec.links)) for k in keys]
+            dq = np.repeat(np.stack([d[0] for d in draws])[:, None], T, axis=1).reshape(R, -1)
+            if need and self.ensemble.friction > 0:
+                mu = np.repeat(np.stack([d[1] for d in draws])[:, None], T, axis=1).reshape(R, -1)
+                m = m.with_params(mu=(np.asarray(m.params.mu, float) * mu[:, :, None]).astype(model.dtype))
+            q0 = np.broadcast_to(np.asarray(m.params.q0, float), (R, st.ndof))
+            q = (q0 + dq).astype(model.dtype)  # member 0: exactly the start
+            member0 = np.arange(R) % K == 0
+            state0 = _start(m, q, member0, need)
+        cp = SanParams(np.repeat(W, reps, axis=0).astype(self.dtype), np.repeat(k1, reps, axis=0).astype(self.dtype),
+                       np.repeat(k2, reps, axis=0).astype(self.dtype))
+        r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
+                        pad_to=R)
+        s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+        return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}).take(slice(0, n))
+
+
+def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
+    """Evaluations' scores from their rows' (``metrics.scores`` arrays shaped [B, T terrains,
+    K members]): a member's score, speed and distance are its means over the terrains (it fell,
+    or went non-finite, if it did on any); an evaluation's are the medians over its members, it
+    fell if more than half of its members fell, and it is non-finite if any member was (that
+    member scored 0)."""
+    member_score = rows["score"].mean(1)
+    member_speed = rows["speed_cm_s"].mean(1)
+    member_dist = rows["distance_m"].mean(1)
+    fell = np.any(rows["fell"], axis=1)
+    nonfinite = np.any(rows["nonfinite"], axis=1)
+    K = member_score.shape[1]
+    return ScoreBatch(np.median(member_score, 1), np.median(member_speed, 1), np.median(member_dist, 1),
+                      np.sum(fell, axis=1) > K / 2, np.any(nonfinite, axis=1), member_score, member_speed)
+
+
+def _tree(fn, model: Model) -> Model:
+    import jax
+
+    return jax.tree_util.tree_map(fn, model)
+
+
+def _start_fn():
+    import jax
+    import jax.numpy as jnp
+
+    from sanlab.sim.dynamics import make_state, seat_on_ground
+
+    @partial(jax.jit, static_argnames=("batched",))
+    def start(model, q, member0, batched):
+        st = model.structure
+        seat = st.plane == "vertical" and bool(st.contacts)
+        axes = jax.tree_util.tree_map(lambda _: 0 if batched else None, model)
+
+        def one(m, qq, keep):
+            if seat:
+                qq = jnp.where(keep, qq, seat_on_ground(m, qq))
+            return make_state(m, qq)
+
+        return jax.vmap(one, in_axes=(axes, 0, 0))(model, q, member0)
+
+    return start
+
+
+_START_FN: Any = None
+
+
+def _start(model: Model, q: np.ndarray, member0: np.ndarray, batched: bool):
+    """Rows' start states: coordinates q [R, D] re-seated on the ground (vertical plane) except
+    where ``member0`` (the unperturbed start, left exactly as compiled), at rest."""
+    global _START_FN
+    if _START_FN is None:
+        _START_FN = _start_fn()
+    return _START_FN(model, q, member0, batched)

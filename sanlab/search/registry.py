@@ -1,0 +1,31 @@
+"""Every search strategy by name: the one list the command line, ``reproduce`` and the tests use.
+
+A new optimiser is one module implementing ``sanlab.search.base.Strategy`` (constructed from a
+``Problem``; ``phase`` 1 searches weights from scratch, phase 2 tunes a start's parameters) plus
+its line here; ``tests/search/test_strategies.py`` then runs the shared API checks on it.
+"""
+
+from __future__ import annotations
+
+from sanlab.search.anneal import Anneal
+from sanlab.search.base import Problem, Strategy, StrategyClass
+from sanlab.search.random_search import RandomSearch
+from sanlab.search.sga import SGA
+
+STRATEGIES: dict[str, StrategyClass] = {
+    "random": RandomSearch,  # phase 1 (§5.2)
+    "sga": SGA,  # phase 2: stochastic gradient ascent (Figure 9)
+    "sa": Anneal,  # phase 2: simulated annealing
+}
+
+
+def names(phase: int) -> list[str]:
+    """The registered strategies of ``phase`` (1 or 2)."""
+    return [n for n, cls in STRATEGIES.items() if cls.phase == phase]
+
+
+def make(name: str, problem: Problem) -> Strategy:
+    """The strategy called ``name`` for ``problem``; ValueError for an unknown name."""
+    if name not in STRATEGIES:
+        raise ValueError(f"method: expected one of {list(STRATEGIES)}, got {name!r}")
+    return STRATEGIES[name](problem)

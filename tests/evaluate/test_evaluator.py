@@ -1,0 +1,115 @@
+"""The one evaluator: ensemble draws, robust statistics, single-sample scoring as before, and
+scores that depend on nothing but the controller and its key."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sanlab import creature, sim
+from sanlab.evaluate import Ensemble, Evaluator, GaitParams, Scores
+from sanlab.evaluate.ensemble import heldout_key, search_key, start_key, trial_key
+from sanlab.evaluate.evaluator import robust
+from sanlab.metrics import scores
+
+BOUNDER = creature.load("bounder")
+
+
+def test_ensemble_draws_perturb_the_start_pose_per_key():
+    st = sim.compile_creature(BOUNDER).structure
+    L = len(BOUNDER.links)
+    ens = Ensemble(members=8, pose=1e-3, angle=0.5, friction=0.05)
+    dq, mu = ens.draws(st, search_key(0, 7), L)
+    assert dq.shape == (8, st.ndof) and mu.shape == (8, L)
+    assert not dq[0].any() and (mu[0] == 1).all()  # member 0 is the unperturbed start
+    again, _ = ens.draws(st, search_key(0, 7), L)
+    np.testing.assert_array_equal(dq, again)  # one stream per evaluation: the same draws every time
+    other, _ = ens.draws(st, search_key(0, 8), L)
+    assert not np.array_equal(dq, other)
+    roots = [st.links[t.root] for t in st.trees if t.free]
+    pose = [d for r in roots for d in (r.dof_x, r.dof_y)]
+    angles = [ls.dof_rot for ls in st.links if ls.dof_rot >= 0]
+    assert sorted(pose + angles) == list(range(st.ndof))  # every coordinate of the bounder is one or the other
+    assert np.abs(dq[1:, pose]).max() <= 3e-3 and np.abs(dq[1:, pose]).max() > 1e-4  # clipped at 3 sigma
+    assert np.abs(dq[1:, angles]).max() <= math.radians(1.5) and np.abs(dq[1:, angles]).max() > 1e-4
+    assert (np.abs(mu - 1) <= 0.05).all() and np.ptp(mu) > 0
+    # friction is drawn after the pose: turning it off changes nothing else
+    dq0, mu0 = Ensemble(members=8, friction=0.0).draws(st, search_key(0, 7), L)
+    np.testing.assert_array_equal(dq0, dq)
+    assert (mu0 == 1).all()
+    # every kind of evaluation has its own streams
+    keys = {search_key(1, 2), trial_key(1, 2, 0), start_key(1, 2), heldout_key(1, 2)}
+    assert len({ens.draws(st, k, L)[0][1:].tobytes() for k in keys}) == 4
+
+
+def test_ensemble_settings_are_checked_and_round_trip():
+    e = Ensemble(members=4, pose=2e-3, angle=1.0, friction=0.1)
+    assert Ensemble.from_json(e.to_json()) == e
+    assert Ensemble.from_json(None) == Ensemble(members=1)  # runs stored before ensembles
+    for bad in ({"members": 0}, {"pose": -1.0}, {"friction": 1.5}):
+        with pytest.raises(ValueError, match="ensemble"):
+            Ensemble(**bad)
+
+
+def test_one_member_is_todays_single_sample_score():
+    ev = Evaluator(BOUNDER, seconds=1.0, batch=32, ensemble=Ensemble(members=1))
+    W = np.stack([ev.san.random_weights(0, i) for i in range(32)])
+    got = ev(W)
+    m = sim.compile_creature(BOUNDER)
+    r = sim.rollout(m, ev.san, ev.san.params(W, BOUNDER.san.delay_on, BOUNDER.san.delay_off), 1.0,
+                    observer=ev.metric, pad_to=32)
+    before = scores(ev.metric, r.acc, r.finite, 1.0, "vertical")
+    np.testing.assert_array_equal(got.score, before["score"])
+    np.testing.assert_array_equal(got.speed_cm_s, before["speed_cm_s"])
+    np.testing.assert_array_equal(got.member_score[:, 0], before["score"])
+
+
+def test_ensemble_scores_are_member_medians_and_do_not_depend_on_the_batch():
+    ev = Evaluator(BOUNDER, seconds=1.0, batch=32, ensemble=Ensemble(members=8))
+    n = 24
+    W = np.stack([ev.san.random_weights(0, i) for i in range(n)])
+    keys = [search_key(0, i) for i in range(n)]
+    a = ev(W, keys=keys)
+    np.testing.assert_array_equal(a.score, np.median(a.member_score, axis=1))
+    np.testing.assert_array_equal(a.speed_cm_s, np.median(a.member_speed_cm_s, axis=1))
+    assert np.ptp(a.member_score, axis=1).max() > 0  # the members really differ
+    b = ev(W[::-1], keys=keys[::-1])
+    np.testing.assert_array_equal(a.member_score, b.member_score[::-1])
+    c = ev(W[5:9], keys=keys[5:9])  # alone, in a smaller batch
+    np.testing.assert_array_equal(a.member_score[5:9], c.member_score)
+    single = Evaluator(BOUNDER, seconds=1.0, batch=32, ensemble=Ensemble(members=1))(W)
+    np.testing.assert_array_equal(a.member_score[:, 0], single.score)  # member 0: the unperturbed start
+    with pytest.raises(ValueError, match="key"):
+        ev(W)
+
+
+def test_robust_statistics_follow_the_majority_and_flag_any_blow_up():
+    B, T, K = 2, 1, 5
+    score = np.array([[1.0, 2.0, 3.0, 4.0, 0.0], [1.0, 1.0, 1.0, 1.0, 1.0]]).reshape(B, T, K)
+    fell = np.array([[1, 1, 1, 0, 0], [1, 1, 0, 0, 0]], bool).reshape(B, T, K)
+    nonfinite = np.array([[0, 0, 0, 0, 1], [0, 0, 0, 0, 0]], bool).reshape(B, T, K)
+    out = robust({"score": score, "speed_cm_s": 100 * score, "distance_m": score, "fell": fell, "nonfinite": nonfinite})
+    assert list(out.score) == [2.0, 1.0] and list(out.speed_cm_s) == [200.0, 100.0]
+    assert list(out.fell) == [True, False]  # 3 of 5 fell; 2 of 5 did not make it a fall
+    assert list(out.nonfinite) == [True, False]  # one blown-up member (scored 0) flags the evaluation
+    # over several terrains a member's score is its mean, and it fell if it fell on any
+    two = robust({k: np.concatenate([v, v if k != "score" else 3 * v], axis=1)
+                  for k, v in {"score": score, "speed_cm_s": score, "distance_m": score, "fell": fell,
+                               "nonfinite": nonfinite}.items()})
+    assert list(two.score) == [4.0, 2.0]
+
+
+def test_records_round_trip_through_json():
+    s = Scores(1.5, 25.0, 1.5, True, False, (1.0, 1.5, 2.0), (16.7, 25.0, 33.3))
+    assert Scores.from_json(s.to_json()) == s
+    old = Scores.from_json({"score": 0.5, "speed_cm_s": 8.0, "fell": False, "nonfinite": False})
+    assert old.member_scores == (0.5,) and old.member_speeds == (8.0,)  # stored before ensembles: one member
+    phase1 = GaitParams(delay_on=0.1, delay_off=0.12)
+    assert phase1.to_json() == {"delay_on": 0.1, "delay_off": 0.12}
+    assert GaitParams.from_json(phase1.to_json()) == phase1
+    tuned = GaitParams(k1=(10.0, 8.0), k2=(-10.0, -9.0), model={"act_ks": [1.0]}, scale=(1.0, 1.1))
+    assert GaitParams.from_json(tuned.to_json()) == tuned
+    k1, k2 = phase1.rates(3, 0.5, 0.5)
+    assert list(k1) == [10.0] * 3 and list(k2) == pytest.approx([-1 / 0.12] * 3)
