@@ -11,7 +11,8 @@ Layers, lowest first (a module may import from its own layer and the ones below)
                       replayed), engine_report (random SANs summarised, `sanlab simulate`)
     library           the gait library (SQLite)
     search | render   side by side, neither imports the other: search holds the phase 1 and 2
-                      drivers and reproduce (both phases per creature, the Table 1 report);
+                      drivers, reproduce (both phases per creature, the Table 1 report) and
+                      audit (a gait re-scored under nudges);
                       render draws scenes, scores and traces it is handed
     cli, studio       the applications: the command line, and the web studio
 
@@ -38,7 +39,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics",), "interop": ("sanlab.interop",)}),
     ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report")}),
     ("library", {"library": ("sanlab.library",)}),
-    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce"), "render": ("sanlab.render",)}),
+    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",)}),
 ]
 SIDE_BY_SIDE = {"search and render"}

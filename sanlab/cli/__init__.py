@@ -1,7 +1,7 @@
 """The ``sanlab`` command line: this module only composes the commands, one module per group.
 
 ``creatures`` (check, creatures), ``simulate``, ``search``, ``library`` (runs, show, export,
-import), ``tune``, ``reproduce``, ``render``; ``_common`` holds what they share (``fail``, the
+import), ``tune``, ``audit``, ``reproduce``, ``render``; ``_common`` holds what they share (``fail``, the
 options, opening the library, the progress bar). Heavy imports (JAX, the drawing libraries) stay
 inside the commands that need them, so that ``sanlab check`` starts fast; commands that simulate
 call :func:`sanlab.configure` first. Every command that reads the gait library refuses a missing
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import typer
 
-from sanlab.cli import creatures, library, render, reproduce, search, simulate, tune
+from sanlab.cli import audit, creatures, library, render, reproduce, search, simulate, tune
 
 app = typer.Typer(
     help="Discover how planar creatures can move with sensor-actuator networks.",
@@ -36,6 +36,7 @@ app.command()(library.show)
 app.command("export")(library.export_)
 app.command("import")(library.import_)
 app.command()(tune.tune)
+app.command()(audit.audit)
 app.command()(reproduce.reproduce)
 app.command()(render.render)
 

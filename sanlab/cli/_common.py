@@ -112,7 +112,9 @@ def library_call(fn: Callable[..., T], *args: Any) -> T:
 
 
 def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
-    """The run's ``n`` best gaits as the rows ``--json`` prints."""
+    """The run's ``n`` best gaits as the rows ``--json`` prints; ``resolution_dependent`` is the
+    verdict of the gait's stored audit (None: never audited, see ``sanlab audit``)."""
+    audits = lib.audits(run_id)
     return [
         {
             "gait": f"{run_id}/{rank}",
@@ -120,6 +122,7 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
             "speed_cm_s": e.speed_cm_s,
             "fell": e.fell,
             "nonfinite": e.nonfinite,
+            "resolution_dependent": audits[e.idx].flagged if e.idx in audits else None,
             "encoding": e.encoding,
         }
         for rank, e in enumerate(lib.top(run_id, n), 1)
@@ -129,7 +132,8 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
 def print_top(rows: list[dict], title: str) -> None:
     table = Table("rank", "gait", "score", "speed (cm/s)", "flags", title=title)
     for rank, r in enumerate(rows, 1):
-        flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"])) if on)
+        flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
+                                          ("resolution-dependent", r.get("resolution_dependent"))) if on)
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
 

@@ -17,6 +17,7 @@ from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import GAIT_FORMAT, GAIT_FORMAT_VERSION
 from sanlab.library.ids import parse_gait_id
 from sanlab.library.records import (
+    AuditRecord,
     Evaluation,
     EvaluationRow,
     Run,
@@ -30,6 +31,6 @@ from sanlab.library.store import DEFAULT_PATH, Library
 
 __all__ = [
     "APPLICATION_ID", "DEFAULT_PATH", "GAIT_FORMAT", "GAIT_FORMAT_VERSION", "RUN_KINDS",
-    "RUN_STATUSES", "SCHEMA_VERSION", "Evaluation", "EvaluationRow", "Library", "LibraryError", "Run",
+    "RUN_STATUSES", "SCHEMA_VERSION", "AuditRecord", "Evaluation", "EvaluationRow", "Library", "LibraryError", "Run",
     "RunSettings", "SearchSettings", "TracePoint", "TraceRow", "TuneSettings", "parse_gait_id",
 ]  # fmt: skip

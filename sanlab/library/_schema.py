@@ -16,7 +16,7 @@ from collections.abc import Callable
 from sanlab.library.errors import LibraryError
 
 APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
-SCHEMA_VERSION = 1  # PRAGMA user_version
+SCHEMA_VERSION = 2  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
@@ -69,12 +69,28 @@ DDL = (
     ) WITHOUT ROWID
     """,
 )
-TABLES = ("runs", "evaluations", "trace")
+# Version 2: artefact audits (``sanlab audit``), one per audited gait, the latest kept.
+AUDITS_DDL = """
+    CREATE TABLE audits (
+        run_id      TEXT NOT NULL,
+        idx         INTEGER NOT NULL,
+        created     TEXT NOT NULL,              -- ISO 8601, UTC
+        flagged     INTEGER NOT NULL CHECK (flagged IN (0, 1)),  -- resolution-dependent
+        worst       REAL,                       -- largest relative change of the speed
+        result      TEXT NOT NULL,              -- JSON object: every nudge's scores
+        PRIMARY KEY (run_id, idx),
+        FOREIGN KEY (run_id, idx) REFERENCES evaluations (run_id, idx) ON DELETE CASCADE
+    ) WITHOUT ROWID
+    """
+DDL = (*DDL, AUDITS_DDL)
+TABLES = ("runs", "evaluations", "trace", "audits")
 
-# MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction (schema
-# version 2 adds its step here as MIGRATIONS[1]); DDL always creates the newest schema directly.
+# MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
+# always creates the newest schema directly.
 Migration = Callable[[sqlite3.Connection], None]
-MIGRATIONS: dict[int, Migration] = {}
+MIGRATIONS: dict[int, Migration] = {
+    1: lambda conn: conn.execute(AUDITS_DDL),
+}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 

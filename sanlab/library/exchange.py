@@ -5,7 +5,8 @@ library's schema.
 Fields: ``format`` ("sanlab-gait"), ``version``, ``source`` (the exported ``RUN#IDX``),
 ``creature``, ``creature_text`` (the creature file, verbatim), ``creature_hash`` (its SHA-256),
 ``encoding``, ``params``, ``score``, ``speed_cm_s``, ``fell``, ``nonfinite``, ``extra``,
-``run_params`` (the source run's settings), ``dtype`` and ``sanlab_version``. Strict JSON: NaN and
+``run_params`` (the source run's settings), ``dtype`` and ``sanlab_version``; ``audit`` (the
+gait's artefact audit, when it has one: informative, not imported). Strict JSON: NaN and
 infinities are written as null.
 """
 

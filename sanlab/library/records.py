@@ -165,6 +165,17 @@ class Evaluation:
 
 
 @dataclass(frozen=True)
+class AuditRecord:
+    """The stored artefact audit of one gait (``sanlab audit``, ``sanlab.audit``)."""
+
+    gait_id: str  # "RUN#IDX"
+    created: str  # ISO 8601 UTC
+    flagged: bool  # resolution-dependent: a nudge changed its speed by more than the threshold
+    worst: float  # the largest relative change of the speed over the nudges (NaN: unknown)
+    result: dict  # every nudge's scores, as ``sanlab.audit.Audit.to_json`` wrote them
+
+
+@dataclass(frozen=True)
 class TracePoint:
     """One trial of a tuning run."""
 

@@ -19,7 +19,7 @@ from sanlab.library._values import as_float, index, integer, real, sha256, to_js
 from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import export_record, validate_gait
 from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
-from sanlab.library.records import Evaluation, EvaluationRow, Run, TracePoint, TraceRow
+from sanlab.library.records import AuditRecord, Evaluation, EvaluationRow, Run, TracePoint, TraceRow
 
 DEFAULT_PATH = "sanlab.db"
 
@@ -317,6 +317,32 @@ class Library:
             raise LibraryError(f"no gait {gait_id!r}: run {run_id} has no evaluation #{idx}")
         return _evaluation(row, row["rank"])
 
+    # -- artefact audits -------------------------------------------------------------------------
+
+    def add_audit(self, gait_id: str, result: dict, *, flagged: bool, worst: float) -> AuditRecord:
+        """Store the audit of gait ``gait_id`` (replacing an earlier one of the same gait)."""
+        ev = self.gait(gait_id)
+        created = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        worst_v = real(worst, "audit: worst") if math.isfinite(worst) else None
+        text = to_json(result, "audit results")
+        with self._write() as conn:
+            conn.execute("INSERT OR REPLACE INTO audits (run_id, idx, created, flagged, worst, result) "
+                         "VALUES (?, ?, ?, ?, ?, ?)", (ev.run_id, ev.idx, created, int(bool(flagged)), worst_v, text))
+        return AuditRecord(ev.gait_id, created, bool(flagged), as_float(worst_v), json.loads(text))
+
+    def audit(self, gait_id: str) -> AuditRecord | None:
+        """The stored audit of a gait, or None if it was never audited."""
+        ev = self.gait(gait_id)
+        return self.audits(ev.run_id).get(ev.idx)
+
+    def audits(self, run_id: str) -> dict[int, AuditRecord]:
+        """Every stored audit of a run's gaits, by evaluation index."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            rows = conn.execute("SELECT idx, created, flagged, worst, result FROM audits WHERE run_id = ?",
+                                (run_id,)).fetchall()
+        return {r[0]: AuditRecord(f"{run_id}#{r[0]}", r[1], bool(r[2]), as_float(r[3]), json.loads(r[4])) for r in rows}
+
     # -- tuning history --------------------------------------------------------------------------
 
     def add_trace(self, run_id: str, rows: list[dict]) -> None:
@@ -347,7 +373,12 @@ class Library:
     def export_gait(self, gait_id: str) -> dict:
         """A self-contained description of one gait (``sanlab.library.exchange``): strict JSON."""
         ev = self.gait(gait_id)
-        return export_record(self.get_run(ev.run_id), ev)
+        record = export_record(self.get_run(ev.run_id), ev)
+        audit = self.audits(ev.run_id).get(ev.idx)
+        if audit is not None:  # informative: an import stores the gait, not its audit
+            worst = audit.worst if math.isfinite(audit.worst) else None
+            record["audit"] = {"flagged": audit.flagged, "worst": worst, "created": audit.created, "result": audit.result}
+        return record
 
     def import_gait(self, data: dict) -> str:
         """Store an exported gait as a new run of kind "import"; return its gait id ``RUN/1``.
