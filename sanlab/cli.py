@@ -434,3 +434,7 @@ def reproduce(
 from sanlab.render.command import render  # noqa: E402  (imports its drawing libraries lazily)
 
 app.command()(render)
+
+from sanlab.studio.command import studio  # noqa: E402  (imports its web stack lazily)
+
+app.command()(studio)
