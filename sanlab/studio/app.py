@@ -114,8 +114,8 @@ def parse(text: Any) -> tuple[Any, str, dict]:
             continue
         v = args[k]
         if isinstance(v, bool) or not isinstance(v, types):
-            want = " or ".join("integer" if t is int else "number" if t is float else "string" for t in types)
-            raise _Bad(rid, f"{op}: {k!r} must be a {want}, not {json.dumps(v)[:40]}")
+            want = " or ".join("an integer" if t is int else "a number" if t is float else "a string" for t in types)
+            raise _Bad(rid, f"{op}: {k!r} must be {want}, not {json.dumps(v)[:40]}")
     return rid, op, args
 
 
