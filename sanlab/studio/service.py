@@ -37,11 +37,13 @@ PLAYBACK_FPS = 30.0
 # Live mode streams this many frames per simulated second; with dt = 1 ms a frame is every
 # round(1000 / 60) = 17 steps (58.8 frames per simulated second).
 LIVE_FPS = 60.0
-# Frames simulated per call of the rollout in live mode. sim.rollout spends a fixed few tens of
-# milliseconds per call (padding and cutting the batch), so short chunks cannot keep up with real
-# time on two cores; 8 frames (136 ms) measured well above real time and keep a drag's latency
-# small. A fixed size also means one compilation.
-LIVE_CHUNK = 8
+# Frames simulated per call of the rollout in live mode. sim.rollout spends a fixed 40-80 ms per
+# call on two busy cores (padding, sharding and cutting every leaf of the batch, eagerly), almost
+# independent of the steps it runs: 8 frames (136 ms) ran 1.55 x real time for the fish, 12 frames
+# (204 ms) 2.3 x (`python -m sanlab.studio.bench`). 12 keeps a margin on a loaded machine at the
+# cost of a drag's latency (one chunk plus the page's buffer, about 0.4 s). A fixed size also
+# means one compilation.
+LIVE_CHUNK = 12
 # Terrains live mode offers (vertical plane). Each kind compiles once per creature (the
 # terrain's kind is static in the compiled step; its numbers are parameters).
 LIVE_TERRAINS = ("flat", "slope", "hill", "rough")
