@@ -107,8 +107,10 @@ export class RunView {
   }
 
   async refreshTop() {
+    // Requests can overtake each other (asking for 3 then 13 gaits): only the latest counts.
+    const seq = (this.seq = (this.seq || 0) + 1);
     const top = await attempt(() => this.app.api.request("top", { run: this.runId, n: this.n }));
-    if (!top) return;
+    if (!top || seq !== this.seq) return;
     const keep = new Map();
     const els = [];
     for (const g of top) {
