@@ -9,7 +9,9 @@ HTTP:
 WebSocket /ws, JSON text messages. A request is ``{"id": 7, "op": "runs", ...arguments}``; its
 reply is ``{"type": "reply", "id": 7, "ok": true, "data": ...}`` or ``{"type": "reply", "id": 7,
 "ok": false, "error": "one line"}`` (``id`` null when the message was too malformed to have one).
-Requests are served concurrently; replies may come in any order. The server also pushes:
+A message without an id is a notification (e.g. the follow point, 60 times a second): it is
+answered only if it fails. Requests are served concurrently; replies may come in any order. The
+server also pushes:
 
     {"type": "library", "runs": [[run_id, status, count], ...]}    the library changed
     {"type": "job", "job": {...}}                                   a search or tuning progressed
@@ -313,7 +315,7 @@ class Studio:
             await conn.send({"type": "reply", "id": rid, "ok": False,
                              "error": f"internal error in {op}: {type(e).__name__}: {e}"})
             return
-        if rid is not None or op not in ("live.follow",):
+        if rid is not None:  # a message without id is a notification: answered only on error
             await conn.send({"type": "reply", "id": rid, "ok": True, "data": data})
 
     async def dispatch(self, conn: Connection, op: str, a: dict) -> Any:
@@ -362,7 +364,12 @@ class Studio:
             conn.live = LiveRunner(self, conn, session)
             conn.live.start()
             return session.describe()
-        if op in ("live.follow", "live.terrain", "live.stop"):
+        if op == "live.stop":  # idempotent: a page leaving live mode twice is no error
+            if conn.live is not None:
+                conn.live.stop()
+                conn.live = None
+            return None
+        if op in ("live.follow", "live.terrain"):
             if conn.live is None:
                 raise StudioError(f"{op}: no live session (start one with live.start)")
             if op == "live.follow":
@@ -376,9 +383,6 @@ class Studio:
                 _terrain(a["terrain"])  # validate now, apply between two chunks
                 conn.live.pending_terrain = a["terrain"]
                 return {"terrain": a["terrain"]}
-            conn.live.stop()
-            conn.live = None
-            return None
         raise StudioError(f"unknown op {op!r}")  # parse() lets none through
 
 

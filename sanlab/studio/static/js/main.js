@@ -56,7 +56,9 @@ class App {
     this.api.on("status", (s) => {
       document.getElementById("conn").textContent = s.connected ? "" : "disconnected: reconnecting…";
     });
-    window.addEventListener("hashchange", () => this.route());
+    // Until the first reply (hello) has come, start() does the routing.
+    this.started = false;
+    window.addEventListener("hashchange", () => this.started && this.route());
     const loop = (now) => {
       if (this.view && this.view.tick) {
         try { this.view.tick(now); } catch (e) { console.error(e); }
@@ -71,6 +73,7 @@ class App {
     document.getElementById("library-path").textContent = this.info.library;
     document.getElementById("version").textContent = `sanlab ${this.info.version}`;
     for (const j of await this.api.request("jobs")) this.jobs.update(j);
+    this.started = true;
     this.route();
   }
 
