@@ -95,7 +95,7 @@ def parse(text: Any) -> tuple[Any, str, dict]:
     try:
         msg = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as e:
-        raise BadRequest(f"not JSON: {getattr(e, 'msg', 'too deeply nested')} at character {getattr(e, 'pos', 0)}")
+        raise BadRequest(f"not JSON: {getattr(e, 'msg', 'too deeply nested')} at character {getattr(e, 'pos', 0)}") from None
     if not isinstance(msg, dict):
         raise BadRequest(f"expected a JSON object like {{\"id\": 1, \"op\": \"runs\"}}, got {type(msg).__name__}")
     rid = msg.get("id")
@@ -253,7 +253,7 @@ class Jobs:
                 job["status"] = "done"
             except StudioError as e:
                 job["status"], job["error"] = "failed", str(e)
-            except Exception as e:  # noqa: BLE001  (the server must keep serving)
+            except Exception as e:  # the server must keep serving
                 log.exception("job %s failed", job["id"])
                 job["status"], job["error"] = "failed", f"{type(e).__name__}: {e}"
             push(True)
@@ -310,7 +310,7 @@ class Studio:
         except StudioError as e:
             await conn.send({"type": "reply", "id": rid, "ok": False, "error": str(e)})
             return
-        except Exception as e:  # noqa: BLE001  (one bad request must not stop the server)
+        except Exception as e:  # one bad request must not stop the server
             log.exception("request %s failed", op)
             await conn.send({"type": "reply", "id": rid, "ok": False,
                              "error": f"internal error in {op}: {type(e).__name__}: {e}"})

@@ -17,7 +17,7 @@ import time
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("--creature", default="fish", help="built-in creature (default: fish)")
     ap.add_argument("--seconds", type=float, default=20.0, help="simulated seconds to step (default: 20)")
     ap.add_argument("--terrain", default=None, help="flat, slope, hill or rough (vertical-plane creatures)")

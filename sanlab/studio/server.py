@@ -65,7 +65,7 @@ class StudioServer:
         def run() -> None:
             try:
                 self.server.run()
-            except BaseException as e:  # noqa: BLE001  (reported to start's caller)
+            except BaseException as e:  # reported to start's caller
                 errors.append(e)
 
         self._thread = threading.Thread(target=run, name="sanlab-studio", daemon=True)

@@ -18,12 +18,11 @@ import shutil
 import subprocess
 
 import pytest
+from studio_helpers import DATA, SEARCH
 
 from sanlab.creature import read_source
 from sanlab.library import Library
 from sanlab.search import run_search
-
-from studio_helpers import DATA, SEARCH
 
 
 def chromium_path() -> str | None:

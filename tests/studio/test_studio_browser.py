@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 import pytest
+from studio_helpers import SEARCH, screenshot
 from typer.testing import CliRunner
 
 from sanlab.gait import Gait
 from sanlab.library import Library
-from studio_helpers import SEARCH, screenshot
 
 pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 
@@ -66,7 +66,7 @@ def test_run_grid_shows_as_many_animations_as_asked(page, studio, library):
     page.click("#grid-more")  # 3 + 10
     page.wait_for_function("document.querySelectorAll('#gait-grid .tile[data-playing]').length === 13")
     # the tiles animate: two looks at a tile's pixels differ
-    shot = lambda: page.locator("#gait-grid .tile canvas").first.screenshot()  # noqa: E731
+    shot = lambda: page.locator("#gait-grid .tile canvas").first.screenshot()
     a = shot()
     page.wait_for_function("new Promise(r => setTimeout(() => r(true), 400))")
     assert shot() != a
@@ -139,8 +139,8 @@ def _live_distances(page, target, drag: bool, settle: float = 1.0, watch: float 
         t0 = page.evaluate(f"{landed}[0]")
     page.wait_for_function(f"studio.view.track.length && studio.view.track[studio.view.track.length - 1][0] > {t0 + watch}")
     track = np.array(page.evaluate("studio.view.track"), dtype=float)
-    at = lambda t: track[np.argmin(np.abs(track[:, 0] - t))]  # noqa: E731
-    d = lambda row: float(np.hypot(row[1] - target[0], row[2] - target[1]))  # noqa: E731
+    at = lambda t: track[np.argmin(np.abs(track[:, 0] - t))]
+    d = lambda row: float(np.hypot(row[1] - target[0], row[2] - target[1]))
     return d(at(t0)), d(at(t0 + watch)), page.evaluate("studio.view.stats")
 
 

@@ -14,7 +14,7 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from sanlab.library import Library
-from sanlab.studio.app import parse, BadRequest
+from sanlab.studio.app import BadRequest, parse
 
 
 def ws_url(studio) -> str:
