@@ -37,12 +37,9 @@ PLAYBACK_FPS = 30.0
 # Live mode streams this many frames per simulated second; with dt = 1 ms a frame is every
 # round(1000 / 60) = 17 steps (58.8 frames per simulated second).
 LIVE_FPS = 60.0
-# Frames simulated per call of the rollout in live mode. sim.rollout spends a fixed 40-80 ms per
-# call on two busy cores (padding, sharding and cutting every leaf of the batch, eagerly), almost
-# independent of the steps it runs: 8 frames (136 ms) ran 1.55 x real time for the fish, 12 frames
-# (204 ms) 2.3 x (`python -m sanlab.studio.bench`). 12 keeps a margin on a loaded machine at the
-# cost of a drag's latency (one chunk plus the page's buffer, about 0.4 s). A fixed size also
-# means one compilation.
+# Frames simulated per call in live mode (one call of the compiled continuation, see
+# :func:`_continuation`): 12 frames of 1/60 s, 204 steps of 1 ms. A fixed size means one
+# compilation. A drag takes effect after about one chunk plus the page's buffer (0.4 s).
 LIVE_CHUNK = 12
 # Terrains live mode offers (vertical plane). Each kind compiles once per creature (the
 # terrain's kind is static in the compiled step; its numbers are parameters).
@@ -68,8 +65,9 @@ def _num(x: Any, digits: int | None = None) -> float | None:
     return round(x, digits) if digits is not None else x
 
 
-def _arr(a: Any, digits: int = 5) -> list:
-    """An array as nested lists, rounded (5 digits: 10 um, 10 urad), non-finite as None."""
+def _arr(a: Any, digits: int = 5) -> Any:
+    """An array as nested lists (a 0-d array as a number), rounded (5 digits: 10 um, 10 urad),
+    non-finite as None."""
     a = np.asarray(a, float)
     if np.all(np.isfinite(a)):
         return np.round(a, digits).tolist()
@@ -391,24 +389,27 @@ def _terrain(kind: str):
 
 
 class LiveSession:
-    """A gait running in real time, chunk by chunk, through the one compiled rollout.
+    """A gait running in real time, chunk by chunk, through the compiled step.
 
-    Each :meth:`step` continues the run exactly where the last one ended (``state0``,
-    ``cstate0``) for LIVE_CHUNK frames of 1/LIVE_FPS s. For a creature with a follow point the
-    point is held still where the user put it (:meth:`set_follow`), by overriding the model's
-    follow table through its parameters (no recompilation); it starts at the start of the
-    creature's follow path. :meth:`set_terrain` changes the ground (vertical plane) and starts
-    the creature again from rest: its old pose may lie under the new ground.
+    Each :meth:`step` continues the run exactly where the last one ended, for LIVE_CHUNK frames
+    of 1/LIVE_FPS s, through :func:`_continuation` (``sim.rollout``'s loop compiled once per
+    creature, without its per-call batching). For a creature with a follow point the point is
+    held still where the user put it (:meth:`set_follow`), by overriding the model's follow table
+    through its parameters (no recompilation); it starts at the start of the creature's follow
+    path. :meth:`set_terrain` changes the ground (vertical plane) and starts the creature again
+    from rest: its old pose may lie under the new ground.
     """
 
     def __init__(self, service: Service, gait, row: dict, terrain: str | None):
+        import jax
+
         from sanlab import sim
 
         self.service, self.gait, self.row = service, gait, row
         self.spec = gait.spec
         self.vertical = self.spec.world.plane == "vertical"
         self.terrain = None
-        self.params = gait.san_params()
+        self.params = jax.tree_util.tree_map(lambda x: x[0], gait.san_params())  # one controller
         base = service._model(gait, None)
         self.has_follow = bool(base.structure.follow)
         self.dt = float(base.structure.dt)
@@ -435,12 +436,11 @@ class LiveSession:
         self.reset()
 
     def reset(self) -> None:
-        import jax
+        """Back to the creature's start pose, at rest, with the controller's initial state."""
+        from sanlab import sim
 
-        self.state = None
-        # The controller's initial state, batched as rollout returns it, so that the first chunk
-        # and every later one run the same compiled program.
-        self.cstate = jax.vmap(lambda p: self.gait.san.init(p, self.model))(self.params)
+        self.state = sim.make_state(self.model)
+        self.cstate = self.gait.san.init(self.params, self.model)
         self.t = 0.0
 
     def set_follow(self, x: Any, y: Any) -> None:
@@ -464,27 +464,24 @@ class LiveSession:
         """Simulate the next LIVE_CHUNK frames. Returns {t [K] s, links [K, L, 3], contacts,
         touching, com, bits, nodes, follow [2] or None, finite, compute_s (wall time of this
         call)}; a run that went non-finite starts again from rest."""
-        from sanlab import sim
-        from sanlab.render.scene import poses
+        import jax
 
         t0 = time.perf_counter()
         follow = self.follow
-        model = self._stepped_model()
-        r = sim.rollout(model, self.gait.san, self.params, steps=self.steps, record_fps=LIVE_FPS,
-                        state0=self.state, cstate0=self.cstate)
-        q = np.asarray(r.frames.q[0])
-        finite = bool(np.asarray(r.finite)[0]) and bool(np.all(np.isfinite(q)))
-        t = self.t + np.arange(q.shape[0]) * self.frame_dt
-        if finite:
-            P = poses(model, q)
-            self.state, self.cstate, self.t = r.state, r.cstate, float(np.asarray(r.state.t)[0])
-        else:
+        state, cstate, finite, out = _continuation()(self._stepped_model(), self.gait.san, self.params, self.state,
+                                                     self.cstate, _gate(), self.every, LIVE_CHUNK)
+        out = jax.tree_util.tree_map(np.asarray, out)
+        finite = bool(finite) and bool(np.all(np.isfinite(out["q"])))
+        t = self.t + np.arange(out["q"].shape[0]) * self.frame_dt
+        if not finite:
             self.reset()
             return {"t": _arr(t), "finite": False, "compute_s": time.perf_counter() - t0}
+        self.state, self.cstate, self.t = state, cstate, float(state.t)
+        P = out["poses"]
         return {
             "t": _arr(t), "links": _arr(P["links"]), "contacts": _arr(P["contacts"]),
             "touching": _bits(P["depth"] > 0), "com": _arr(P["com"]),
-            "bits": _bits(np.asarray(r.frames.bits[0])), "nodes": _bits(np.asarray(r.frames.cstate.out[0])),
+            "bits": _bits(out["bits"]), "nodes": _bits(out["nodes"]),
             "follow": None if follow is None else [follow[0], follow[1]], "finite": True,
             "compute_s": time.perf_counter() - t0,
         }
@@ -495,6 +492,70 @@ class LiveSession:
                 "terrain": terrain_profile(self.model, -12.0, 12.0), "frame_dt": self.frame_dt,
                 "chunk": LIVE_CHUNK, "follow": None if self.follow is None else list(self.follow),
                 "vertical": self.vertical}
+
+
+_CONTINUATION: Any = None
+_GATE: Any = None
+
+
+def _gate():
+    """A boolean that is true at run time but unknown to the compiler (see ``sim.prepare``)."""
+    global _GATE
+    if _GATE is None:
+        import jax.numpy as jnp
+
+        _GATE = jnp.ones((), bool)
+    return _GATE
+
+
+def _continuation():
+    """``run(model, controller, cparams, state, cstate, gate, every, frames)``: one controller
+    (unbatched ``cparams`` and ``cstate``) continued from ``state`` for ``frames * every``
+    steps, recording a frame every ``every`` steps -> (state, cstate, finite, {q [F, D],
+    bits [F, S], nodes [F, N], poses: ``sim.poses`` of each frame}).
+
+    The loop of ``sim.rollout`` (sense, controller, step, in one ``lax.scan``; frames recorded
+    before their step; the final state's velocity M^-1 p), written with the simulator's public
+    functions and compiled once per creature structure, controller and chunk size. Live mode
+    calls it every 204 ms of simulated time: ``sim.rollout`` itself pads a batch of one to every
+    core's lanes, shards it and cuts every leaf on each call (about 40-80 ms on two busy cores,
+    with the physics of 16 creatures), where this runs one creature in one call. It continues
+    a run as ``sim.rollout(..., state0=, cstate0=)`` does, to float rounding (the two programs
+    are compiled apart; tests/studio/test_studio_live.py compares them).
+    """
+    global _CONTINUATION
+    if _CONTINUATION is None:
+        from functools import partial
+
+        import jax
+        import jax.numpy as jnp
+
+        from sanlab import sim
+
+        @partial(jax.jit, static_argnames=("controller", "every", "frames"))
+        def run(model, controller, cparams, state, cstate, gate, every, frames):
+            def body(carry):
+                state, cs = carry
+                fr = sim.prepare(model, state, gate)
+                bits = sim.sense(model, fr, state.t)
+                cs2, u = controller.apply(cparams, cs, bits, model.params.dt)
+                nxt, _ = sim.advance(model, fr, state, u)
+                return (nxt, cs2), (state.q, bits, cs.out)
+
+            def frame(carry, _):
+                carry, rec = body(carry)
+                if every > 1:
+                    carry, _ = jax.lax.scan(lambda c, _: (body(c)[0], None), carry, None, length=every - 1)
+                return carry, rec
+
+            (state, cs), (q, bits, nodes) = jax.lax.scan(frame, (state, cstate), None, length=frames)
+            state = state._replace(qd=sim.velocity(model, state))
+            finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
+            poses = jax.vmap(lambda x: sim.poses(model, x))(q)
+            return state, cs, finite, {"q": q, "bits": bits, "nodes": nodes, "poses": poses}
+
+        _CONTINUATION = run
+    return _CONTINUATION
 
 
 # -- drawing data ----------------------------------------------------------------------------
