@@ -376,11 +376,7 @@ class Studio:
                 conn.live.session.set_follow(a["x"], a["y"])
                 return None
             if op == "live.terrain":
-                from sanlab.studio.service import _terrain
-
-                if not conn.live.session.vertical:
-                    raise StudioError("terrain: this creature lives in the horizontal plane (no ground to change)")
-                _terrain(a["terrain"])  # validate now, apply between two chunks
+                conn.live.session.check_terrain(a["terrain"])  # validate now, apply between two chunks
                 conn.live.pending_terrain = a["terrain"]
                 return {"terrain": a["terrain"]}
         raise StudioError(f"unknown op {op!r}")  # parse() lets none through

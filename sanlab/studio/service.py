@@ -426,11 +426,15 @@ class LiveSession:
     def chunk_seconds(self) -> float:
         return self.steps * self.dt
 
-    def set_terrain(self, terrain: str | None) -> None:
+    def check_terrain(self, terrain: str | None) -> None:
+        """Raise StudioError unless :meth:`set_terrain` would take ``terrain`` (changes nothing)."""
         if terrain is not None and not self.vertical:
             raise StudioError("terrain: this creature lives in the horizontal plane (no ground to change)")
         if terrain is not None:
-            _terrain(terrain)  # validate before changing anything
+            _terrain(terrain)
+
+    def set_terrain(self, terrain: str | None) -> None:
+        self.check_terrain(terrain)  # before changing anything
         self.terrain = terrain
         self.model = self.service._model(self.gait, terrain)
         self.reset()
