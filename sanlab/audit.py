@@ -105,13 +105,16 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
     s = run.settings
     terrain = s.terrain if isinstance(s, TuneSettings) else "flat"
     key = gait_key(lib, g)
-    space = Space(g.spec, morphology=g.params.scale is not None)
-    theta = space.nominal(g.params)[None]
+    morphology = g.params.scale is not None
+    # A phase-1 gait is scored as its search scored it, with the creature file's own parameters
+    # (a parameter vector takes another compiled path, equal only to the last bits, and a chaotic
+    # gait would already differ there); a tuned or imported one with its parameter vector.
+    theta = None if run.kind == "search" else Space(g.spec, morphology=morphology).nominal(g.params)[None]
 
     def speed(factor: float, dtype: str) -> tuple[float, bool]:
         spec = dataclasses.replace(g.spec, dt=g.spec.dt * factor)
         ev = Evaluator(spec, metric=g.metric, seconds=g.seconds, dtype=dtype, batch=1, terrain=terrain,
-                       ensemble=g.ensemble, space=Space(spec, morphology=space.morphology))
+                       ensemble=g.ensemble, space=Space(spec, morphology=morphology))
         r = ev(g.weights[None], theta, [key])
         return float(r.speed_cm_s[0]), bool(r.fell[0])
 
@@ -124,7 +127,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
         speeds[name], fell[name] = v, f
         changes[name] = abs(v - nominal) / max(abs(nominal), FLOOR_CM_S) if np.isfinite(v) else math.inf
         if log:
-            log(f"{g.gait_id}: {v:.1f} cm/s at {name} ({100 * changes[name]:+.0f} %)")
+            log(f"{g.gait_id}: {v:.1f} cm/s at {name} (changed {100 * changes[name]:.0f} %)")
     return Audit(g.gait_id, g.speed_cm_s, nominal, speeds, changes, fell, threshold, g.spec.dt, g.ensemble.members)
 
 

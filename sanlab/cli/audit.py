@@ -41,9 +41,15 @@ def audit(
                                 **a.to_json()} for a in results], indent=2))
         return
     names = list(results[0].speeds) if results else []
-    table = Table("gait", "stored (cm/s)", "as stored", *names, "verdict", title="audit: robust speed under nudges")
+    table = Table(title="audit: robust speed (cm/s) under nudges, change against the re-scored speed")
+    table.add_column("gait", no_wrap=True)
+    for name in ("stored", "re-scored", *names, "verdict"):
+        table.add_column(name, no_wrap=True)
     for a in results:
-        cells = [f"{a.speeds[n]:.1f} ({100 * a.changes[n]:+.0f} %)" for n in names]
-        verdict = "[red]resolution-dependent[/red]" if a.flagged else "[green]robust[/green]"
+        cells = [f"{a.speeds[n]:.1f} {100 * a.changes[n]:.0f}%" for n in names]
+        verdict = "[red]flagged[/red]" if a.flagged else "[green]robust[/green]"
         table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}", *cells, verdict)
     console.print(table)
+    if any(a.flagged for a in results):
+        console.print(f"flagged: resolution-dependent (a nudge moved the speed more than {100 * threshold:.0f} %); "
+                      "`sanlab show` and exports say so")

@@ -22,6 +22,7 @@ runner = CliRunner()
         ["export", "deadbeef/1"],
         ["tune", "deadbeef/1"],
         ["render", "deadbeef/1"],
+        ["audit", "deadbeef/1"],
         ["search", "--resume", "deadbeef"],
     ],
 )
