@@ -88,9 +88,13 @@ TABLES = ("runs", "evaluations", "trace", "audits")
 # MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
 # always creates the newest schema directly.
 Migration = Callable[[sqlite3.Connection], None]
-MIGRATIONS: dict[int, Migration] = {
-    1: lambda conn: conn.execute(AUDITS_DDL),
-}
+
+
+def _add_audits(conn: sqlite3.Connection) -> None:
+    conn.execute(AUDITS_DDL)
+
+
+MIGRATIONS: dict[int, Migration] = {1: _add_audits}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 

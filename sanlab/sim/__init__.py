@@ -8,6 +8,7 @@ Importing it changes no global JAX setting: :func:`sanlab.configure` does (``com
 calls it on first use).
 """
 
+from sanlab.sim.compiler import compile_creature
 from sanlab.sim.dynamics import (
     State,
     advance,
@@ -24,7 +25,6 @@ from sanlab.sim.dynamics import (
     step,
     velocity,
 )
-from sanlab.sim.compiler import compile_creature
 from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.rollout import (
     ConstantController,

@@ -175,13 +175,17 @@ class Service:
         n = _check_range("top", n)
         with self._lib() as lib:
             rid = lib.get_run(run_id).run_id
-            return [self._gait_row(e, rid) for e in lib.top(rid, n)]
+            audits = lib.audits(rid)
+            return [self._gait_row(e, rid, audits.get(e.idx)) for e in lib.top(rid, n)]
 
     @staticmethod
-    def _gait_row(e, run_id: str) -> dict:
+    def _gait_row(e, run_id: str, audit=None) -> dict:
+        """resolution_dependent: the verdict of the gait's stored audit (`sanlab audit`), None
+        when it was never audited."""
         return {"gait": f"{run_id}/{e.rank}", "id": e.gait_id, "run_id": run_id, "rank": e.rank,
                 "score": _num(e.score), "speed_cm_s": _num(e.speed_cm_s), "fell": e.fell,
-                "nonfinite": e.nonfinite, "parent": e.parent}
+                "nonfinite": e.nonfinite, "parent": e.parent,
+                "resolution_dependent": None if audit is None else audit.flagged}
 
     def export(self, gait_id: str) -> dict:
         """The gait as `sanlab export` writes it."""
@@ -209,13 +213,14 @@ class Service:
         with self._lib() as lib:
             e = lib.gait(_gait_id(gait_id))
             gait = self._gait(lib, e.gait_id)
-            row = self._gait_row(e, e.run_id)
+            row = self._gait_row(e, e.run_id, lib.audit(e.gait_id))
+            run_params = lib.get_run(e.run_id).params
         try:
             sc = scene(gait, None, PLAYBACK_FPS)
         except ValueError as err:  # e.g. too short to record a frame
             raise StudioError(f"cannot replay {gait_id}: {err}") from None
-        row.update(encoding=gait.san.encode(gait.weights), params=_strict(gait.params),
-                   run_params=_strict(gait.run_params), creature=gait.spec.name,
+        row.update(encoding=gait.san.encode(gait.weights), params=_strict(gait.params.to_json()),
+                   run_params=_strict(run_params), creature=gait.spec.name,
                    seconds=gait.seconds, metric=gait.metric)
         x0, _, x1, _ = sc.bounds()
         return {

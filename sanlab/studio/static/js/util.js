@@ -32,6 +32,7 @@ export function flags(g) {
   const out = [];
   if (g.fell) out.push("fell");
   if (g.nonfinite) out.push("non-finite");
+  if (g.resolution_dependent) out.push("resolution-dependent");
   return out.join(", ") || "–";
 }
 
