@@ -73,12 +73,18 @@ class Metric:
 
     @classmethod
     def for_creature(cls, spec, kind: str | None = None) -> "Metric":
-        kind = kind or spec.evaluation.metric
-        if kind not in METRICS:
-            raise ValueError(f"metric: expected one of {list(METRICS)}, got {kind!r}")
+        """The metric ``kind`` (default: the creature file's) for ``spec``; ValueError (one line)
+        for an unknown metric, or one this creature cannot be scored by."""
+        kind = spec.evaluation.metric if kind is None else kind
+        if not isinstance(kind, str) or kind not in METRICS:
+            shown = repr(kind) if isinstance(kind, str) and len(kind) < 40 else type(kind).__name__
+            raise ValueError(f"metric: expected one of {list(METRICS)}, got {shown}")
         ev = spec.evaluation
         if kind == "pursuit" and spec.world.follow is None:
             raise ValueError("metric pursuit needs a follow point ([world.follow] in the creature file)")
+        if kind == "distance_upright" and not ev.can_fall:
+            raise ValueError("metric distance_upright needs a way to fall (evaluation.fell_link or "
+                             "fell_com_height in the creature file)")
         names = [l.name for l in spec.links]
         fell = tuple(names.index(n) for n in ev.fell_links)
         return cls(kind, fell, float(ev.fell_angle), ev.fell_com_height, ev.fell_link_height, float(ev.hop_k),

@@ -10,8 +10,12 @@ call :func:`sanlab.configure` first. Every command that reads the gait library r
 
 from __future__ import annotations
 
+import signal
+from typing import Annotated
+
 import typer
 
+from sanlab import __version__
 from sanlab.cli import creatures, library, render, reproduce, search, simulate, tune
 
 app = typer.Typer(
@@ -22,9 +26,28 @@ app = typer.Typer(
 )
 
 
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"sanlab {__version__}")
+        raise typer.Exit()
+
+
+def _terminate(signum, frame) -> None:
+    raise KeyboardInterrupt  # SIGTERM ends a command as Ctrl-C does: stored work kept, a resume hint
+
+
 @app.callback()
-def main() -> None:
+def main(
+    ctx: typer.Context,
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Print sanlab's version and exit.")] = False,
+) -> None:
     """Discover how planar creatures can move with sensor-actuator networks."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread (an embedding application): leave signals alone
+        return
+    ctx.call_on_close(lambda: signal.signal(signal.SIGTERM, previous))
 
 
 app.command()(creatures.check)

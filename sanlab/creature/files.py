@@ -78,8 +78,9 @@ def file_kind(mode: int) -> str:
     return "not a regular file"
 
 
-def read_regular_file(path: str | os.PathLike, limit: int) -> bytes:
-    """The bytes of the regular file at ``path``, at most ``limit`` of them.
+def read_regular_file(path: str | os.PathLike, limit: int, head: int | None = None) -> bytes:
+    """The bytes of the regular file at ``path``, at most ``limit`` of them (or its first
+    ``head`` bytes, whatever its size).
 
     Opens without blocking and checks the opened file itself, so a FIFO or a device is refused
     (:class:`NotRegularFile`) rather than read, which could wait for ever; :class:`TooLarge` past
@@ -91,10 +92,10 @@ def read_regular_file(path: str | os.PathLike, limit: int) -> bytes:
             raise NotRegularFile(file_kind(mode))
         os.set_blocking(fd, True)
         with os.fdopen(fd, "rb", closefd=False) as f:
-            data = f.read(limit + 1)
+            data = f.read(head if head is not None else limit + 1)
     finally:
         os.close(fd)
-    if len(data) > limit:
+    if head is None and len(data) > limit:
         raise TooLarge(f"more than {limit} bytes")
     return data
 

@@ -28,6 +28,8 @@ TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
 PLANES: tuple[Plane, ...] = get_args(Plane)
 METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
 DIRECTIONS: tuple[Direction, ...] = get_args(Direction)
+# The unit of each metric's score (hopping adds k times a height integral in m^2 s to metres).
+SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hopping": "m + k m^2 s", "pursuit": "m"}
 
 # Limits of the format (FORMAT.md, "Limits"): sizes that keep `sanlab check` within a second and a
 # network within memory, and numbers that keep a run meaningful in float32. Written once here;

@@ -3,7 +3,11 @@ or upgraded when it is opened.
 
 A library is an SQLite file whose header says ``application_id`` = :data:`APPLICATION_ID` and
 ``user_version`` = the schema version it was written with. Opening a file with an older schema
-version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is refused.
+version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is refused. Opened
+read-only, an older file is read as it is (nothing is written).
+
+Version 2 adds ``runs.owner``: which process (host, pid, start time) writes a running run, so
+that a run whose process was killed outright reads as "interrupted", not "running" for ever.
 """
 
 from __future__ import annotations
@@ -13,10 +17,11 @@ import os
 import sqlite3
 from collections.abc import Callable
 
+from sanlab.creature.files import NotRegularFile, read_regular_file
 from sanlab.library.errors import LibraryError
 
 APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
-SCHEMA_VERSION = 1  # PRAGMA user_version
+SCHEMA_VERSION = 2  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
@@ -37,7 +42,8 @@ DDL = (
         dtype          TEXT,
         status         TEXT NOT NULL CHECK (status IN ('running', 'done', 'interrupted')),
         parent_gait    TEXT,                    -- 'RUN#IDX' a tuning run starts from
-        total          INTEGER NOT NULL CHECK (total >= 0)  -- evaluations planned
+        total          INTEGER NOT NULL CHECK (total >= 0), -- evaluations planned
+        owner          TEXT                     -- JSON {host, pid, start} of the process writing it
     )
     """,
     "CREATE INDEX runs_by_created ON runs (created)",
@@ -71,10 +77,16 @@ DDL = (
 )
 TABLES = ("runs", "evaluations", "trace")
 
-# MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction (schema
-# version 2 adds its step here as MIGRATIONS[1]); DDL always creates the newest schema directly.
+# MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
+# always creates the newest schema directly.
 Migration = Callable[[sqlite3.Connection], None]
-MIGRATIONS: dict[int, Migration] = {}
+
+
+def _add_owner(conn: sqlite3.Connection) -> None:
+    conn.execute("ALTER TABLE runs ADD COLUMN owner TEXT")
+
+
+MIGRATIONS: dict[int, Migration] = {1: _add_owner}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
@@ -87,6 +99,8 @@ def check_file(path: str) -> None:
     """
     if path == ":memory:" or path.startswith("file:"):
         return
+    if not path.strip():
+        raise LibraryError("the gait library's path is empty (give --db PATH)")
     if os.path.isdir(path):
         raise LibraryError(f"{path}: is a directory, not a gait library")
     if not os.path.exists(path):
@@ -95,9 +109,10 @@ def check_file(path: str) -> None:
             raise LibraryError(f"{path}: cannot create a gait library there: "
                                f"directory {folder} does not exist")
         return
-    try:
-        with open(path, "rb") as f:
-            head = f.read(4096)
+    try:  # opened without blocking: a FIFO or a device is refused, never waited on
+        head = read_regular_file(path, 0, head=4096)
+    except NotRegularFile as e:
+        raise LibraryError(f"{path}: is {e.kind}, not a gait library (give --db the path of a file)") from None
     except OSError as e:
         raise LibraryError(f"{path}: cannot read: {e.strerror or e}") from None
     if head and not head.startswith(_SQLITE_MAGIC):  # an empty file becomes a new library
@@ -105,13 +120,25 @@ def check_file(path: str) -> None:
         raise LibraryError(f"{path}: not a database file ({what})")
 
 
-def open_schema(conn: sqlite3.Connection, path: str) -> None:
+def open_schema(conn: sqlite3.Connection, path: str, readonly: bool = False) -> None:
     """Make ``conn`` (autocommit mode) ready to use: create the schema in an empty file, upgrade
     an older one, refuse a foreign, newer or damaged one (LibraryError naming ``path``); then set
-    WAL journaling, ``synchronous = NORMAL`` and foreign keys."""
+    WAL journaling, ``synchronous = NORMAL`` and foreign keys. ``readonly``: write nothing (an
+    empty file is refused, an older schema read as it is)."""
     app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     version = conn.execute("PRAGMA user_version").fetchone()[0]
-    if app_id == 0 and version == 0 and _is_empty(conn):
+    if readonly:
+        if app_id == 0 and version == 0 and _is_empty(conn):
+            raise LibraryError(f"{path}: an empty file, not yet a gait library (a search creates one)")
+        if app_id != APPLICATION_ID:
+            raise LibraryError(f"{path}: not a sanlab gait library "
+                               "(it is an SQLite database of another application)")
+        if version > SCHEMA_VERSION:
+            raise LibraryError(f"{path}: written by a newer sanlab (library schema version "
+                               f"{version}; this sanlab reads up to {SCHEMA_VERSION})")
+        if version < 1:
+            raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
+    elif app_id == 0 and version == 0 and _is_empty(conn):
         _create(conn)
     elif app_id != APPLICATION_ID:
         raise LibraryError(f"{path}: not a sanlab gait library "
@@ -126,6 +153,8 @@ def open_schema(conn: sqlite3.Connection, path: str) -> None:
     missing = [t for t in TABLES if not _has_table(conn, t)]
     if missing:
         raise LibraryError(f"{path}: damaged sanlab gait library (missing table {missing[0]!r})")
+    if readonly:
+        return
     # WAL is persistent in the file; setting it again would need a lock a writer may hold.
     if conn.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
         conn.execute("PRAGMA journal_mode = WAL")
