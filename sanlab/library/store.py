@@ -227,6 +227,13 @@ class Library:
         gait) may be given in either gait id form; it is stored as the permanent ``RUN#IDX``.
         Raises LibraryError on a bad argument.
         """
+        return self.get_run(self._insert_run(self._run_values(
+            kind, creature, creature_text, params, seed, total, dtype, device, sanlab_version, parent_gait)))
+
+    def _run_values(self, kind: str, creature: str, creature_text: str, params: dict, seed: int | None,
+                    total: int, dtype: str | None, device: str | None, sanlab_version: str | None,
+                    parent_gait: str | None) -> dict:
+        """The ``runs`` columns of a new run, every value checked (LibraryError)."""
         if kind not in _schema.RUN_KINDS:
             raise LibraryError(f"unknown run kind {kind!r} "
                                f"(expected one of {', '.join(_schema.RUN_KINDS)})")
@@ -248,6 +255,11 @@ class Library:
             device=optional(device, "device"), dtype=optional(dtype, "dtype"),
             status=status, parent_gait=parent_gait, total=total,
             owner=_owner() if status == "running" else None)
+        return values
+
+    def _insert_run(self, values: dict, rows: list | None = None) -> str:
+        """Insert a run (column values) under a fresh id, and with it ``rows`` (evaluation
+        values, run id first) in the same transaction; returns the id."""
         for _ in range(20):
             run_id = secrets.token_hex(4)
             try:
@@ -255,11 +267,16 @@ class Library:
                     conn.execute(
                         f"INSERT INTO runs (run_id, {', '.join(values)}) "
                         f"VALUES (?{', ?' * len(values)})", (run_id, *values.values()))
+                    if rows:
+                        conn.executemany(
+                            "INSERT INTO evaluations (run_id, idx, encoding, params, score, speed_cm_s, "
+                            "fell, nonfinite, extra, parent) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            [(run_id, *r[1:]) for r in rows])
             except LibraryError as e:
                 if errors.is_duplicate(e.sqlite_errorname):
                     continue  # 1 in 4 billion per existing run: draw another id
                 raise
-            return self.get_run(run_id)
+            return run_id
         raise LibraryError(f"{self.path}: could not find a free run id")
 
     def set_status(self, run_id: str, status: str) -> None:
@@ -494,17 +511,17 @@ class Library:
         d = validate_gait(data)
         run_params = dict(d["run_params"], imported_from=d.get("source"))
         seed = run_params.get("seed")
-        run = self.create_run(
+        run = self._run_values(
             "import", d["creature"], d["creature_text"], run_params,
-            seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None, total=1,
-            dtype=d.get("dtype"), device=None, sanlab_version=d.get("sanlab_version"))
+            seed if isinstance(seed, int) and not isinstance(seed, bool) else None, 1,
+            d.get("dtype"), None, d.get("sanlab_version"), None)
         score = d["score"]
-        self.add_batch(run.run_id, [{
+        row = _evaluation_values("", 0, {
             "idx": 0, "encoding": d["encoding"], "params": d["params"],
             "score": math.nan if score is None else score,
             "speed_cm_s": d["speed_cm_s"], "fell": d["fell"],
-            "nonfinite": d.get("nonfinite", False), "extra": d.get("extra")}])
-        return f"{run.run_id}/1"
+            "nonfinite": d.get("nonfinite", False), "extra": d.get("extra")})
+        return f"{self._insert_run(run, [row])}/1"  # the run and its gait in one transaction
 
 
 # -- rows ----------------------------------------------------------------------------------------
