@@ -49,12 +49,12 @@ def validate_gait(data: Any) -> dict:
     if not isinstance(data, dict):
         raise LibraryError(f"not a sanlab gait: expected a JSON object, got {type(data).__name__}")
     if data.get("format") != GAIT_FORMAT:
-        raise LibraryError(f"not a sanlab gait: 'format' is {data.get('format')!r}, "
-                           f"expected {GAIT_FORMAT!r}")
+        shown = repr(data.get("format")) if isinstance(data.get("format"), (str, type(None))) else type(data["format"]).__name__
+        raise LibraryError(f"not a sanlab gait: 'format' is {shown[:60]}, expected {GAIT_FORMAT!r}")
     version = data.get("version")
     if not isinstance(version, int) or isinstance(version, bool) or version < 1:
         raise LibraryError(f"bad sanlab gait: 'version' must be a positive integer, "
-                           f"not {version!r}")
+                           f"not {str(version)[:40]}")
     if version > GAIT_FORMAT_VERSION:
         raise LibraryError(f"sanlab gait format version {version} is newer than this sanlab "
                            f"reads ({GAIT_FORMAT_VERSION})")
