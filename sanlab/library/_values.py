@@ -25,11 +25,20 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON-serialisable")
 
 
-def to_json(obj: Any, what: str) -> str:
-    """Canonical JSON text of ``obj`` (sorted keys, no spaces) for a TEXT column."""
+def to_json(obj: Any, what: str, finite: bool = False) -> str:
+    """Canonical JSON text of ``obj`` (sorted keys, no spaces) for a TEXT column: strict JSON,
+    never NaN or Infinity (which strict readers refuse). ``finite``: refuse a non-finite number
+    (run settings, where null would change their meaning); else store it as null."""
     try:
-        return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
-    except (TypeError, ValueError) as e:
+        if finite:
+            return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default, allow_nan=False)
+        return json.dumps(strict_json(json.loads(json.dumps(obj, default=_json_default))), sort_keys=True,
+                          separators=(",", ":"), allow_nan=False)
+    except ValueError as e:
+        if finite and "Out of range float" in str(e):
+            raise LibraryError(f"{what} hold a number that is not finite (NaN or infinity)") from None
+        raise LibraryError(f"{what} are not JSON-serialisable: {e}") from None
+    except TypeError as e:
         raise LibraryError(f"{what} are not JSON-serialisable: {e}") from None
     except RecursionError:
         raise LibraryError(f"{what} are nested too deep to store") from None

@@ -249,7 +249,7 @@ class Library:
         values = dict(
             kind=kind, created=datetime.now(timezone.utc).isoformat(timespec="microseconds"),
             creature=text(str(creature), "creature"), creature_text=text(creature_text, "creature_text"),
-            creature_hash=sha256(creature_text), params=to_json(params, "run params"),
+            creature_hash=sha256(creature_text), params=to_json(params, "run params", finite=True),
             seed=None if seed is None else integer(seed, "seed"),
             sanlab_version=text(sanlab_version or __version__, "sanlab_version"),
             device=optional(device, "device"), dtype=optional(dtype, "dtype"),

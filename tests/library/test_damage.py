@@ -311,3 +311,14 @@ def test_integers_beyond_sqlite_are_refused_before_writing(tmp_path):
         with pytest.raises(LibraryError):
             lib.top(new_run(lib).run_id, 10**30)
         assert len(lib.runs()) == 1
+
+
+def test_no_nan_or_infinity_is_ever_stored_as_json(tmp_path):
+    with Library(tmp_path / "g.db") as lib:
+        with pytest.raises(LibraryError) as err:
+            new_run(lib, params={"seconds": float("inf")})
+        assert_one_line(err, "run params hold a number that is not finite")
+        run = new_run(lib)
+        lib.add_batch(run.run_id, [{"idx": 0, "encoding": "e", "score": 1.0, "extra": {"d": float("nan"), "v": [float("inf")]}}])
+        raw = lib._conn.execute("SELECT extra FROM evaluations").fetchone()[0]
+        assert json.loads(raw, parse_constant=lambda c: pytest.fail(c)) == {"d": None, "v": [None]}
