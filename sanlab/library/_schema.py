@@ -7,7 +7,8 @@ version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is 
 read-only, an older file is read as it is (nothing is written).
 
 Version 2 adds ``runs.owner``: which process (host, pid, start time) writes a running run, so
-that a run whose process was killed outright reads as "interrupted", not "running" for ever.
+that a run whose process was killed outright reads as "interrupted", not "running" for ever; and
+``fell`` to the rank index, which ranks a gait that stayed up before one that fell at equal scores.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ SCHEMA_VERSION = 2  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
+
+RANK_INDEX = "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, fell, idx)"
 
 DDL = (
     """
@@ -63,8 +66,9 @@ DDL = (
         PRIMARY KEY (run_id, idx)
     )
     """,
-    # Serves top() and gait('RUN/RANK') without sorting the run's evaluations.
-    "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, idx)",
+    # Serves top() and gait('RUN/RANK') without sorting the run's evaluations: its columns are
+    # store._RANK_ORDER's, in its order.
+    RANK_INDEX,
     """
     CREATE TABLE trace (
         run_id   TEXT NOT NULL REFERENCES runs (run_id) ON DELETE CASCADE,
@@ -82,11 +86,13 @@ TABLES = ("runs", "evaluations", "trace")
 Migration = Callable[[sqlite3.Connection], None]
 
 
-def _add_owner(conn: sqlite3.Connection) -> None:
+def _owner_and_fell(conn: sqlite3.Connection) -> None:
     conn.execute("ALTER TABLE runs ADD COLUMN owner TEXT")
+    conn.execute("DROP INDEX IF EXISTS evaluations_by_rank")
+    conn.execute(RANK_INDEX)
 
 
-MIGRATIONS: dict[int, Migration] = {1: _add_owner}
+MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 

@@ -38,8 +38,10 @@ from sanlab.library.records import Evaluation, Run, TracePoint
 
 DEFAULT_PATH = "sanlab.db"
 
-# Best first; non-finite ones (and NaN scores, stored as NULL, which sort last under DESC) last.
-_RANK_ORDER = "nonfinite ASC, score DESC, idx ASC"
+# Best first; at equal scores a gait that stayed up before one that fell (so fallen gaits scored
+# 0 never fill a top 10 ahead of standing ones); non-finite ones (and NaN scores, stored as NULL,
+# which sort last under DESC) last.
+_RANK_ORDER = "nonfinite ASC, score DESC, fell ASC, idx ASC"
 _RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) "
                "AS n FROM runs r")
 
@@ -412,7 +414,8 @@ class Library:
     def top(self, run_id: str, n: int | None = 10) -> list[Evaluation]:
         """The run's best ``n`` evaluations (all with ``n=None``), best first, with ranks.
 
-        Ranked by score descending, ties by idx ascending; non-finite evaluations come last.
+        Ranked by score descending, then standing before fallen, then idx ascending; non-finite
+        evaluations come last.
         """
         run_id = self._resolve(run_id)
         limit = -1 if n is None else max(0, integer(n, "n"))
@@ -420,6 +423,33 @@ class Library:
             rows = conn.execute(f"SELECT * FROM evaluations WHERE run_id = ? "
                                 f"ORDER BY {_RANK_ORDER} LIMIT ?", (run_id, limit)).fetchall()
         return [self._evaluation(r, rank) for rank, r in enumerate(rows, 1)]
+
+    def tally(self, run_id: str) -> dict[str, int]:
+        """How many of the run's stored evaluations there are, fell, and went non-finite:
+        {"evaluated", "fell", "nonfinite"} (what a search reports under its table)."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            n, fell, nonfinite = conn.execute(
+                "SELECT count(*), coalesce(sum(fell), 0), coalesce(sum(nonfinite), 0) FROM evaluations "
+                "WHERE run_id = ?", (run_id,)).fetchone()
+        return {"evaluated": n, "fell": fell, "nonfinite": nonfinite}
+
+    def same_runs(self, kind: str, creature_text: str, params: dict, seed: int | None) -> list[Run]:
+        """Earlier runs of ``kind`` with this exact creature text, settings and seed, newest first:
+        a new run like them would repeat them (their results are already in the library)."""
+        key = to_json(params, "run params", finite=True)
+        with self._sql() as conn:
+            rows = conn.execute(_RUNS_QUERY + " WHERE r.kind = ? AND r.creature_hash = ? AND r.seed IS ? "
+                                "ORDER BY r.created DESC", (kind, sha256(creature_text), seed)).fetchall()
+        out = []
+        for r in rows:
+            try:
+                run = _run(r)
+            except Damaged:
+                continue
+            if run.creature_text == creature_text and to_json(run.params, "run params") == key:
+                out.append(run)
+        return out
 
     def scores(self, run_id: str) -> list[float]:
         """Every stored score of the run in idx order (NaN where the score was not a number)."""

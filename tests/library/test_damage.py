@@ -258,8 +258,8 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
     path = tmp_path / "v1.db"
     con = sqlite3.connect(path)
     con.execute(V1_RUNS)
-    for ddl in _schema.DDL[1:]:
-        con.execute(ddl)
+    for ddl in _schema.DDL[1:]:  # version 1's rank index had no fell
+        con.execute(ddl.replace("score DESC, fell, idx", "score DESC, idx"))
     con.execute("INSERT INTO runs VALUES ('abcd1234', 'search', '2024-01-01T00:00:00', 'cart', 'x', 'h', '{}', 1, "
                 "'0.1.0', NULL, NULL, 'running', NULL, 5)")
     con.execute(f"PRAGMA application_id = {_schema.APPLICATION_ID}")
@@ -275,6 +275,8 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
         lib.set_status("abcd1234", "running")
         owner = json.loads(lib._conn.execute("SELECT owner FROM runs").fetchone()[0])
         assert owner["pid"] == os.getpid()
+        index = lib._conn.execute("SELECT sql FROM sqlite_schema WHERE name = 'evaluations_by_rank'").fetchone()[0]
+        assert "score DESC, fell, idx" in index
 
 
 def test_only_a_live_owner_writes_a_running_run(tmp_path):
@@ -311,6 +313,40 @@ def test_integers_beyond_sqlite_are_refused_before_writing(tmp_path):
         with pytest.raises(LibraryError):
             lib.top(new_run(lib).run_id, 10**30)
         assert len(lib.runs()) == 1
+
+
+# -- queries the search driver's guidance uses ------------------------------------------------------
+
+
+def test_at_equal_scores_standing_gaits_rank_before_fallen_ones(tmp_path):
+    with Library(tmp_path / "g.db") as lib:
+        run = new_run(lib)
+        lib.add_batch(run.run_id, [{"idx": i, "encoding": "e", "score": s, "fell": f}
+                                   for i, (s, f) in enumerate([(0.0, True), (0.0, True), (0.0, False), (0.5, False),
+                                                               (0.0, False)])])
+        assert [e.idx for e in lib.top(run.run_id)] == [3, 2, 4, 0, 1]
+        assert lib.gait(f"{run.run_id}/2").idx == 2 and lib.gait(f"{run.run_id}#0").rank == 4
+        assert lib.tally(run.run_id) == {"evaluated": 5, "fell": 2, "nonfinite": 0}
+
+
+def test_ranked_lookups_use_the_rank_index_without_sorting(tmp_path):
+    from sanlab.library import store
+
+    with Library(tmp_path / "g.db") as lib:
+        for query in (f"SELECT * FROM evaluations WHERE run_id = ? ORDER BY {store._RANK_ORDER} LIMIT 10",
+                      f"SELECT * FROM evaluations WHERE run_id = ? ORDER BY {store._RANK_ORDER} LIMIT 1 OFFSET 5"):
+            plan = " / ".join(r[-1] for r in lib._conn.execute("EXPLAIN QUERY PLAN " + query, ("x",)))
+            assert "evaluations_by_rank" in plan and "TEMP B-TREE" not in plan, plan
+
+
+def test_same_runs_finds_earlier_runs_with_the_same_file_settings_and_seed(tmp_path):
+    with Library(tmp_path / "g.db") as lib:
+        first = new_run(lib, seed=3)
+        new_run(lib, seed=4)
+        new_run(lib, seed=3, params={"seconds": 11.0, "metric": "distance", "batch": 4})
+        same = lib.same_runs("search", first.creature_text, first.params, 3)
+        assert [r.run_id for r in same] == [first.run_id]
+        assert lib.same_runs("tune", first.creature_text, first.params, 3) == []
 
 
 def test_no_nan_or_infinity_is_ever_stored_as_json(tmp_path):
