@@ -292,18 +292,45 @@ def print_distribution(scores: list[float]) -> None:
     console.print(f"score distribution over {len(s)} controllers (best first) — top {qs}; best {s[0]:.3f}")
 
 
+def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | None = None,
+               earlier: list[str] | None = None) -> None:
+    """What a search prints under its table: where the run is stored, how many controllers fell
+    or went non-finite, whether it repeats earlier runs (their ids), and the next commands with
+    the real ids (show, render, tune)."""
+    db_opt = "" if db == "sanlab.db" else f" --db {db}"
+    if tally:
+        console.print(f"stored in {safe(db)} as run {run_id}: {tally['evaluated']} controllers, {tally['fell']} fell, "
+                      f"{tally['nonfinite']} non-finite (scored 0)")
+    if earlier:
+        console.print(f"[yellow]this repeats run{'s' * (len(earlier) > 1)} {', '.join(earlier)}[/yellow] (same creature "
+                      "file, settings and seed: the same results); change --seed for new controllers")
+    if rows:
+        best = rows[0]["gait"]
+        console.print(f"next: sanlab show {best}{safe(db_opt)}    sanlab render {best} -o best.png{safe(db_opt)}    "
+                      f"sanlab tune {best}{safe(db_opt)}", soft_wrap=True)
+
+
 class ProgressBar:
     """A Rich progress bar fed by a driver's reports: done/total, evaluations per second, best
-    score; drawn only when ``show`` (a terminal, and no ``--json``)."""
+    score, time elapsed and an estimate of the time left; drawn only when ``show`` (a terminal,
+    and no ``--json``)."""
 
     def __init__(self, show: bool, title: str | None = None):
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
 
         first = TextColumn(f"[bold]{escape(title)}" if title else "[bold]{task.description}")
         self.progress = Progress(
             first, BarColumn(), MofNCompleteColumn(),
             TextColumn("{task.fields[rate]:.0f} eval/s"), TextColumn("best {task.fields[best]:.3f}"),
-            TimeElapsedColumn(), console=console, disable=not show, transient=False,
+            TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=console, disable=not show,
+            transient=False,
         )
         self._task: Any = None
 

@@ -294,3 +294,25 @@ def test_the_search_tables_show_the_direction_stored_with_a_gait(tmp_path):
 
 def test_resource_module_is_there():
     assert resource.RLIMIT_FSIZE  # the full-disk test's tool
+
+
+def test_next_steps_name_the_store_the_counts_and_the_real_ids(capsys):
+    rows = [{"gait": "3fa1c2d0/1"}]
+    _common.next_steps("runs/g.db", "3fa1c2d0", rows, {"evaluated": 200, "fell": 12, "nonfinite": 1}, ["0badc0de"])
+    out = capsys.readouterr().out.replace("\n", " ")
+    assert "stored in runs/g.db as run 3fa1c2d0: 200 controllers, 12 fell, 1 non-finite" in out
+    assert "this repeats run 0badc0de" in out
+    assert "sanlab show 3fa1c2d0/1 --db runs/g.db" in out and "sanlab tune 3fa1c2d0/1 --db runs/g.db" in out
+
+
+def test_the_progress_bar_shows_an_estimate_of_the_time_left():
+    from rich.console import Console
+    from rich.progress import TimeRemainingColumn
+
+    bar = _common.ProgressBar(show=True, title="tune")
+    bar.update("tune", 250, 1000, 50.0, 1.5)
+    assert any(isinstance(c, TimeRemainingColumn) for c in bar.progress.columns)
+    con = Console(record=True, width=200)
+    con.print(bar.progress.make_tasks_table(bar.progress.tasks))
+    text = con.export_text()
+    assert "250/1000" in text and "50 eval/s" in text and "eta" in text, text
