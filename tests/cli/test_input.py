@@ -316,3 +316,18 @@ def test_the_progress_bar_shows_an_estimate_of_the_time_left():
     con.print(bar.progress.make_tasks_table(bar.progress.tasks))
     text = con.export_text()
     assert "250/1000" in text and "50 eval/s" in text and "eta" in text, text
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--controllers", "0"], "--controllers"),
+    (["--controllers", "100000000"], "--controllers: expected an integer in [1, 10,000,000]"),
+    (["--trials", "-3"], "--trials"),
+    (["--seed", "-1"], "--seed"),
+    (["--creatures", "cart,nosuch"], "nosuch: no such file"),
+    (["--out", "/nonexistent/report.md"], "directory /nonexistent does not exist"),
+])  # fmt: skip
+def test_reproduce_checks_every_argument_before_a_run(tmp_path, args, words):
+    db = tmp_path / "g.db"
+    r = runner.invoke(app, ["reproduce", "--creatures", "cart", *args, "--db", str(db)])
+    assert r.exit_code == 2 and words in r.stderr, r.output
+    assert not db.exists()
