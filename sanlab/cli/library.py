@@ -67,8 +67,10 @@ def show(
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
-    """Show a run's best gaits (rank, score, speed and direction, flags), or one gait's
-    parameters in the creature file's units; --network adds its weight matrix."""
+    """Show a run's best gaits, or one gait's parameters (--network: its weights).
+
+    A run: rank, score (and its unit), speed with an arrow for the direction of motion, flags. A
+    gait: its parameters in the creature file's units beside the file's own."""
     lib = open_library(db, readonly=True)
     if "/" in target or "#" in target:
         _show_gait(lib, target, network, as_json)
@@ -151,8 +153,10 @@ def export_(
     toml: Annotated[bool, typer.Option("--toml", help="Write the creature file with this gait's tuned parameters applied, instead of the gait.")] = False,
     db: DbOpt = "sanlab.db",
 ) -> None:
-    """Export a gait (creature, encoding, parameters, score) as JSON, or --toml its creature
-    file with the gait's tuned parameters applied."""
+    """Export a gait as JSON, or --toml its creature file with the gait applied.
+
+    JSON: creature, encoding, parameters, score. --toml: the creature file the gait was found
+    with, its comments kept, with the gait's tuned parameters written into it."""
     lib = open_library(db, readonly=True)
     if toml:
         from sanlab.gait import Gait
