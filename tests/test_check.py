@@ -8,7 +8,7 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from sanlab.check import radian_ranges, simulate, strength
+from sanlab.check import radian_ranges, simulate, strength, warnings
 from sanlab.cli import app
 from sanlab.creature import builtin_names, load, loads
 from tests.helpers import BASE, DATA
@@ -78,3 +78,29 @@ def test_check_json_without_simulating():
     out = json.loads(r.stdout)
     assert (out["name"], out["links"], out["dofs"], out["hidden"]) == ("bounder", 5, 7, 8)
     assert out["sensors"] == {"touch": 2, "angle": 6} and "checks" not in out
+
+
+def test_check_simulate_prints_one_line_per_finding():
+    r = runner.invoke(app, ["check", str(DATA / "radians.toml"), "--simulate"], terminal_width=400)
+    assert r.exit_code == 0, r.output
+    lines = r.stdout.splitlines()
+    assert "simulated (two seconds, servos at mid targets, then sweeping): 3 warnings" in lines
+    marked = [ln.strip() for ln in lines if ln.startswith("  ok ") or ln.startswith("  warning ")]
+    assert len(marked) == 8 and sum(ln.startswith("warning ") for ln in marked) == 3, marked
+    assert any(ln.startswith("warning actuator hip: min_deg, max_deg = [-0.8, 0.8] look like radians") for ln in marked)
+    assert any(ln.startswith("ok      start: rests on the ground") for ln in marked)
+
+
+def test_warnings_are_the_simulations_warning_lines():
+    found = warnings(load(str(DATA / "buried.toml")))
+    assert len(found) == 2 and all("\n" not in m and m.isprintable() for m in found), found
+    assert "contact 1 of link arm starts 26.3 cm below the ground" in found[0]
+
+
+def test_a_bad_file_is_refused_before_any_simulation(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(BASE.replace('name = "L1"', 'name = ["L1"]'))
+    r = runner.invoke(app, ["check", str(bad), "--simulate", "--json"])
+    assert r.exit_code == 2 and r.stdout == "", r.output
+    assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.startswith(f"{bad}: links[0].name: expected a name"), r.stderr
