@@ -15,10 +15,96 @@ from typing import Any
 import numpy as np
 
 from sanlab.creature import loads
-from sanlab.creature.spec import Creature
+from sanlab.creature.spec import DELAY_RANGE, MAX_MAGNITUDE, Creature
 from sanlab.evaluate.ensemble import Ensemble
 from sanlab.evaluate.records import GaitParams
 from sanlab.san import San, SanParams
+from sanlab.sim.model import drag_edges
+
+# Model overrides a stored gait may carry (what tuning writes; see sanlab.search.space), each with
+# the shape of its sim.Params array and what its values must be.
+_MODEL_KEYS = {
+    "act_min": ("A",), "act_max": ("A",), "act_ks": ("A",), "act_kd": ("A",), "sens_min": ("S",),
+    "sens_max": ("S",), "mass": ("L",), "inertia": ("L",), "com": ("L", 2), "anchor": ("L", 2),
+    "contact": ("C", 2), "act_pts": ("A", 2, 2), "sens_pts": ("S", 2, 2), "spr_pts": ("N", 2, 2),
+    "edge": ("E", 2, 2), "q0": ("D",),
+}  # fmt: skip
+_PARAM_KEYS = {"delay_on", "delay_off", "k1", "k2", "model", "scale"}
+SCALE_RANGE = (0.1, 10.0)  # link length scales (tuning keeps them in [0.5, 1.5])
+
+
+def check_params(spec: Creature, params: Any) -> None:
+    """Raise ValueError (one line, naming the field) unless ``params`` are a stored gait's
+    parameters that ``spec`` can run (see the module docstring): only known keys; delays in
+    spec.DELAY_RANGE (s), per node if given as rates (k1 [N] > 0, k2 [N] < 0, both or neither);
+    model overrides of known Params arrays with this creature's shapes, finite, of magnitude at
+    most spec.MAX_MAGNITUDE, each actuator's and range sensor's min < max, gains, masses and
+    inertias >= 0 (masses > 0); length scales [L] in SCALE_RANGE."""
+    if not isinstance(params, dict):
+        raise ValueError(f"params: expected an object, got {type(params).__name__}")
+    unknown = sorted(str(k)[:40] for k in params if k not in _PARAM_KEYS)
+    if unknown:
+        raise ValueError(f"params.{unknown[0]}: unknown parameter; expected some of {sorted(_PARAM_KEYS)}")
+    san = San.for_creature(spec)
+    lo, hi = DELAY_RANGE
+    for key in ("delay_on", "delay_off"):
+        if key in params:
+            _array(params[key], (), f"params.{key}", f"a delay in [{lo:g}, {hi:g}] (s)", lambda v: lo <= v <= hi)
+    if ("k1" in params) != ("k2" in params):
+        raise ValueError("params: expected both k1 and k2 (per-node rates), or neither")
+    if "k1" in params:
+        n = san.n_nodes
+        _array(params["k1"], (n,), "params.k1", f"{n} rates 1/T_on with T_on in [{lo:g}, {hi:g}] s",
+               lambda v: 1 / hi <= v <= 1 / lo)
+        _array(params["k2"], (n,), "params.k2", f"{n} rates -1/T_off with T_off in [{lo:g}, {hi:g}] s",
+               lambda v: -1 / lo <= v <= -1 / hi)
+    if "scale" in params:
+        a, b = SCALE_RANGE
+        _array(params["scale"], (len(spec.links),), "params.scale", f"{len(spec.links)} length scales in [{a:g}, {b:g}]",
+               lambda v: a <= v <= b)
+    model = params.get("model")
+    if model is None:
+        return
+    if not isinstance(model, dict):
+        raise ValueError(f"params.model: expected an object, got {type(model).__name__}")
+    sizes = {"A": len(spec.actuators), "S": len(spec.sensors), "L": len(spec.links), "D": spec.dofs,
+             "C": sum(len(k.contacts) for k in spec.links), "N": len(spec.springs), "E": len(drag_edges(spec))}
+    arrays = {}
+    for key, value in model.items():
+        if key not in _MODEL_KEYS:
+            raise ValueError(f"params.model.{str(key)[:40]}: unknown model parameter; expected some of {sorted(_MODEL_KEYS)}")
+        shape = tuple(sizes[d] if isinstance(d, str) else d for d in _MODEL_KEYS[key])
+        ok = (lambda v: v > 0) if key == "mass" else (lambda v: v >= 0) if key in ("act_ks", "act_kd", "inertia") else None
+        arrays[key] = _array(value, shape, f"params.model.{key}", "numbers" + (" >= 0" if ok else ""), ok)
+    ranged = [i for i, x in enumerate(spec.sensors) if x.kind != "touch"]
+    for lo_key, hi_key, idx in (("act_min", "act_max", range(len(spec.actuators))), ("sens_min", "sens_max", ranged)):
+        low = arrays.get(lo_key, np.array([getattr(x, "min", 0.0) for x in (spec.actuators if lo_key == "act_min" else spec.sensors)]))
+        high = arrays.get(hi_key, np.array([getattr(x, "max", 0.0) for x in (spec.actuators if lo_key == "act_min" else spec.sensors)]))
+        for i in idx:
+            if not low[i] < high[i]:
+                raise ValueError(f"params.model.{hi_key}[{i}]: expected more than {lo_key}[{i}] ({low[i]:g}), got {high[i]:g}")
+
+
+def _array(value: Any, shape: tuple, where: str, what: str, ok: Any = None) -> np.ndarray:
+    """``value`` as a float array of ``shape`` whose every element is finite, of magnitude at most
+    spec.MAX_MAGNITUDE and (if given) ``ok``; else ValueError "where: expected what ..."."""
+    def bad(got: str) -> ValueError:
+        dims = "x".join(map(str, shape))
+        return ValueError(f"{where}: expected {what}" + (f" (shape {dims})" if shape else "") + f", got {got}")
+
+    if isinstance(value, bool) or not isinstance(value, (int, float, list)):
+        raise bad(type(value).__name__)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (ValueError, TypeError, OverflowError, RecursionError):
+        raise bad("a value that is not an array of numbers") from None
+    if arr.shape != shape:
+        raise bad(f"shape {'x'.join(map(str, arr.shape)) or 'a scalar'}")
+    if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > MAX_MAGNITUDE):
+        raise bad("a value that is not finite or too large")
+    if ok is not None and not all(ok(float(v)) for v in arr.reshape(-1)):
+        raise bad(f"{next(float(v) for v in arr.reshape(-1) if not ok(float(v))):g}")
+    return arr
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,10 @@ closer to the ground than the given height.
 
 Every evaluation also reports speed = d / T (cm/s, as in Table 1), the signed displacement along
 x (``dx_m``, for arrows in tables and pictures), whether the creature fell, and whether the
-simulation stayed finite; a non-finite run scores 0.
+simulation stayed finite; a non-finite run scores 0. So does a run that sank into the ground: a
+contact point deeper than :func:`max_depth` (a quarter of the creature's size, clamped to
+[2, 10] cm; vertical plane) means the ground no longer held the creature, and whatever it
+scored is meaningless (``sank``, and flagged non-finite).
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from sanlab.creature.spec import METRICS
+from sanlab.creature import geometry
+from sanlab.creature.spec import MAX_PENETRATION, METRICS, PENETRATION_FRACTION
 from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare, terrain_height, wrap_angle
 
 
@@ -47,6 +51,7 @@ class MetricAcc(NamedTuple):
     pursuit: jax.Array  # ∫ v . F dt (m)
     fell: jax.Array  # bool: the fell link passed its limit at some step
     p: tuple[jax.Array, jax.Array]  # COM (x, y) at the end (m), set by finish
+    deepest: jax.Array  # the deepest any contact point went into the ground (m; vertical plane)
 
 
 @dataclass(frozen=True)
@@ -60,6 +65,7 @@ class Metric:
     fell_link_height: float | None = None  # m above the ground
     hop_k: float = 1.0
     direction: str = "either"
+    max_depth: float | None = None  # m: deeper than this, the run sank (see :func:`max_depth`)
 
     @property
     def can_fall(self) -> bool:
@@ -67,22 +73,28 @@ class Metric:
 
     @classmethod
     def for_creature(cls, spec, kind: str | None = None) -> "Metric":
-        kind = kind or spec.evaluation.metric
-        if kind not in METRICS:
-            raise ValueError(f"metric: expected one of {list(METRICS)}, got {kind!r}")
+        """The metric ``kind`` (default: the creature file's) for ``spec``; ValueError (one line)
+        for an unknown metric, or one this creature cannot be scored by."""
+        kind = spec.evaluation.metric if kind is None else kind
+        if not isinstance(kind, str) or kind not in METRICS:
+            shown = repr(kind) if isinstance(kind, str) and len(kind) < 40 else type(kind).__name__
+            raise ValueError(f"metric: expected one of {list(METRICS)}, got {shown}")
         ev = spec.evaluation
         if kind == "pursuit" and spec.world.follow is None:
             raise ValueError("metric pursuit needs a follow point ([world.follow] in the creature file)")
+        if kind == "distance_upright" and not ev.can_fall:
+            raise ValueError("metric distance_upright needs a way to fall (evaluation.fell_link or "
+                             "fell_com_height in the creature file)")
         names = [l.name for l in spec.links]
         fell = tuple(names.index(n) for n in ev.fell_links)
         return cls(kind, fell, float(ev.fell_angle), ev.fell_com_height, ev.fell_link_height, float(ev.hop_k),
-                   ev.direction)
+                   ev.direction, max_depth(spec))
 
     def init(self, model, state):
         fr = prepare(model, state)
         p, _ = centre_of_mass(model, fr)
         z = jnp.zeros((), state.q.dtype)
-        return MetricAcc(p, p[1], z, z, jnp.zeros((), bool), p)
+        return MetricAcc(p, p[1], z, z, jnp.zeros((), bool), p, z)
 
     def update(self, model, acc: MetricAcc, state, fr, bits, u) -> MetricAcc:
         dt = model.params.dt
@@ -104,7 +116,10 @@ class Metric:
                 dx, dy = f[0] - p[0], f[1] - p[1]
                 inv = 1.0 / jnp.maximum(jnp.sqrt(dx * dx + dy * dy), 1e-9)
                 pursuit = pursuit + (v[0] * dx + v[1] * dy) * inv * dt
-        return acc._replace(hop=hop, pursuit=pursuit, fell=fell)
+        deepest = acc.deepest
+        if self.max_depth is not None and fr.depth:
+            deepest = jnp.maximum(deepest, jnp.max(jnp.stack([d + jnp.zeros((), deepest.dtype) for d in fr.depth])))
+        return acc._replace(hop=hop, pursuit=pursuit, fell=fell, deepest=deepest)
 
     def finish(self, model, acc: MetricAcc, state) -> MetricAcc:
         p, _ = centre_of_mass(model, prepare(model, state))
@@ -113,7 +128,8 @@ class Metric:
 
 def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -> dict[str, np.ndarray]:
     """Per-controller arrays from a batched accumulator: score, speed_cm_s (d / T), distance_m
-    (d), dx_m (signed displacement along x), fell, nonfinite."""
+    (d), dx_m (signed displacement along x), fell, sank (a contact went deeper than
+    ``metric.max_depth``), nonfinite (the simulation went non-finite, or sank)."""
     dx = np.asarray(acc.p[0]) - np.asarray(acc.p0[0])
     dy = np.asarray(acc.p[1]) - np.asarray(acc.p0[1])
     if metric.direction == "forward":
@@ -123,7 +139,10 @@ def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -
     else:
         disp = np.hypot(dx, dy) if plane == "horizontal" else np.abs(dx)
     fell = np.asarray(acc.fell) if metric.can_fall else np.zeros(np.shape(dx), bool)
-    finite = np.asarray(finite) & np.isfinite(disp)
+    sank = np.zeros(np.shape(dx), bool)
+    if metric.max_depth is not None:
+        sank = np.asarray(acc.deepest) > metric.max_depth
+    finite = np.asarray(finite) & np.isfinite(disp) & ~sank
     if metric.kind == "distance":
         score = disp
     elif metric.kind == "distance_upright":
@@ -139,5 +158,15 @@ def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -
         "distance_m": np.where(finite, disp, 0.0).astype(float),
         "dx_m": np.where(finite, dx, 0.0).astype(float),
         "fell": fell & finite,
+        "sank": sank,
         "nonfinite": ~finite,
     }
+
+
+def max_depth(spec) -> float | None:
+    """How deep (m) a contact point may go into the ground before the run counts as sunk: a
+    quarter of the creature's size at rest, clamped to [0.02, 0.1] m (FORMAT.md, "Limits"); None
+    where nothing touches a ground (the horizontal plane, or no contact points)."""
+    if spec.world.plane != "vertical" or not any(link.contacts for link in spec.links):
+        return None
+    return float(min(MAX_PENETRATION, max(0.02, PENETRATION_FRACTION * geometry.size(spec))))

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import signal
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent  # the checkout (PYTHONPATH for subprocesses)
@@ -48,3 +50,34 @@ max_deg = 90
 ks = 0.002
 kd = 0.0002
 """
+
+
+class TimeLimit(Exception):
+    """Raised inside a ``time_limit`` block that ran past its bound."""
+
+
+@contextmanager
+def time_limit(cpu: float = 10.0, wall: float = 120.0):
+    """Fail the block (``TimeLimit``) once it has used ``cpu`` seconds of this process's CPU time,
+    or ``wall`` seconds of real time (for what waits instead of computing, e.g. a read from a
+    FIFO). CPU time barely moves when other work loads the machine, so the bound is not flaky;
+    both are far above what the block needs (milliseconds), and catch hangs, not slowness."""
+
+    def expire(signum, frame):
+        raise TimeLimit(f"over {cpu:g} s of CPU time" if signum == signal.SIGPROF else f"over {wall:g} s")
+
+    old = signal.signal(signal.SIGPROF, expire), signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_PROF, cpu)
+    signal.setitimer(signal.ITIMER_REAL, wall)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGPROF, old[0])
+        signal.signal(signal.SIGALRM, old[1])
+
+
+def one_line_error(message: str, source: str) -> bool:
+    """Whether ``message`` is the loader's documented error: one printable line about ``source``."""
+    return message.startswith(f"{source}: ") and message.isprintable() and len(message) < 2000

@@ -6,13 +6,12 @@ from __future__ import annotations
 import json
 
 import pytest
-
-from sanlab.audit import FLOOR_CM_S, audit_and_store
-from sanlab.library import Library
-from sanlab.search import run_search
 from typer.testing import CliRunner
 
+from sanlab.audit import FLOOR_CM_S, audit_and_store
 from sanlab.cli import app
+from sanlab.library import Library
+from sanlab.search import run_search
 
 runner = CliRunner()
 
@@ -133,7 +132,7 @@ def test_audit_command_prints_and_stores(audited):
     [row] = json.loads(r.stdout)
     assert row["flagged"] is False and set(row["speeds"]) == {"dt/2", "dt/4", "float64"}
     bad = run_cli("audit", "nope/1", "--db", str(path))
-    assert bad.exit_code == 2 and "nope" in bad.stderr and bad.exception is None or isinstance(bad.exception, SystemExit)
+    assert (bad.exit_code == 2 and "nope" in bad.stderr and bad.exception is None) or isinstance(bad.exception, SystemExit)
 
 
 def test_an_older_library_is_upgraded_with_an_empty_audits_table(tmp_path):

@@ -8,7 +8,9 @@ Layers, lowest first (a module may import from its own layer and the ones below)
     san, metrics      controllers and observers of a rollout; interop (MJCF export) sits here too,
                       above sim, which it may use
     evaluate          evaluate (scoring batches), gait (a stored controller with its creature,
-                      replayed), engine_report (random SANs summarised, `sanlab simulate`)
+                      replayed), engine_report (random SANs summarised, `sanlab simulate`),
+                      tuned (a gait in the creature file's terms), check (a creature dropped
+                      for a second: `sanlab check --simulate`)
     library           the gait library (SQLite)
     search | render   side by side, neither imports the other: search holds the phase 1 and 2
                       drivers, reproduce (both phases per creature, the Table 1 report) and
@@ -37,7 +39,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("creature", {"creature": ("sanlab.creature",)}),
     ("sim", {"sim": ("sanlab.sim",)}),
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics",), "interop": ("sanlab.interop",)}),
-    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report")}),
+    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
     ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",)}),

@@ -142,3 +142,18 @@ def test_a_low_centre_of_mass_means_fallen_and_a_fallen_hop_scores_zero():
     by_link = evaluate(resting_box(0.5, metric="distance_upright", fell_links=("box",), fell_link_height=0.1), None,
                        qd0=[1.0, 0, 0])
     assert by_link["fell"] and by_link["score"] == 0.0
+
+
+def test_a_run_that_sank_into_the_ground_is_flagged_like_a_non_finite_one():
+    from sanlab.creature import load
+    from sanlab.metrics import MetricAcc, max_depth, scores
+
+    spec = load("bounder")
+    m = Metric.for_creature(spec)
+    assert m.max_depth == max_depth(spec) == 0.1  # a quarter of 0.57 m, clamped to 10 cm
+    assert Metric.for_creature(load("fish")).max_depth is None  # horizontal plane: no ground to sink into
+    two = np.zeros(2)
+    acc = MetricAcc((two, two), two, two, two, np.zeros(2, bool), (np.array([0.5, 0.5]), two), np.array([0.01, 0.5]))
+    s = scores(m, acc, np.array([True, True]), 6.0, "vertical")
+    assert s["sank"].tolist() == [False, True] and s["nonfinite"].tolist() == [False, True]
+    assert s["score"].tolist() == [0.5, 0.0] and s["speed_cm_s"][1] == 0.0

@@ -11,8 +11,12 @@ runs (search, import, reproduce, studio) may create it.
 
 from __future__ import annotations
 
+import signal
+from typing import Annotated
+
 import typer
 
+from sanlab import __version__
 from sanlab.cli import audit, creatures, library, render, reproduce, search, simulate, studio, tune
 
 app = typer.Typer(
@@ -23,9 +27,28 @@ app = typer.Typer(
 )
 
 
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"sanlab {__version__}")
+        raise typer.Exit()
+
+
+def _terminate(signum, frame) -> None:
+    raise KeyboardInterrupt  # SIGTERM ends a command as Ctrl-C does: stored work kept, a resume hint
+
+
 @app.callback()
-def main() -> None:
+def main(
+    ctx: typer.Context,
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Print sanlab's version and exit.")] = False,
+) -> None:
     """Discover how planar creatures can move with sensor-actuator networks."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread (an embedding application): leave signals alone
+        return
+    ctx.call_on_close(lambda: signal.signal(signal.SIGTERM, previous))
 
 
 app.command()(creatures.check)

@@ -1,10 +1,17 @@
-"""What the command modules share: the console, ``fail``, loading a creature, opening the gait
-library, the common options, the table of a run's best gaits and the progress bar."""
+"""What the command modules share: the console, ``fail``, printing user text safely, strict
+JSON, loading a creature, opening the gait library, validating arguments before a run is
+created, writing output files whole or not at all, the common options, the table of a run's
+best gaits and the progress bar."""
 
 from __future__ import annotations
 
+import contextlib
+import json
+import math
 import os
-from collections.abc import Callable
+import stat
+import tempfile
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
 import typer
@@ -12,8 +19,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from sanlab.creature import Creature, CreatureError, load, read_source
-from sanlab.creature.spec import METRICS
+from sanlab.creature import Creature, CreatureError, load, printable, read_source
+from sanlab.creature.spec import MAX_STEPS, METRICS
 
 if TYPE_CHECKING:  # the library is imported when a command opens one, not at start-up
     from sanlab.library import Library
@@ -42,9 +49,40 @@ WorkersOpt = Annotated[int | None, typer.Option(
 
 
 def fail(message: str, code: int = 2) -> typer.Exit:
-    """Print one plain line to stderr; ``raise fail(...)`` ends the command with ``code``."""
-    typer.echo(message, err=True)
+    """Print one plain line to stderr; ``raise fail(...)`` ends the command with ``code``.
+
+    The line is made printable (newlines, escape sequences written as escapes): it may quote a
+    file name or a value the user gave."""
+    typer.echo(printable(message), err=True)
     return typer.Exit(code)
+
+
+def warn(message: str) -> None:
+    """One printable line on stderr that does not end the command."""
+    typer.echo(printable(message), err=True)
+
+
+def safe(text: Any) -> str:
+    """User-controlled text (a name, a path, a stored value) for ``console.print``: printable,
+    and Rich markup escaped, so it can neither move the cursor nor restyle the terminal."""
+    return escape(printable(str(text)))
+
+
+def dump_json(obj: Any) -> str:
+    """Strict JSON text (``--json``): NaN and infinities become null, as JSON has neither."""
+    return json.dumps(_finite(obj), indent=2, allow_nan=False)
+
+
+def _finite(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if hasattr(obj, "tolist"):  # NumPy scalars and arrays
+        return _finite(obj.tolist())
+    return obj
 
 
 def check_dtype(dtype: str) -> None:
@@ -85,20 +123,148 @@ def load_or_exit(name_or_path: str) -> tuple[Creature, str]:
         raise fail(str(e)) from None
 
 
-def open_library(path: str, *, create: bool = False) -> Library:
+def open_library(path: str, *, create: bool = False, readonly: bool = False) -> Library:
     """The gait library at ``path``, or exit 2 with one line.
 
     Only commands that start new runs pass ``create=True``: everywhere else a missing file is a
-    mistyped ``--db``, refused rather than silently created empty.
+    mistyped ``--db``, refused rather than silently created empty. Commands that only read pass
+    ``readonly=True``: they write nothing, so they work on a library in a read-only folder. An
+    empty path (``--db ''``) is refused: SQLite would make a temporary database of it, and a run
+    stored there could never be found again.
     """
     from sanlab.library import Library, LibraryError
 
+    if not path.strip():
+        raise fail("--db: expected the path of a gait library file, got an empty path")
     if not create and not path.startswith("file:") and path != ":memory:" and not os.path.exists(path):
         raise fail(f"{path}: no such gait library (give --db PATH)")
     try:
-        return Library(path)
+        return Library(path, readonly=readonly)
     except LibraryError as e:
         raise fail(str(e)) from None
+
+
+# -- arguments, checked before anything is created -----------------------------------------------
+
+MAX_COUNT = 10_000_000  # controllers, trials: more would not finish in a day
+MAX_BATCH = 65_536
+MAX_TOP = 10_000
+SEED_RANGE = (0, 2**63 - 1)  # what the library stores (an SQLite INTEGER) and NumPy seeds take
+
+
+def check_count(option: str, value: int, lo: int = 1, hi: int = MAX_COUNT) -> int:
+    """Exit 2 unless ``lo <= value <= hi`` (an option like ``--controllers``)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise fail(f"{option}: expected an integer in [{lo}, {hi:,}], got {value}")
+    return value
+
+
+def check_seed(value: int, option: str = "--seed") -> int:
+    """Exit 2 unless ``value`` is a seed the library can store."""
+    return check_count(option, value, *SEED_RANGE)
+
+
+def check_seconds(value: float | None, spec: Creature | None = None, option: str = "--seconds") -> float | None:
+    """Exit 2 unless ``value`` is None or a finite evaluation time > 0 that ``spec`` can run
+    (at most spec.MAX_STEPS steps of its dt, the creature file's own limit)."""
+    if value is None:
+        return None
+    dt = spec.dt if spec is not None else 1e-3
+    most = MAX_STEPS * dt
+    if not isinstance(value, (int, float)) or not math.isfinite(value) or not 0 < value <= most:
+        raise fail(f"{option}: expected a number of seconds in (0, {most:g}] ({MAX_STEPS:,} steps of dt = {dt:g} s), "
+                   f"got {value}")
+    if value < dt:
+        raise fail(f"{option}: expected at least one step of dt = {dt:g} s, got {value:g}")
+    return float(value)
+
+
+def check_metric(value: str | None, spec: Creature, option: str = "--metric") -> str | None:
+    """Exit 2 unless ``value`` is None or a metric ``spec`` can be scored by."""
+    if value is None:
+        return None
+    from sanlab.metrics import Metric
+
+    try:
+        Metric.for_creature(spec, value)
+    except ValueError as e:
+        raise fail(f"{option}: {e}") from None
+    return value
+
+
+def check_gait(value: str, option: str = "GAIT") -> str:
+    """Exit 2 unless ``value`` is a well-formed gait id (RUN/RANK or RUN#IDX)."""
+    from sanlab.library import LibraryError, parse_gait_id
+
+    try:
+        parse_gait_id(value)
+    except LibraryError as e:
+        raise fail(f"{option}: {e}") from None
+    return value
+
+
+def check_run_args(spec: Creature, *, controllers: int | None = None, seconds: float | None = None,
+                   metric: str | None = None, seed: int | None = None, batch: int | None = None,
+                   trials: int | None = None, top: int | None = None) -> None:
+    """Every argument of a command that starts a run (search, tune, simulate, reproduce), checked
+    against ``spec`` before anything is compiled or stored; exit 2 with one line on the first
+    bad one. Arguments left None are not checked."""
+    if controllers is not None:
+        check_count("--controllers", controllers)
+    if trials is not None:
+        check_count("--trials", trials)
+    if batch is not None:
+        check_count("--batch", batch, 1, MAX_BATCH)
+    if top is not None:
+        check_count("--top", top, 1, MAX_TOP)
+    if seed is not None:
+        check_seed(seed)
+    check_seconds(seconds, spec)
+    check_metric(metric, spec)
+
+
+# -- output files ----------------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def output_file(path: str, option: str = "--out") -> Iterator[str]:
+    """Where to write ``path`` so that it appears whole or not at all: a temporary file beside it
+    (same extension), moved into place when the block ends; removed, with the target untouched,
+    if the block fails. A target that exists and is not a regular file (``/dev/stdout``, a FIFO)
+    is written directly. An OSError (a full disk, a read-only folder) exits 2 with one line
+    naming the file."""
+    try:
+        st = os.stat(path)
+        direct = not stat.S_ISREG(st.st_mode)
+    except FileNotFoundError:
+        direct = False
+    except OSError as e:
+        raise fail(f"{option} {path}: cannot write ({e.strerror or e})") from None
+    if direct:
+        try:
+            yield path
+        except OSError as e:
+            raise fail(f"{option} {path}: cannot write ({e.strerror or e})") from None
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    stem, ext = os.path.splitext(os.path.basename(path))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{stem}.", suffix=f".part{ext}", dir=folder)
+        os.close(fd)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)  # as open() would make it, not mkstemp's 0600
+    except OSError as e:
+        raise fail(f"{option} {path}: cannot write ({e.strerror or e})") from None
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as e:
+        raise fail(f"{option} {path}: cannot write ({e.strerror or e}); nothing was written, "
+                   "free some space or choose another folder") from None
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
 
 
 def library_call(fn: Callable[..., T], *args: Any) -> T:
@@ -111,30 +277,45 @@ def library_call(fn: Callable[..., T], *args: Any) -> T:
         raise fail(str(e)) from None
 
 
+def direction(dx_m: Any) -> str | None:
+    """"+x" or "-x": which way a gait moved along x (its signed displacement ``dx_m``, m), or
+    None when that is unknown or it did not move."""
+    if isinstance(dx_m, bool) or not isinstance(dx_m, (int, float)) or not math.isfinite(dx_m) or dx_m == 0:
+        return None
+    return "+x" if dx_m > 0 else "-x"
+
+
+ARROWS = {"+x": "→", "-x": "←", None: " "}
+
+
 def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
-    """The run's ``n`` best gaits as the rows ``--json`` prints; ``resolution_dependent`` is the
-    verdict of the gait's stored audit (None: never audited, see ``sanlab audit``)."""
+    """The run's ``n`` best gaits as the rows ``--json`` prints: gait id, score, speed (cm/s),
+    the signed displacement along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the
+    run did not store it), flags (``resolution_dependent``: the verdict of the gait's stored audit,
+    null when it was never audited; see ``sanlab audit``), encoding."""
     audits = lib.audits(run_id)
-    return [
-        {
-            "gait": f"{run_id}/{rank}",
-            "score": e.score,
-            "speed_cm_s": e.speed_cm_s,
-            "fell": e.fell,
-            "nonfinite": e.nonfinite,
-            "resolution_dependent": audits[e.idx].flagged if e.idx in audits else None,
-            "encoding": e.encoding,
-        }
-        for rank, e in enumerate(lib.top(run_id, n), 1)
-    ]
+    rows = []
+    for rank, e in enumerate(lib.top(run_id, n), 1):
+        dx = (e.extra or {}).get("dx_m")
+        dx = dx if isinstance(dx, (int, float)) and not isinstance(dx, bool) else None
+        rows.append({
+            "gait": f"{run_id}/{rank}", "score": e.score, "speed_cm_s": e.speed_cm_s, "dx_m": dx,
+            "direction": direction(dx), "fell": e.fell, "nonfinite": e.nonfinite,
+            "resolution_dependent": audits[e.idx].flagged if e.idx in audits else None, "encoding": e.encoding,
+        })
+    return rows
 
 
-def print_top(rows: list[dict], title: str) -> None:
-    table = Table("rank", "gait", "score", "speed (cm/s)", "flags", title=title)
+def print_top(rows: list[dict], title: str, unit: str = "") -> None:
+    """The table of a run's best gaits; the speed column carries an arrow for the direction of
+    motion along x (→ +x, ← -x) where the run stored it. ``unit``: the score's unit."""
+    score = f"score ({unit})" if unit else "score"
+    table = Table("rank", "gait", score, "speed (cm/s)", "flags", title=safe(title))
     for rank, r in enumerate(rows, 1):
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
                                           ("resolution-dependent", r.get("resolution_dependent"))) if on)
-        table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{r['speed_cm_s']:.1f}", flags or "-")
+        arrow = ARROWS[r.get("direction")]
+        table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
 
 
@@ -148,18 +329,45 @@ def print_distribution(scores: list[float]) -> None:
     console.print(f"score distribution over {len(s)} controllers (best first) — top {qs}; best {s[0]:.3f}")
 
 
+def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | None = None,
+               earlier: list[str] | None = None) -> None:
+    """What a search prints under its table: where the run is stored, how many controllers fell
+    or went non-finite, whether it repeats earlier runs (their ids), and the next commands with
+    the real ids (show, render, tune)."""
+    db_opt = "" if db == "sanlab.db" else f" --db {db}"
+    if tally:
+        console.print(f"stored in {safe(db)} as run {run_id}: {tally['evaluated']} controllers, {tally['fell']} fell, "
+                      f"{tally['nonfinite']} non-finite (scored 0)")
+    if earlier:
+        console.print(f"[yellow]this repeats run{'s' * (len(earlier) > 1)} {', '.join(earlier)}[/yellow] (same creature "
+                      "file, settings and seed: the same results); change --seed for new controllers")
+    if rows:
+        best = rows[0]["gait"]
+        console.print(f"next: sanlab show {best}{safe(db_opt)}    sanlab render {best} -o best.png{safe(db_opt)}    "
+                      f"sanlab tune {best}{safe(db_opt)}", soft_wrap=True)
+
+
 class ProgressBar:
     """A Rich progress bar fed by a driver's reports: done/total, evaluations per second, best
-    score; drawn only when ``show`` (a terminal, and no ``--json``)."""
+    score, time elapsed and an estimate of the time left; drawn only when ``show`` (a terminal,
+    and no ``--json``)."""
 
     def __init__(self, show: bool, title: str | None = None):
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
 
         first = TextColumn(f"[bold]{escape(title)}" if title else "[bold]{task.description}")
         self.progress = Progress(
             first, BarColumn(), MofNCompleteColumn(),
             TextColumn("{task.fields[rate]:.0f} eval/s"), TextColumn("best {task.fields[best]:.3f}"),
-            TimeElapsedColumn(), console=console, disable=not show, transient=False,
+            TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=console, disable=not show,
+            transient=False,
         )
         self._task: Any = None
 

@@ -1,16 +1,16 @@
-"""``sanlab check`` and ``sanlab creatures``: validate and summarise creature files (no JAX)."""
+"""``sanlab check`` and ``sanlab creatures``: validate and summarise creature files (no JAX,
+except ``check --simulate``, which drops the creature for two seconds: ``sanlab.check``)."""
 
 from __future__ import annotations
 
-import json
+import contextlib
 from collections import Counter
 from typing import Annotated
 
 import typer
-from rich.markup import escape
 from rich.table import Table
 
-from sanlab.cli._common import CreatureArg, console, load_or_exit
+from sanlab.cli._common import CreatureArg, DtypeOpt, JsonOpt, check_dtype, console, dump_json, load_or_exit, safe
 from sanlab.creature import Creature, builtin_names
 
 
@@ -24,14 +24,45 @@ def _sizes(c: Creature) -> dict[str, int]:
     return n | {"hidden": c.n_hidden}
 
 
-def check(creature: CreatureArg) -> None:
-    """Validate a creature file and summarise it."""
+def _summary(c: Creature, where: str) -> dict:
+    counts = lambda items: dict(Counter(x.kind for x in items))
+    return {"ok": True, "name": c.name, "description": c.description, "source": where, "plane": c.world.plane,
+            "links": len(c.links), "dofs": c.dofs, "sensors": counts(c.sensors), "actuators": counts(c.actuators),
+            "springs": len(c.springs), "hidden": c.n_hidden, "dt": c.dt, "metric": c.evaluation.metric,
+            "direction": c.evaluation.direction, "seconds": c.evaluation.seconds}
+
+
+def check(
+    creature: CreatureArg,
+    simulate: Annotated[bool, typer.Option("--simulate", help="Also drop it for two seconds (servos at mid targets, then "
+                                           "sweeping) and warn about what only a simulation shows.")] = False,
+    dtype: DtypeOpt = "float32",
+    as_json: JsonOpt = False,
+) -> None:
+    """Validate a creature file and summarise it; --simulate adds warnings from a short drop."""
+    check_dtype(dtype)
     c, where = load_or_exit(creature)
+    out = _summary(c, where)
+    findings = []
+    if simulate:
+        from sanlab import configure
+
+        configure()
+        from sanlab.check import simulate as drop
+
+        with console.status("compiling and dropping the creature...", spinner="dots") if not as_json \
+                else contextlib.nullcontext():
+            findings = drop(c, dtype=dtype)
+        out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
+        out["warnings"] = sum(f.warning for f in findings)
+    if as_json:
+        typer.echo(dump_json(out))
+        return
     grid = Table.grid(padding=(0, 2))
     grid.add_column(style="bold")
     grid.add_column()
     rows = [
-        ("source", escape(where)),
+        ("source", safe(where)),
         ("plane", c.world.plane),
         ("links", f"{len(c.links)} ({c.dofs} degrees of freedom)"),
         ("sensors", _counts(c.sensors)),
@@ -43,22 +74,27 @@ def check(creature: CreatureArg) -> None:
         rows.insert(5, ("springs", str(len(c.springs))))
     for key, value in rows:
         grid.add_row(key, value)
-    about = f": {escape(c.description)}" if c.description else ""
-    console.print(f"[green]ok[/green] [bold]{escape(c.name)}[/bold]{about}")
+    about = f": {safe(c.description)}" if c.description else ""
+    console.print(f"[green]ok[/green] [bold]{safe(c.name)}[/bold]{about}")
     console.print(grid)
+    if findings:
+        n = sum(f.warning for f in findings)
+        console.print(f"[bold]simulated[/bold] (two seconds, servos at mid targets, then sweeping): "
+                      f"{n} warning{'s' * (n != 1)}")
+        for f in findings:
+            mark = "[yellow]warning[/yellow]" if f.warning else "[green]ok[/green]     "
+            console.print(f"  {mark} {safe(f.message)}", soft_wrap=True)
 
 
-def creatures(
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")] = False,
-) -> None:
+def creatures(as_json: JsonOpt = False) -> None:
     """List the built-in creatures."""
     loaded = {name: load_or_exit(name)[0] for name in builtin_names()}
     rows = [{"name": n, **_sizes(c)} for n, c in loaded.items()]
     if as_json:
-        typer.echo(json.dumps(rows, indent=2))
+        typer.echo(dump_json(rows))
         return
     table = Table("name", "links", "sensors", "actuators", "hidden", "description")
     for r in rows:
         sizes = (str(v) for k, v in r.items() if k != "name")
-        table.add_row(r["name"], *sizes, escape(loaded[r["name"]].description))
+        table.add_row(safe(r["name"]), *sizes, safe(loaded[r["name"]].description))
     console.print(table)

@@ -1,9 +1,13 @@
-"""``sanlab runs``, ``show``, ``export`` and ``import``: reading and exchanging the gait library."""
+"""``sanlab runs``, ``show``, ``export`` and ``import``: reading and exchanging the gait library.
+
+Reading commands open the library read-only (they work in a read-only folder and never take a
+write lock); a damaged run is listed as "damaged" and reading it is a one-line error.
+"""
 
 from __future__ import annotations
 
 import json
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.table import Table
@@ -12,78 +16,197 @@ from sanlab.cli._common import (
     DbOpt,
     JsonOpt,
     console,
+    direction,
+    dump_json,
     fail,
     library_call,
     open_library,
+    output_file,
     print_distribution,
     print_top,
+    safe,
     top_rows,
+    warn,
 )
+from sanlab.creature.spec import SCORE_UNITS
+
+if TYPE_CHECKING:
+    from sanlab.library import Library
+
+MAX_IMPORT_BYTES = 64 << 20  # an exported gait is a few kB; a larger file is not one
 
 
 def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     """List the runs in the gait library, newest first."""
-    lib = open_library(db)
+    lib = open_library(db, readonly=True)
+    listed = library_call(lib.runs)
     rows = [
         {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
          "evaluated": r.count, "total": r.total, "created": r.created}
-        for r in lib.runs()
+        for r in listed
     ]
+    for r in listed:
+        if r.status == "damaged":
+            warn(f"{db}: run {r.run_id} is damaged ({lib.damage(r.run_id)}); the other runs are intact "
+                 "(export what you need with `sanlab export`, or restore the file from a backup)")
     if as_json:
-        typer.echo(json.dumps(rows, indent=2))
+        typer.echo(dump_json(rows))
         return
     table = Table("run", "kind", "creature", "status", "evaluated", "created")
     for r in rows:
         created = r["created"][:19].replace("T", " ")
-        table.add_row(r["run_id"], r["kind"], r["creature"], r["status"], f"{r['evaluated']}/{r['total']}", created)
+        table.add_row(safe(r["run_id"]), safe(r["kind"]), safe(r["creature"]), safe(r["status"]),
+                      f"{r['evaluated']}/{r['total']}", safe(created))
     console.print(table)
 
 
 def show(
-    run_id: Annotated[str, typer.Argument(help="A run id (or an unambiguous prefix).")],
-    top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
+    target: Annotated[str, typer.Argument(metavar="RUN_ID|GAIT", help="A run id (or an unambiguous prefix), or a gait (RUN/RANK, RUN#IDX).")],
+    top: Annotated[int, typer.Option(min=1, max=10_000, help="Gaits to show (of a run).")] = 10,
+    network: Annotated[bool, typer.Option("--network", help="Also print the weight matrix, by sensor, hidden and actuator name (of a run: its best).")] = False,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
-    """Show a run's best gaits: rank, score, speed and flags."""
-    lib = open_library(db)
-    run = library_call(lib.get_run, run_id)
-    rows = top_rows(lib, run.run_id, top)
+    """Show a run's best gaits, or one gait's parameters (--network: its weights).
+
+    A run: rank, score (and its unit), speed with an arrow for the direction of motion, flags. A
+    gait: its parameters in the creature file's units beside the file's own."""
+    lib = open_library(db, readonly=True)
+    if "/" in target or "#" in target:
+        _show_gait(lib, target, network, as_json)
+        return
+    run = library_call(lib.get_run, target)
+    rows = library_call(top_rows, lib, run.run_id, top)
+    if network:
+        if not rows:
+            raise fail(f"run {run.run_id} has no evaluations yet")
+        _show_gait(lib, rows[0]["gait"], True, as_json)
+        return
+    metric = run.params.get("metric", "?")
     if as_json:
         out = {"run_id": run.run_id, "kind": run.kind, "creature": run.creature, "status": run.status,
-               "evaluated": lib.count(run.run_id), "params": run.params, "top": rows}
-        typer.echo(json.dumps(out, indent=2))
+               "evaluated": library_call(lib.count, run.run_id), "params": run.params,
+               "score_unit": SCORE_UNITS.get(metric), "top": rows}
+        typer.echo(dump_json(out))
         return
-    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {run.metric or '?'}")
-    print_distribution(lib.scores(run.run_id))
+    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {metric}", SCORE_UNITS.get(metric, ""))
+    print_distribution(library_call(lib.scores, run.run_id))
+
+
+def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None:
+    """One gait: score, speed, direction, flags, its parameters in file units (and weights)."""
+    from sanlab.gait import Gait
+    from sanlab.tuned import file_values, network_table
+
+    ev = library_call(lib.gait, gait_id)
+    run = library_call(lib.get_run, ev.run_id)
+    try:
+        gait = Gait.from_library(lib, ev.gait_id)
+    except ValueError as e:  # a stored creature text or encoding today's sanlab cannot read
+        raise fail(f"{lib.path}: gait {ev.gait_id} cannot be decoded ({e})") from None
+    dx = (ev.extra or {}).get("dx_m")
+    values = file_values(gait)
+    audit = library_call(lib.audit, ev.gait_id)
+    flagged = audit is not None and audit.flagged
+    summary = {"gait": ev.gait_id, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
+               "score": ev.score, "score_unit": SCORE_UNITS.get(gait.metric), "speed_cm_s": ev.speed_cm_s,
+               "dx_m": dx if isinstance(dx, (int, float)) else None, "direction": direction(dx),
+               "fell": ev.fell, "nonfinite": ev.nonfinite, "encoding": ev.encoding, "parameters": values,
+               "audit": None if audit is None else {"resolution_dependent": audit.flagged, "created": audit.created,
+                                                     "result": audit.result}}
+    if network:
+        summary["network"] = network_table(gait)
+    if as_json:
+        typer.echo(dump_json(summary))
+        return
+    arrow = {"+x": " → (+x)", "-x": " ← (-x)"}.get(summary["direction"] or "", "")
+    flags = ", ".join(f for f, on in (("fell", ev.fell), ("non-finite", ev.nonfinite), ("resolution-dependent", flagged)) if on) or "-"
+    console.print(f"[bold]gait {safe(ev.gait_id)}[/bold] (rank {ev.rank} of run {safe(run.run_id)}), "
+                  f"{safe(gait.spec.name)}, metric {safe(gait.metric)}: score {ev.score:.3f} "
+                  f"{SCORE_UNITS.get(gait.metric, '')}, speed {ev.speed_cm_s:.1f} cm/s{arrow}, flags {flags}")
+    _print_values(values)
+    if network:
+        _print_network(summary["network"])
+
+
+def _print_values(values: dict) -> None:
+    """The parameters table: each in the creature file's units, the file's value beside it."""
+    table = Table("part", "parameter", "this gait", "creature file", "unit", title="parameters (creature file units)")
+    for row in values["rows"]:
+        same = row["value"] == row["file"] or (row["file"] is not None and abs(row["value"] - row["file"]) <= 1e-9 * max(1.0, abs(row["file"])))
+        style = "" if same else "bold"
+        shown = f"[{style}]{row['value']:.6g}[/{style}]" if style else f"{row['value']:.6g}"
+        table.add_row(safe(row["part"]), safe(row["name"]), shown, "-" if row["file"] is None else f"{row['file']:.6g}", row["unit"])
+    console.print(table)
+    console.print("[dim]bold: tuned away from the creature file[/dim]")
+
+
+def _print_network(net: dict) -> None:
+    table = Table("node", *[safe(c) for c in net["inputs"]], title="weights (rows: nodes; columns: inputs)")
+    colours = {-2: "red", -1: "red", 0: "dim", 1: "green", 2: "green"}
+    for name, row in zip(net["nodes"], net["weights"]):
+        table.add_row(safe(name), *[f"[{colours[w]}]{w:+d}[/{colours[w]}]" if w else "[dim]0[/dim]" for w in row])
+    console.print(table)
+    console.print("[dim]inputs: sensors, then hidden nodes, then actuator nodes (their outputs); "
+                  "each node switches on while its weighted sum is positive (after its delay)[/dim]")
 
 
 def export_(
-    gait: Annotated[str, typer.Argument(help="RUN_ID/RANK, e.g. 3fa1c2d0/1.")],
-    out: Annotated[str | None, typer.Option("--out", "-o", help="Write to this file instead of stdout.")] = None,
+    gait: Annotated[str, typer.Argument(help="RUN_ID/RANK, e.g. 3fa1c2d0/1 (or RUN#IDX).")],
+    out: Annotated[str | None, typer.Option("--out", "-o", help="Write to this file instead of stdout (whole or not at all).")] = None,
+    toml: Annotated[bool, typer.Option("--toml", help="Write the creature file with this gait's tuned parameters applied, instead of the gait.")] = False,
     db: DbOpt = "sanlab.db",
 ) -> None:
-    """Export a gait (creature, encoding, parameters, score) as JSON."""
-    lib = open_library(db)
-    data = json.dumps(library_call(lib.export_gait, gait), indent=2)
-    if out:
-        with open(out, "w") as f:
-            f.write(data + "\n")
+    """Export a gait as JSON, or --toml its creature file with the gait applied.
+
+    JSON: creature, encoding, parameters, score. --toml: the creature file the gait was found
+    with, its comments kept, with the gait's tuned parameters written into it."""
+    lib = open_library(db, readonly=True)
+    if toml:
+        from sanlab.gait import Gait
+        from sanlab.tuned import apply_to_file
+
+        ev = library_call(lib.gait, gait)
+        try:
+            data = apply_to_file(Gait.from_library(lib, ev.gait_id))
+        except ValueError as e:
+            raise fail(f"{lib.path}: gait {ev.gait_id} cannot be written as a creature file ({e})") from None
     else:
-        typer.echo(data)
+        data = json.dumps(library_call(lib.export_gait, gait), indent=2, allow_nan=False) + "\n"
+    if out:
+        with output_file(out, "--out") as path, open(path, "w", encoding="utf-8") as f:
+            f.write(data)
+    else:
+        typer.echo(data, nl=False)
 
 
 def import_(
     file: Annotated[str, typer.Argument(help="A JSON file written by `sanlab export`.")],
     db: DbOpt = "sanlab.db",
 ) -> None:
-    """Import a gait exported by `sanlab export`; prints its new gait id."""
+    """Import a gait exported by `sanlab export`; prints its new gait id.
+
+    The gait is checked completely (its creature, its network against the creature, every
+    parameter) before anything is written: a bad file leaves the library as it was."""
+    from sanlab.creature.files import NotRegularFile, TooLarge, read_regular_file
+
     try:
-        with open(file) as f:
-            data = json.load(f)
+        raw = read_regular_file(file, MAX_IMPORT_BYTES)
+    except FileNotFoundError:
+        raise fail(f"{file}: no such file") from None
+    except NotRegularFile as e:
+        raise fail(f"{file}: expected an exported gait (a JSON file), got {e.kind}") from None
+    except TooLarge:
+        raise fail(f"{file}: expected an exported gait, got a file over {MAX_IMPORT_BYTES >> 20} MiB") from None
     except OSError as e:
-        raise fail(f"{file}: {e.strerror}") from None
+        raise fail(f"{file}: cannot read ({e.strerror or e})") from None
+    try:
+        data = json.loads(raw.decode("utf-8-sig"))  # a byte-order mark, as some editors write, is fine
+    except UnicodeDecodeError as e:
+        raise fail(f"{file}: expected UTF-8 JSON, got undecodable bytes at byte {e.start} (save it as UTF-8)") from None
     except json.JSONDecodeError as e:
-        raise fail(f"{file}: expected JSON, got a syntax error at line {e.lineno}") from None
+        raise fail(f"{file}: expected JSON, got a syntax error at line {e.lineno}, column {e.colno} ({e.msg})") from None
+    except RecursionError:
+        raise fail(f"{file}: expected an exported gait, got JSON nested too deep to read") from None
     lib = open_library(db, create=True)  # an import starts a run: it may start the library too
     typer.echo(library_call(lib.import_gait, data))

@@ -24,10 +24,22 @@ import time
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.markup import escape
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, console, fail, open_library
+from sanlab.cli._common import (
+    DbOpt,
+    JsonOpt,
+    check_count,
+    check_gait,
+    check_seconds,
+    console,
+    dump_json,
+    fail,
+    open_library,
+    output_file,
+    safe,
+)
+from sanlab.creature import printable
 
 if TYPE_CHECKING:
     from sanlab.gait import Gait
@@ -45,6 +57,13 @@ def _is_gait(target: str) -> bool:
 
 def _speed(x: float) -> str:
     return "" if not math.isfinite(x) else f", {x:.1f} cm/s"
+
+
+def _moved(sc: Scene) -> str:
+    from sanlab.render.strobe import motion
+
+    arrow, words = motion(sc)
+    return f", moved {arrow} {words}" if arrow else ""
 
 
 def _gait_label(rank: int | None, gait: Gait) -> str:
@@ -92,10 +111,14 @@ def render_top(library: Library, run_id: str, out_dir: str, top: int = 10, fps: 
 def render_into(lib: Library, run_ids: list[str], out_dir: str, top: int, quiet: bool) -> None:
     """``--render DIR`` of search and tune: :func:`render_top` of each run, then one summary line
     (unless ``quiet``)."""
-    os.makedirs(out_dir, exist_ok=True)
-    paths = [p for rid in run_ids for p in render_top(lib, rid, out_dir, top=top)]
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        paths = [p for rid in run_ids for p in render_top(lib, rid, out_dir, top=top)]
+    except OSError as e:  # a full disk, a read-only folder: the run itself is stored already
+        raise fail(f"--render {out_dir}: cannot write ({e.strerror or e}); the run is stored, render it "
+                   "later with `sanlab render`") from None
     if not quiet:
-        console.print(f"rendered {len(paths)} files into {escape(out_dir)}")
+        console.print(f"rendered {len(paths)} files into {safe(out_dir)}")
 
 
 def _sheet_title(library: Library, run: Run, n: int) -> str:
@@ -114,11 +137,18 @@ def render(
     nodes: Annotated[bool, typer.Option("--nodes/--no-nodes", help="Add a panel of the SAN's sensor and node outputs over time.")] = False,
     plot: Annotated[str | None, typer.Option("--plot", help="With a run id: scores (sorted phase-1 scores) or trace (tuning score per trial).")] = None,
     camera: Annotated[str, typer.Option(help="Animation camera: auto (follow only if the trajectory does not fit), follow, or fixed.")] = "auto",
+    as_json: JsonOpt = False,
 ) -> None:
     """Draw gaits: animations (.gif/.mp4), strobe pictures and contact sheets (.png), plots."""
     from sanlab.library import LibraryError
 
     gait = _is_gait(target)
+    if gait:
+        check_gait(target)
+    if not math.isfinite(fps):
+        raise fail(f"--fps: expected a number in [1, 100], got {fps}")
+    check_count("--width", width if width is not None else 640, 64, 4096)
+    check_seconds(seconds)  # the creature's own dt bound is checked when the gait is loaded
     if plot is not None and plot not in PLOTS:
         raise fail(f"--plot: expected scores or trace, got {plot!r}")
     if plot is not None and gait:
@@ -135,52 +165,67 @@ def render(
         folder = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(folder):
             raise fail(f"--out {out}: directory {folder} does not exist")
-    lib = open_library(db)
+    lib = open_library(db, readonly=True)
     if plot is None:
         configure()  # before the replay's first JAX call
     try:
         if plot is not None:
-            _render_plot(lib, target, plot, out)
+            info = _render_plot(lib, target, plot, out)
         elif gait:
-            _render_gait(lib, target, out, seconds, fps, width, nodes, camera)
+            info = _render_gait(lib, target, out, seconds, fps, width, nodes, camera)
         else:
-            _render_sheet(lib, target, out, seconds, fps, width, top)
+            info = _render_sheet(lib, target, out, seconds, fps, width, top)
     except LibraryError as e:
         raise fail(str(e)) from None
     except ValueError as e:
         raise fail(f"render: {e}") from None
     finally:
         lib.close()
+    line = info.pop("line")
+    typer.echo(dump_json(info) if as_json else line)
 
 
 def _render_gait(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,
-                 width: int | None, nodes: bool, camera: str) -> None:
+                 width: int | None, nodes: bool, camera: str) -> dict:
+    from sanlab.creature.spec import MAX_STEPS
     from sanlab.render.film import animate
-    from sanlab.render.strobe import write_strobe
+    from sanlab.render.strobe import motion, write_strobe
 
     ev = lib.gait(target)  # fail early on an unknown gait, before compiling anything
     path = out or f"{ev.run_id}_{ev.rank}.gif"
     ext = os.path.splitext(path)[1].lower()
     t0 = time.perf_counter()
+    from sanlab.gait import Gait
+
+    spec = Gait.from_library(lib, ev.gait_id).spec
+    if seconds is not None and seconds > MAX_STEPS * spec.dt:
+        raise ValueError(f"--seconds: expected at most {MAX_STEPS * spec.dt:g} s for {spec.name} "
+                         f"({MAX_STEPS:,} steps of {spec.dt:g} s), got {seconds:g}")
     _, gait, sc = gait_scene(lib, ev.gait_id, seconds, fps)
     t1 = time.perf_counter()
-    about = f"gait {ev.gait_id} (rank {ev.rank}{_speed(gait.speed_cm_s)})"
+    about = f"gait {ev.gait_id} (rank {ev.rank}{_speed(gait.speed_cm_s)}{_moved(sc)})"
+    arrow, words = motion(sc)
+    base = {"path": path, "gait": ev.gait_id, "rank": ev.rank, "speed_cm_s": gait.speed_cm_s,
+            "dx_m": float(sc.com[-1, 0] - sc.com[0, 0]), "direction": words.split(" ")[0] if arrow else None}
     if ext == ".png":
-        info = write_strobe(sc, path, width or DEFAULT_WIDTH["strobe"], nodes=nodes)
+        with output_file(path) as tmp:
+            info = write_strobe(sc, tmp, width or DEFAULT_WIDTH["strobe"], nodes=nodes)
         w, h = info["size"]
         n = info["exposures"]
-        typer.echo(f"wrote {path}: strobe picture {w}x{h}, {n} exposure{'s' * (n != 1)} over "
-                   f"{sc.duration:.1f} s, {about}")
-        return
-    info = animate(sc, path, width or DEFAULT_WIDTH[ext], nodes=nodes, camera_mode=camera)
+        return {**base, "kind": "strobe", "size": [w, h], "exposures": n, "seconds": sc.duration,
+                "line": f"wrote {printable(path)}: strobe picture {w}x{h}, {n} exposure{'s' * (n != 1)} over "
+                        f"{sc.duration:.1f} s, {about}"}
+    with output_file(path) as tmp:
+        info = animate(sc, tmp, width or DEFAULT_WIDTH[ext], nodes=nodes, camera_mode=camera)
     t2 = time.perf_counter()
     w, h = info["size"]
-    typer.echo(f"wrote {path}: {info['frames']} frames {w}x{h} at {fps:g} fps ({info['seconds']:.1f} s), "
-               f"{about}; simulated in {t1 - t0:.1f} s, drawn in {t2 - t1:.1f} s")
+    return {**base, "kind": "animation", "size": [w, h], "frames": info["frames"], "fps": fps, "seconds": info["seconds"],
+            "line": f"wrote {printable(path)}: {info['frames']} frames {w}x{h} at {fps:g} fps ({info['seconds']:.1f} s), "
+                    f"{about}; simulated in {t1 - t0:.1f} s, drawn in {t2 - t1:.1f} s"}
 
 
 def _render_sheet(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,
-                  width: int | None, top: int) -> None:
+                  width: int | None, top: int) -> dict:
     from sanlab.render.strobe import contact_sheet, sheet_layout
 
     run = lib.get_run(target)
@@ -193,22 +238,28 @@ def _render_sheet(lib: Library, target: str, out: str | None, seconds: float | N
         _, gait, sc = gait_scene(lib, f"{run.run_id}/{e.rank}", seconds, fps)
         tiles.append((_gait_label(e.rank, gait), sc))
     w = width or DEFAULT_WIDTH["sheet"]
-    contact_sheet(tiles, _sheet_title(lib, run, len(tiles)), w).save(path, format="PNG")
+    with output_file(path) as tmp:
+        contact_sheet(tiles, _sheet_title(lib, run, len(tiles)), w).save(tmp, format="PNG")
     lay = sheet_layout(len(tiles), w)
     W, H = lay["size"]
-    typer.echo(f"wrote {path}: contact sheet {W}x{H} of the best {len(tiles)} gaits of run {run.run_id} "
-               f"({lay['rows']} x {lay['cols']} tiles)")
+    return {"path": path, "kind": "contact sheet", "run_id": run.run_id, "size": [W, H], "gaits": len(tiles),
+            "tiles": [lay["rows"], lay["cols"]],
+            "line": f"wrote {printable(path)}: contact sheet {W}x{H} of the best {len(tiles)} gaits of run {run.run_id} "
+                    f"({lay['rows']} x {lay['cols']} tiles)"}
 
 
-def _render_plot(lib: Library, target: str, plot: str, out: str | None) -> None:
+def _render_plot(lib: Library, target: str, plot: str, out: str | None) -> dict:
     from sanlab.render.plots import plot_scores, plot_trace
 
     run = lib.get_run(target)
     path = out or f"{run.run_id}_{plot}.png"
     if plot == "scores":
-        info = plot_scores(run, lib.scores(run.run_id), path)
-        typer.echo(f"wrote {path}: {info['points']} sorted scores of run {run.run_id} (best {info['best']:.3f})")
-    else:
-        info = plot_trace(run, lib.trace(run.run_id), path)
-        typer.echo(f"wrote {path}: tuning trace of run {run.run_id}, {info['points']} trials, "
-                   f"{info['accepted']} accepted")
+        with output_file(path) as tmp:
+            info = plot_scores(run, lib.scores(run.run_id), tmp)
+        return {"path": path, "kind": "scores plot", "run_id": run.run_id, "points": info["points"], "best": info["best"],
+                "line": f"wrote {printable(path)}: {info['points']} sorted scores of run {run.run_id} (best {info['best']:.3f})"}
+    with output_file(path) as tmp:
+        info = plot_trace(run, lib.trace(run.run_id), tmp)
+    return {"path": path, "kind": "trace plot", "run_id": run.run_id, "points": info["points"], "accepted": info["accepted"],
+            "line": f"wrote {printable(path)}: tuning trace of run {run.run_id}, {info['points']} trials, "
+                    f"{info['accepted']} accepted"}

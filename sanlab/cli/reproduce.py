@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from typing import Annotated
 
 import typer
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, console, load_or_exit, open_library
+from sanlab.cli._common import DbOpt, check_run_args, console, fail, load_or_exit, open_library, output_file, safe
 from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
 
@@ -26,11 +27,13 @@ def reproduce(
     from sanlab.reproduce import reproduce as run
 
     names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
-    for n in names:
-        load_or_exit(n)
+    for n in names:  # every argument checked before the first run is created
+        check_run_args(load_or_exit(n)[0], controllers=controllers, trials=trials, seed=seed)
+    if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
+        raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
     lib = open_library(db, create=True)
     report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s),
               ensemble=ensemble)
-    with open(out, "w") as f:
+    with output_file(out) as path, open(path, "w", encoding="utf-8") as f:
         f.write(report)
-    console.print(f"wrote {out}")
+    console.print(f"wrote {safe(out)}")

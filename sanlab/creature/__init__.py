@@ -6,6 +6,7 @@ Modules: ``spec`` (the dataclasses, every default and vocabulary), ``loader`` (t
 table reader.
 """
 
+from ._checks import printable
 from .files import builtin_names, load, load_file, read_source
 from .geometry import initial_frames, world_point
 from .loader import CreatureError, loads
@@ -39,6 +40,6 @@ __all__ = [
     "Actuator", "AngleSensor", "AngularActuator", "Creature", "CreatureError", "Evaluation",
     "EyeSensor", "Follow", "Friction", "Ground", "JointLimit", "JointSpring", "LengthSensor", "LinearActuator",
     "LinearSpring", "Link", "PointRef", "SanConfig", "Sensor", "Shape", "Terrain", "TiltSensor", "TouchSensor",
-    "World", "builtin_names", "initial_frames", "load", "load_file", "loads", "read_source",
+    "World", "builtin_names", "initial_frames", "load", "load_file", "loads", "printable", "read_source",
     "world_point",
 ]  # fmt: skip

@@ -4,11 +4,12 @@ raises :class:`_Bad` saying what was expected (the table reader turns that into 
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from .spec import Vec2
+from .spec import MAX_COORDINATE, MAX_MAGNITUDE, MAX_NAME, MAX_POINTS, MIN_POSITIVE, Vec2
 
 
 class CreatureError(ValueError):
@@ -30,6 +31,15 @@ class _Bad(Exception):
 Check = Callable[[Any], Any]
 
 
+def printable(s: str) -> str:
+    """``s`` safe to print on one line of a terminal: every character Python does not call
+    printable (controls such as newlines and escape sequences, format characters such as the
+    bidirectional overrides, separators other than the space) written as its Python escape."""
+    if s.isprintable():
+        return s
+    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in s)
+
+
 def _show(v: Any) -> str:
     if v is _MISSING:
         return "nothing"
@@ -37,7 +47,14 @@ def _show(v: Any) -> str:
         return "true" if v else "false"
     if isinstance(v, dict):
         return "a table"
-    s = repr(v)
+    if isinstance(v, list) and len(v) > 20:
+        return f"a list of {len(v)} items"
+    if isinstance(v, str) and len(v) > 60:
+        v = v[:57]  # repr of a 1 MB string is slow to build only to be cut
+    try:
+        s = repr(v)
+    except RecursionError:
+        return "a deeply nested value"
     return s if len(s) <= 60 else s[:57] + "..."
 
 
@@ -45,41 +62,53 @@ def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 
 
-def _num(what: str, ok: Callable[[float], bool] = lambda x: True) -> Check:
+def _bound(unit: str) -> float:
+    """The largest magnitude a number of ``unit`` may have (spec.MAX_COORDINATE for metres)."""
+    return MAX_COORDINATE if unit == "m" else MAX_MAGNITUDE
+
+
+def _num(what: str, ok: Callable[[float], bool] = lambda x: True, unit: str = "") -> Check:
+    """A finite number for which ``ok`` holds, of magnitude at most :func:`_bound` of ``unit``."""
+    bound = _bound(unit)
+    full = what + _unit(unit)
+
     def check(v: Any) -> float:
-        if (
-            isinstance(v, bool)
-            or not isinstance(v, (int, float))
-            or not math.isfinite(v)
-            or not ok(v)
-        ):
-            raise _Bad(what)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not ok(v):
+            raise _Bad(full)
+        if abs(v) > bound:
+            raise _Bad(f"{what} of magnitude at most {bound:g}{_unit(unit)}")
         return float(v)
 
     return check
 
 
 def number(unit: str = "") -> Check:
-    return _num("a number" + _unit(unit))
+    return _num("a number", unit=unit)
 
 
 def positive(unit: str = "") -> Check:
-    return _num("a positive number" + _unit(unit), lambda x: x > 0)
+    plain = _num("a positive number", lambda x: x > 0, unit)
+    tiny = _num(f"a positive number of at least {MIN_POSITIVE:g}", lambda x: x >= MIN_POSITIVE, unit)
+
+    def check(v: Any) -> float:
+        return tiny(plain(v))
+
+    return check
 
 
 def nonneg(unit: str = "") -> Check:
-    return _num("a non-negative number" + _unit(unit), lambda x: x >= 0)
+    return _num("a non-negative number", lambda x: x >= 0, unit)
 
 
 def within(lo: float, hi: float, unit: str = "", open_lo: bool = False) -> Check:
-    what = f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]" + _unit(unit)
-    return _num(what, lambda x: (lo < x if open_lo else lo <= x) and x <= hi)
+    what = f"a number in {'(' if open_lo else '['}{lo:g}, {hi:g}]"
+    return _num(what, lambda x: (lo < x if open_lo else lo <= x) and x <= hi, unit)
 
 
-def integer(lo: int = 0) -> Check:
+def integer(lo: int = 0, hi: int = (1 << 63) - 1) -> Check:
     def check(v: Any) -> int:
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise _Bad(f"an integer >= {lo}")
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            raise _Bad(f"an integer >= {lo}" if hi == (1 << 63) - 1 else f"an integer in [{lo}, {hi}]")
         return v
 
     return check
@@ -91,9 +120,21 @@ def string(v: Any) -> str:
     return v
 
 
+def text(limit: int) -> Check:
+    """One line of printable text of at most ``limit`` characters (descriptions)."""
+
+    def check(v: Any) -> str:
+        if not isinstance(v, str) or len(v) > limit or not v.isprintable():
+            raise _Bad(f"one line of printable text, at most {limit} characters")
+        return v
+
+    return check
+
+
 def nonempty(v: Any) -> str:
-    if not isinstance(v, str) or not v.strip():
-        raise _Bad("a non-empty string")
+    """A name: printable, not blank, at most spec.MAX_NAME characters."""
+    if not isinstance(v, str) or not v.strip() or len(v) > MAX_NAME or not v.isprintable():
+        raise _Bad(f"a name (printable, not blank, at most {MAX_NAME} characters)")
     return v
 
 
@@ -108,10 +149,18 @@ def one_of(options: Iterable[str], what: str = "one of") -> Check:
 
     def check(v: Any) -> str:
         if not isinstance(v, str) or v not in options:
-            raise _Bad(f"{what} {options}")
+            raise _Bad(f"{what} {options}" + did_you_mean(v, options))
         return v
 
     return check
+
+
+def did_you_mean(v: Any, options: Iterable[str]) -> str:
+    """" (did you mean 'mass'?)" when ``v`` is a string close to one of ``options``, else ""."""
+    if not isinstance(v, str) or len(v) > 100:
+        return ""
+    close = difflib.get_close_matches(v, list(options), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def list_of(item: Check, what: str, lo: int = 0, hi: int | None = None) -> Check:
@@ -130,20 +179,19 @@ def list_of(item: Check, what: str, lo: int = 0, hi: int | None = None) -> Check
 
 
 def vec2(unit: str = "m") -> Check:
-    coord = number()
+    what = "a pair of numbers [x, y]"
+    coord = _num(what, unit=unit)
 
     def check(v: Any) -> Vec2:
         if not isinstance(v, list) or len(v) != 2:
-            raise _Bad("a pair of numbers [x, y]" + _unit(unit))
-        try:
-            return (coord(v[0]), coord(v[1]))
-        except _Bad:
-            raise _Bad("a pair of numbers [x, y]" + _unit(unit)) from None
+            raise _Bad(what + _unit(unit))
+        return (coord(v[0]), coord(v[1]))
 
     return check
 
 
-def points(what: str, lo: int = 0, hi: int | None = None) -> Check:
+def points(what: str, lo: int = 0, hi: int = MAX_POINTS) -> Check:
+    """A list of ``lo`` to ``hi`` points [x, y] (m); ``what`` says so in messages."""
     return list_of(vec2(), what, lo, hi)
 
 

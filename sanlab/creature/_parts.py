@@ -36,6 +36,8 @@ from ._toml import (
 )
 from .geometry import link_frames, mass_properties, polygon_moments, transform
 from .spec import (
+    MAX_LINKS,
+    MAX_POINTS,
     SHAPE_KINDS,
     AngleSensor,
     AngularActuator,
@@ -59,7 +61,7 @@ ANGLE = within(-180, 180, "deg")
 
 
 def _links(t: _Table) -> tuple[Link, ...]:
-    tables = t.tables("links", LINK, lo=1)
+    tables = t.tables("links", LINK, lo=1, hi=MAX_LINKS)
     all_names: list[str] = []
     for lt in tables:  # all names first: friction axes may name links further down
         n = lt.get("name", nonempty)
@@ -87,7 +89,7 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
                 "points", "2 distinct points (a segment of non-zero length)", t.data["points"]
             )
     else:
-        pts = t.get("points", points("at least 3 points [[x, y], ...] (m)", 3))
+        pts = t.get("points", points(f"3 to {MAX_POINTS} points [[x, y], ...] (m)", 3))
         if polygon_moments(pts)[0] == 0.0:
             raise t.error("points", "a polygon of non-zero area", t.data["points"])
     com, inertia = mass_properties(kind, pts, mass)
@@ -147,7 +149,7 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
         inertia=t.get("inertia", nonneg("kg m^2"), inertia),
         com=t.get("com", vec2(), com),
         shape=Shape(kind, pts),
-        contacts=t.get("contacts", points("a list of points [[x, y], ...] (m)"), default_contacts),
+        contacts=t.get("contacts", points(f"a list of at most {MAX_POINTS} points [[x, y], ...] (m)"), default_contacts),
         parent=parent,
         anchor=t.get("anchor", vec2(), spec_default(Link, "anchor")),
         position=t.get("position", vec2(), spec_default(Link, "position")),
@@ -161,15 +163,18 @@ def _link(t: _Table, before: dict[str, Link], all_names: list[str]) -> Link:
 
 
 def _named(
-    t: _Table, key: str, fields: set[str] | None, prefix: str, parse: Callable[[_Table, str], Any]
+    t: _Table, key: str, fields: set[str] | None, prefix: str, parse: Callable[[_Table, str], Any], most: int
 ) -> tuple:
-    """Parse ``[[key]]`` items, naming unnamed ones prefix1, prefix2, ... by position."""
+    """Parse ``[[key]]`` items (at most ``most``), naming unnamed ones prefix1, prefix2, ... by
+    position."""
     out, seen = [], set()
-    for i, it in enumerate(t.tables(key, fields)):
+    for i, it in enumerate(t.tables(key, fields, hi=most)):
         nm = it.get("name", nonempty, f"{prefix}{i + 1}")
         if nm in seen:
             raise it.error("name", f"a name not used by another item of [[{key}]]", nm)
         seen.add(nm)
+        if "name" in it:  # messages name the item as the file does
+            it.label = f"{key[:-1]} {nm!r}"
         out.append(parse(it, nm))
     return tuple(out)
 
@@ -187,7 +192,8 @@ def _deg_range(t: _Table, check: Check = ANGLE) -> tuple[float, float]:
 
 
 def _typed(t: _Table, kinds: dict[str, set[str]], what: str) -> str:
-    if t.data.get("type") not in kinds:
+    kind = t.data.get("type")
+    if not isinstance(kind, str) or kind not in kinds:
         t.restrict(_fields(kinds))  # a typo in "type" itself shows up here
     kind = t.get("type", one_of(kinds))
     article = "an" if kind[0] in "aeiou" else "a"
@@ -210,7 +216,7 @@ def _point(t: _Table, key: str, links: tuple[Link, ...]) -> PointRef:
     raw = t.data.get(key, _MISSING)
     if not isinstance(raw, dict):
         raise t.error(key, "a point { link = NAME, at = [x, y] }", raw)
-    p = _Table(t.src, t.at(key), raw, POINT)
+    p = _Table(t.src, t.at(key), raw, POINT, t.label)
     return PointRef(_link_ref(p, "link", links).name, p.get("at", vec2(), spec_default(PointRef, "at")))
 
 

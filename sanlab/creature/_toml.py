@@ -5,18 +5,31 @@ each table accepts (anything else is a typo and an error)."""
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
+import re
 from collections.abc import Iterable
 from typing import Any
 
-from ._checks import _MISSING, _REQUIRED, _SAME, Check, CreatureError, _Bad, _show
+from ._checks import _MISSING, _REQUIRED, _SAME, Check, CreatureError, _Bad, _show, printable
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def show_key(key: str) -> str:
+    """A TOML key as the file would write it: bare if it can be, else a quoted string with every
+    unprintable character escaped (a key may hold a newline or an escape sequence)."""
+    if _BARE_KEY.fullmatch(key):
+        return key
+    return '"' + printable(key).replace('"', '\\"') + '"'
 
 
 class _Table:
-    """One TOML table being read. ``path`` (e.g. "links[2]") locates it in messages."""
+    """One TOML table being read. ``path`` (e.g. "links[2]") locates it in messages; ``label``
+    (e.g. 'sensor "left_toe"') names the item it describes once its name is known."""
 
-    def __init__(self, src: str, path: str, data: Any, fields: Iterable[str] | None):
-        self.src, self.path = src, path
+    def __init__(self, src: str, path: str, data: Any, fields: Iterable[str] | None, label: str = ""):
+        self.src, self.path, self.label = src, path, label
         if not isinstance(data, dict):
             raise self.error("", "a table", data)
         self.data = data
@@ -24,21 +37,26 @@ class _Table:
             self.restrict(fields)
 
     def at(self, key: str) -> str:
+        """``path.key``; ``key`` is a field name or a path below it (``points[1]``), from the code."""
         return f"{self.path}.{key}" if self.path and key else (key or self.path)
 
+    def where(self, key: str) -> str:
+        """The field's location in messages: path, and the item's name when it has one."""
+        loc = self.at(key) or "(top level)"
+        return f"{loc} ({self.label})" if self.label else loc
+
     def error(self, key: str, what: str, got: Any) -> CreatureError:
-        return CreatureError(
-            f"{self.src}: {self.at(key) or '(top level)'}: expected {what}, got {_show(got)}"
-        )
+        return CreatureError(f"{self.src}: {self.where(key)}: expected {what}, got {_show(got)}")
 
     def restrict(self, fields: Iterable[str], context: str = "") -> None:
         """Reject keys outside ``fields`` (catches typos before they become confusing errors)."""
         fields = sorted(fields)
         for key in self.data:
             if key not in fields:
-                raise CreatureError(
-                    f"{self.src}: {self.at(key)}: unknown field{context}; expected one of {fields}"
-                )
+                close = difflib.get_close_matches(key, fields, n=1, cutoff=0.6) if len(key) <= 100 else []
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                raise CreatureError(f"{self.src}: {self.where(show_key(key))}: unknown field{context}; "
+                                    f"{hint}expected one of {fields}")
 
     def __contains__(self, key: str) -> bool:
         return key in self.data
@@ -57,14 +75,18 @@ class _Table:
             raise self.error(key, f"no {key} {why}", self.data[key])
 
     def table(self, key: str, fields: Iterable[str]) -> _Table | None:
-        return _Table(self.src, self.at(key), self.data[key], fields) if key in self.data else None
+        if key not in self.data:
+            return None
+        return _Table(self.src, self.at(key), self.data[key], fields, self.label)
 
-    def tables(self, key: str, fields: Iterable[str] | None, lo: int = 0) -> list[_Table]:
-        """An array of tables ``[[key]]``."""
+    def tables(self, key: str, fields: Iterable[str] | None, lo: int = 0, hi: int | None = None) -> list[_Table]:
+        """An array of tables ``[[key]]``, at least ``lo`` and at most ``hi`` of them."""
         v = self.data.get(key, [])
         if not isinstance(v, list) or len(v) < lo:
             what = f"at least one [[{key}]] table" if lo else f"an array of [[{key}]] tables"
             raise self.error(key, what, v if key in self.data else _MISSING)
+        if hi is not None and len(v) > hi:
+            raise CreatureError(f"{self.src}: {self.where(key)}: expected at most {hi} [[{key}]] tables, got {len(v)}")
         return [_Table(self.src, f"{self.at(key)}[{i}]", x, fields) for i, x in enumerate(v)]
 
 

@@ -87,6 +87,18 @@ def world_point(creature: Creature, link: str, at: Vec2 = (0.0, 0.0)) -> Vec2:
     return transform(initial_frames(creature)[link], at)
 
 
+def size(creature: Creature) -> float:
+    """The creature's size (m) at its start pose: the larger of the width and the height of all
+    its outline and contact points (and link origins, for point masses)."""
+    frames = initial_frames(creature)
+    pts = []
+    for link in creature.links:
+        f = frames[link.name]
+        pts += [transform(f, p) for p in (*link.shape.points, *link.contacts, (0.0, 0.0))]
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    return max(max(xs) - min(xs), max(ys) - min(ys))
+
+
 def mass_matrix(creature: Creature) -> tuple[list[list[float]], list[str]]:
     """The mass matrix M (kg, kg m, kg m^2) at the file's start pose, in root coordinates (a free
     root's x, y, angle; each joint's angle, in ``Link.dofs`` order), and the name of the link

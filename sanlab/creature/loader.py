@@ -16,6 +16,7 @@ from . import geometry
 from ._checks import (
     _MISSING,
     CreatureError,
+    _Bad,
     _num,
     boolean,
     integer,
@@ -26,7 +27,8 @@ from ._checks import (
     one_of,
     points,
     positive,
-    string,
+    printable,
+    text,
     within,
 )
 from ._parts import _actuator, _link_ref, _links, _named, _sensor, _spring
@@ -44,7 +46,19 @@ from ._toml import (
     spec_default,
 )
 from .spec import (
+    DELAY_RANGE,
     DIRECTIONS,
+    DT_RANGE,
+    MAX_ACTUATORS,
+    MAX_CONTACTS,
+    MAX_DESCRIPTION,
+    MAX_FILE_BYTES,
+    MAX_GROUND_STIFFNESS_RATIO,
+    MAX_HIDDEN,
+    MAX_POINTS,
+    MAX_SENSORS,
+    MAX_SPRINGS,
+    MAX_STEPS,
     METRICS,
     PLANES,
     Creature,
@@ -65,11 +79,24 @@ SLOPE = _num("a number in (-90, 90) (deg)", lambda x: -90 < x < 90)
 def _stem(source: str) -> str:
     if source.startswith("builtin:"):
         return source[len("builtin:") :]
-    return "unnamed" if source.startswith("<") else Path(source).stem
+    stem = "unnamed" if source.startswith("<") else Path(source).stem
+    try:  # the file's stem names the creature unless the file does: it must make a valid name
+        return nonempty(stem)
+    except _Bad:
+        return "unnamed"
 
 
 def loads(text: str, source: str = "<string>") -> Creature:
-    """Parse and validate creature TOML ``text``; ``source`` names the file in error messages."""
+    """Parse and validate creature TOML ``text``; ``source`` names the file in error messages.
+
+    Raises :class:`CreatureError` (one printable line) for anything that is not a valid creature
+    within the format's limits (``spec.MAX_*``; FORMAT.md, "Limits"), and for nothing else."""
+    shown = printable(source)  # messages stay one printable line whatever the file is called
+    if not isinstance(text, str):
+        raise CreatureError(f"{shown}: expected TOML text, got {type(text).__name__}")
+    if len(text) > MAX_FILE_BYTES:
+        raise CreatureError(f"{shown}: expected a creature file of at most {MAX_FILE_BYTES >> 20} MiB, "
+                            f"got {len(text)} characters")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -77,17 +104,27 @@ def loads(text: str, source: str = "<string>") -> Creature:
         m = re.search(r"\s*\(at (.*)\)$", msg)
         where, why = (m.group(1), msg[: m.start()]) if m else ("TOML", msg)
         raise CreatureError(
-            f"{source}: {where}: expected valid TOML, got a syntax error ({why})"
+            f"{shown}: {where}: expected valid TOML, got a syntax error ({printable(why)})"
         ) from None
-    return _creature(_Table(source, "", data, TOP), _stem(source))
+    except RecursionError:  # tomllib recurses once per level of nested arrays and inline tables
+        raise CreatureError(f"{shown}: expected valid TOML, got arrays or tables nested too deep to read") from None
+    try:
+        return _creature(_Table(shown, "", data, TOP), _stem(source))
+    except RecursionError:  # a deeply nested value that parsed, met where a number was expected
+        raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
 
 
 def _creature(t: _Table, default_name: str) -> Creature:
     links = _links(t)
+    n_contacts = sum(len(k.contacts) for k in links)
+    if n_contacts > MAX_CONTACTS:
+        i = max(range(len(links)), key=lambda i: len(links[i].contacts))
+        raise t.error(f"links[{i}].contacts", f"at most {MAX_CONTACTS} contact points in all links together",
+                      f"{n_contacts} in all")
     world = _world(t.table("world", WORLD))
-    sensors = _named(t, "sensors", None, "S", lambda s, nm: _sensor(s, nm, links))
-    actuators = _named(t, "actuators", None, "A", lambda s, nm: _actuator(s, nm, links))
-    springs = _named(t, "springs", SPRINGS, "K", lambda s, nm: _spring(s, nm, links))
+    sensors = _named(t, "sensors", None, "S", lambda s, nm: _sensor(s, nm, links), MAX_SENSORS)
+    actuators = _named(t, "actuators", None, "A", lambda s, nm: _actuator(s, nm, links), MAX_ACTUATORS)
+    springs = _named(t, "springs", SPRINGS, "K", lambda s, nm: _spring(s, nm, links), MAX_SPRINGS)
     evaluation = _evaluation(t.table("evaluation", EVALUATION), links)
 
     for i, s in enumerate(sensors):
@@ -110,10 +147,14 @@ def _creature(t: _Table, default_name: str) -> Creature:
                 f"a joint not driven by actuators[{driven[a.joint]}]",
                 a.joint,
             )
+    dt = t.get("dt", within(*DT_RANGE, "s"), spec_default(Creature, "dt"))
+    if evaluation.seconds / dt > MAX_STEPS:
+        raise t.error("evaluation.seconds", f"at most {MAX_STEPS * dt:g} s ({MAX_STEPS:,} steps of dt = {dt:g} s)",
+                      evaluation.seconds)
     creature = Creature(
         name=t.get("name", nonempty, default_name),
-        description=t.get("description", string, spec_default(Creature, "description")),
-        dt=t.get("dt", positive("s"), spec_default(Creature, "dt")),
+        description=t.get("description", text(MAX_DESCRIPTION), spec_default(Creature, "description")),
+        dt=dt,
         links=links,
         sensors=sensors,
         actuators=actuators,
@@ -123,7 +164,29 @@ def _creature(t: _Table, default_name: str) -> Creature:
         evaluation=evaluation,
     )
     _check_inertia(t, creature)
+    _check_ground(t, creature)
     return creature
+
+
+def _check_ground(t: _Table, creature: Creature) -> None:
+    """The ground's spring must be resolvable by the step in float32 (spec.MAX_GROUND_STIFFNESS_
+    RATIO): k dt^2 / m bounded for the lightest mass per contact point. The step treats the spring
+    implicitly, so it never explodes; past the bound it returns nonsense (bodies thrown at m/s)."""
+    k, dt = creature.world.ground.stiffness, creature.dt
+    carried = [(link.mass / len(link.contacts), i) for i, link in enumerate(creature.links) if link.contacts]
+    if not carried:
+        return
+    m, i = min(carried)
+    if k * dt * dt / m <= MAX_GROUND_STIFFNESS_RATIO:
+        return
+    most = MAX_GROUND_STIFFNESS_RATIO * m / (dt * dt)
+    why = (f"(k dt^2 / m <= {MAX_GROUND_STIFFNESS_RATIO:g} with dt = {dt:g} s and link {creature.links[i].name!r} "
+           f"carrying {m:g} kg per contact point: a stiffer ground is not resolved by the step)")
+    ground = t.data.get("world", {}).get("ground", {})
+    if isinstance(ground, dict) and "stiffness" in ground:
+        raise t.error("world.ground.stiffness", f"at most {most:.3g} N/m {why}", k)
+    raise t.error(f"links[{i}].mass", f"at least {k * dt * dt / MAX_GROUND_STIFFNESS_RATIO * len(creature.links[i].contacts):.3g} kg "
+                  f"for the ground's stiffness {k:g} N/m {why}", creature.links[i].mass)
 
 
 # Smallest over largest eigenvalue of M below which a dof has, for float32 arithmetic, no inertia.
@@ -153,10 +216,11 @@ def _san(t: _Table | None) -> SanConfig:
     if t is None:
         return SanConfig()
     d = SanConfig()
+    delay = within(*DELAY_RANGE, "s")
     return SanConfig(
-        hidden=t.get("hidden", integer(0), d.hidden),
-        delay_on=t.get("delay_on", positive("s"), d.delay_on),
-        delay_off=t.get("delay_off", positive("s"), d.delay_off),
+        hidden=t.get("hidden", integer(0, MAX_HIDDEN), d.hidden),
+        delay_on=t.get("delay_on", delay, d.delay_on),
+        delay_off=t.get("delay_off", delay, d.delay_off),
     )
 
 
@@ -197,7 +261,7 @@ def _world(t: _Table | None) -> World:
     follow = None
     if f:
         follow = Follow(
-            points=f.get("points", points("a list of at least 2 points [[x, y], ...] (m)", 2)),
+            points=f.get("points", points(f"a list of 2 to {MAX_POINTS} points [[x, y], ...] (m)", 2)),
             speed=f.get("speed", nonneg("m/s")),
             loop=f.get("loop", boolean, spec_default(Follow, "loop")),
         )

@@ -28,6 +28,36 @@ TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
 PLANES: tuple[Plane, ...] = get_args(Plane)
 METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
 DIRECTIONS: tuple[Direction, ...] = get_args(Direction)
+# The unit of each metric's score (hopping adds k times a height integral in m^2 s to metres).
+SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hopping": "m + k m^2 s", "pursuit": "m"}
+
+# Limits of the format (FORMAT.md, "Limits"): sizes that keep `sanlab check` within a second and a
+# network within memory, and numbers that keep a run meaningful in float32. Written once here;
+# the loader enforces them with its usual one-line errors.
+MAX_FILE_BYTES = 1 << 20  # a creature file
+MAX_NAME = 64  # characters in a name (links, sensors, actuators, springs, the creature)
+MAX_DESCRIPTION = 500  # characters in the description
+MAX_LINKS = 32
+MAX_POINTS = 64  # in one outline, one contact list or the follow path
+MAX_CONTACTS = 128  # contact points, all links together
+MAX_SENSORS = 64
+MAX_ACTUATORS = 32
+MAX_HIDDEN = 64
+MAX_SPRINGS = 32
+MAX_MAGNITUDE = 1e6  # any number, in the file's unit (1e39 would overflow float32)
+MAX_COORDINATE = 1e3  # m: any point, position or length (float32 keeps mm at 1 km)
+MIN_POSITIVE = 1e-9  # the smallest value a "> 0" field takes
+DT_RANGE = (1e-5, 1e-2)  # s: the time step (beyond 10 ms a falling body enters the ground cm deep per step)
+MAX_STEPS = 1_000_000  # evaluation seconds / dt: steps of one trial
+DELAY_RANGE = (1e-3, 100.0)  # s: a node's delays T_on, T_off
+# The ground spring must be resolvable in float32: k dt^2 / m <= this for every link with contact
+# points (m its mass per contact point). Measured on the bounder: 1e9 N/m (3e3) still runs as at
+# 5e4 N/m; 1e12 N/m (3e6) throws it at 9 m/s.
+MAX_GROUND_STIFFNESS_RATIO = 1e4
+# A run is flagged (like a non-finite one) once a contact goes deeper than this fraction of the
+# creature's size, or MAX_PENETRATION, whichever is smaller: the ground no longer holds it.
+PENETRATION_FRACTION = 0.25
+MAX_PENETRATION = 0.1  # m
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,12 @@ or upgraded when it is opened.
 
 A library is an SQLite file whose header says ``application_id`` = :data:`APPLICATION_ID` and
 ``user_version`` = the schema version it was written with. Opening a file with an older schema
-version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is refused.
+version applies :data:`MIGRATIONS` in order, in one transaction; a newer one is refused. Opened
+read-only, an older file is read as it is (nothing is written).
+
+Version 2 adds ``runs.owner``: which process (host, pid, start time) writes a running run, so
+that a run whose process was killed outright reads as "interrupted", not "running" for ever; and
+``fell`` to the rank index, which ranks a gait that stayed up before one that fell at equal scores.
 """
 
 from __future__ import annotations
@@ -13,13 +18,16 @@ import os
 import sqlite3
 from collections.abc import Callable
 
+from sanlab.creature.files import NotRegularFile, read_regular_file
 from sanlab.library.errors import LibraryError
 
 APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
-SCHEMA_VERSION = 2  # PRAGMA user_version
+SCHEMA_VERSION = 3  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
+
+RANK_INDEX = "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, fell, idx)"
 
 DDL = (
     """
@@ -37,7 +45,8 @@ DDL = (
         dtype          TEXT,
         status         TEXT NOT NULL CHECK (status IN ('running', 'done', 'interrupted')),
         parent_gait    TEXT,                    -- 'RUN#IDX' a tuning run starts from
-        total          INTEGER NOT NULL CHECK (total >= 0)  -- evaluations planned
+        total          INTEGER NOT NULL CHECK (total >= 0), -- evaluations planned
+        owner          TEXT                     -- JSON {host, pid, start} of the process writing it
     )
     """,
     "CREATE INDEX runs_by_created ON runs (created)",
@@ -57,8 +66,9 @@ DDL = (
         PRIMARY KEY (run_id, idx)
     )
     """,
-    # Serves top() and gait('RUN/RANK') without sorting the run's evaluations.
-    "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, idx)",
+    # Serves top() and gait('RUN/RANK') without sorting the run's evaluations: its columns are
+    # store._RANK_ORDER's, in its order.
+    RANK_INDEX,
     """
     CREATE TABLE trace (
         run_id   TEXT NOT NULL REFERENCES runs (run_id) ON DELETE CASCADE,
@@ -69,7 +79,7 @@ DDL = (
     ) WITHOUT ROWID
     """,
 )
-# Version 2: artefact audits (``sanlab audit``), one per audited gait, the latest kept.
+# Version 3: artefact audits (``sanlab audit``), one per audited gait, the latest kept.
 AUDITS_DDL = """
     CREATE TABLE audits (
         run_id      TEXT NOT NULL,
@@ -90,11 +100,17 @@ TABLES = ("runs", "evaluations", "trace", "audits")
 Migration = Callable[[sqlite3.Connection], None]
 
 
+def _owner_and_fell(conn: sqlite3.Connection) -> None:
+    conn.execute("ALTER TABLE runs ADD COLUMN owner TEXT")
+    conn.execute("DROP INDEX IF EXISTS evaluations_by_rank")
+    conn.execute(RANK_INDEX)
+
+
 def _add_audits(conn: sqlite3.Connection) -> None:
     conn.execute(AUDITS_DDL)
 
 
-MIGRATIONS: dict[int, Migration] = {1: _add_audits}
+MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell, 2: _add_audits}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 
@@ -107,6 +123,8 @@ def check_file(path: str) -> None:
     """
     if path == ":memory:" or path.startswith("file:"):
         return
+    if not path.strip():
+        raise LibraryError("the gait library's path is empty (give --db PATH)")
     if os.path.isdir(path):
         raise LibraryError(f"{path}: is a directory, not a gait library")
     if not os.path.exists(path):
@@ -115,9 +133,10 @@ def check_file(path: str) -> None:
             raise LibraryError(f"{path}: cannot create a gait library there: "
                                f"directory {folder} does not exist")
         return
-    try:
-        with open(path, "rb") as f:
-            head = f.read(4096)
+    try:  # opened without blocking: a FIFO or a device is refused, never waited on
+        head = read_regular_file(path, 0, head=4096)
+    except NotRegularFile as e:
+        raise LibraryError(f"{path}: is {e.kind}, not a gait library (give --db the path of a file)") from None
     except OSError as e:
         raise LibraryError(f"{path}: cannot read: {e.strerror or e}") from None
     if head and not head.startswith(_SQLITE_MAGIC):  # an empty file becomes a new library
@@ -125,13 +144,25 @@ def check_file(path: str) -> None:
         raise LibraryError(f"{path}: not a database file ({what})")
 
 
-def open_schema(conn: sqlite3.Connection, path: str) -> None:
+def open_schema(conn: sqlite3.Connection, path: str, readonly: bool = False) -> None:
     """Make ``conn`` (autocommit mode) ready to use: create the schema in an empty file, upgrade
     an older one, refuse a foreign, newer or damaged one (LibraryError naming ``path``); then set
-    WAL journaling, ``synchronous = NORMAL`` and foreign keys."""
+    WAL journaling, ``synchronous = NORMAL`` and foreign keys. ``readonly``: write nothing (an
+    empty file is refused, an older schema read as it is)."""
     app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     version = conn.execute("PRAGMA user_version").fetchone()[0]
-    if app_id == 0 and version == 0 and _is_empty(conn):
+    if readonly:
+        if app_id == 0 and version == 0 and _is_empty(conn):
+            raise LibraryError(f"{path}: an empty file, not yet a gait library (a search creates one)")
+        if app_id != APPLICATION_ID:
+            raise LibraryError(f"{path}: not a sanlab gait library "
+                               "(it is an SQLite database of another application)")
+        if version > SCHEMA_VERSION:
+            raise LibraryError(f"{path}: written by a newer sanlab (library schema version "
+                               f"{version}; this sanlab reads up to {SCHEMA_VERSION})")
+        if version < 1:
+            raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
+    elif app_id == 0 and version == 0 and _is_empty(conn):
         _create(conn)
     elif app_id != APPLICATION_ID:
         raise LibraryError(f"{path}: not a sanlab gait library "
@@ -146,6 +177,8 @@ def open_schema(conn: sqlite3.Connection, path: str) -> None:
     missing = [t for t in TABLES if not _has_table(conn, t)]
     if missing:
         raise LibraryError(f"{path}: damaged sanlab gait library (missing table {missing[0]!r})")
+    if readonly:
+        return
     # WAL is persistent in the file; setting it again would need a lock a writer may hold.
     if conn.execute("PRAGMA journal_mode").fetchone()[0].lower() != "wal":
         conn.execute("PRAGMA journal_mode = WAL")

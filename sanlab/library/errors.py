@@ -9,6 +9,10 @@ from __future__ import annotations
 
 import sqlite3
 
+from sanlab.creature import printable
+
+MAX_MESSAGE = 600  # characters of a LibraryError's message
+
 
 class LibraryError(Exception):
     """A one-line, user-facing problem with a gait library or a request to it.
@@ -18,6 +22,11 @@ class LibraryError(Exception):
     """
 
     def __init__(self, message: str, *, sqlite_errorname: str | None = None):
+        # One printable line of reasonable length whatever it quotes (a key with an escape
+        # sequence, a value nested a thousand deep): it is printed as it is.
+        message = printable(str(message))
+        if len(message) > MAX_MESSAGE:
+            message = message[: MAX_MESSAGE - 3] + "..."
         super().__init__(message)
         self.sqlite_errorname = sqlite_errorname
 

@@ -6,7 +6,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import pathlib
 import secrets
+import socket
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -15,7 +17,20 @@ from typing import Any
 
 from sanlab import __version__
 from sanlab.library import _schema, errors
-from sanlab.library._values import as_float, index, integer, real, sha256, to_json
+from sanlab.library._values import (
+    BadText,
+    Damaged,
+    as_float,
+    decode_text,
+    from_json,
+    from_text,
+    index,
+    integer,
+    real,
+    sha256,
+    text,
+    to_json,
+)
 from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import export_record, validate_gait
 from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
@@ -23,8 +38,10 @@ from sanlab.library.records import AuditRecord, Evaluation, EvaluationRow, Run, 
 
 DEFAULT_PATH = "sanlab.db"
 
-# Best first; non-finite ones (and NaN scores, stored as NULL, which sort last under DESC) last.
-_RANK_ORDER = "nonfinite ASC, score DESC, idx ASC"
+# Best first; at equal scores a gait that stayed up before one that fell (so fallen gaits scored
+# 0 never fill a top 10 ahead of standing ones); non-finite ones (and NaN scores, stored as NULL,
+# which sort last under DESC) last.
+_RANK_ORDER = "nonfinite ASC, score DESC, fell ASC, idx ASC"
 _RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) "
                "AS n FROM runs r")
 
@@ -42,8 +59,22 @@ class Library:
 
     - **Opening.** A missing or empty file is created as a new library (its directory must
       exist); an older schema is upgraded in one transaction; a foreign, damaged or newer file is
-      refused and left untouched. Every problem is a :class:`LibraryError` with a one-line
-      message naming the file (``timeout`` s: how long to wait for another writer's lock).
+      refused and left untouched, and so is anything that is not a regular file (a FIFO is never
+      waited on). Every problem is a :class:`LibraryError` with a one-line message naming the
+      file (``timeout`` s: how long to wait for another writer's lock).
+    - **Reading only.** ``readonly=True`` writes nothing, ever: it reads a library in a folder
+      the user cannot write (where SQLite cannot make its ``-shm`` file, the file is read as
+      immutable, which is exact as long as no ``-wal`` file holds uncheckpointed commits) and
+      refuses a missing or empty file.
+    - **Damaged cells.** A stored value that cannot be read back (text that is not UTF-8, JSON
+      that does not parse, a value of the wrong type) never ends in a traceback: :meth:`runs`
+      lists such a run with status "damaged", and reading it (:meth:`get_run`, :meth:`gait`,
+      :meth:`top`, ...) raises a LibraryError naming the run, the column and what to do. Nothing
+      else in the file is affected.
+    - **Owners.** A running run records the process writing it (host, pid, start time); once
+      that process is gone (killed outright, so it could not say so), the run reads as
+      "interrupted" (:meth:`mark_stale_runs` also stores it so), and only its owner may write it
+      while it lives.
     - **Atomicity.** Every method that writes is one transaction: a batch of evaluations, a
       trace, a new run or a status change is stored whole or not at all.
     - **Durability.** WAL journaling with ``synchronous = NORMAL``: a committed transaction
@@ -59,31 +90,77 @@ class Library:
       per thread or process instead of sharing it.
     """
 
-    def __init__(self, path: str | os.PathLike = DEFAULT_PATH, *, timeout: float = 30.0):
+    def __init__(self, path: str | os.PathLike = DEFAULT_PATH, *, timeout: float = 30.0,
+                 readonly: bool = False):
         self.path = os.fspath(path)
         self.timeout = timeout
+        self.readonly = readonly
         self._conn: sqlite3.Connection | None = None
         _schema.check_file(self.path)
+        if readonly and not self.path.startswith("file:") and self.path != ":memory:" \
+                and not os.path.exists(self.path):
+            raise LibraryError(f"{self.path}: no such gait library (give --db PATH)")
+        conn = self._connect()
+        try:
+            _schema.open_schema(conn, self.path, readonly)
+        except sqlite3.Error as e:
+            conn.close()
+            if readonly and self._cannot_share(e):
+                conn = self._connect(immutable=True)  # a read-only folder: no -shm can be made
+            else:
+                raise self._open_error(e) from None
+        except LibraryError:
+            conn.close()
+            raise
+        self._conn = conn
+
+    def _connect(self, immutable: bool = False) -> sqlite3.Connection:
+        target, uri = self.path, False
+        if self.readonly and not self.path.startswith("file:") and self.path != ":memory:":
+            flag = "immutable=1" if immutable else "mode=ro"
+            target, uri = f"{pathlib.Path(os.path.abspath(self.path)).as_uri()}?{flag}", True
         try:
             # Autocommit mode: transactions are opened explicitly (BEGIN IMMEDIATE) by _write.
-            conn = sqlite3.connect(self.path, timeout=timeout, isolation_level=None)
+            conn = sqlite3.connect(target, timeout=self.timeout, isolation_level=None, uri=uri)
         except sqlite3.Error as e:
             raise LibraryError(f"{self.path}: cannot open: {e}",
                                sqlite_errorname=errors.errorname(e) or None) from None
         conn.row_factory = sqlite3.Row
-        try:
-            _schema.open_schema(conn, self.path)
-        except LibraryError:
-            conn.close()
-            raise
-        except sqlite3.Error as e:
-            conn.close()
-            name = errors.errorname(e)
-            if errors.is_busy(name):
-                raise errors.from_sqlite(e, self.path, timeout) from None
-            raise LibraryError(f"{self.path}: not a usable database file ({e})",
-                               sqlite_errorname=name or None) from None
-        self._conn = conn
+        conn.text_factory = decode_text  # bad UTF-8 in a cell is read, marked, never raised
+        if immutable:
+            try:
+                _schema.open_schema(conn, self.path, True)
+            except sqlite3.Error as e:
+                conn.close()
+                raise self._open_error(e) from None
+            except LibraryError:
+                conn.close()
+                raise
+        return conn
+
+    def _cannot_share(self, e: sqlite3.Error) -> bool:
+        """Whether ``e`` is SQLite failing to make the WAL index (-shm) of a library it may only
+        read, and the file can be read as immutable without missing a commit (no -wal)."""
+        name = errors.errorname(e)
+        if not (name.startswith("SQLITE_CANTOPEN") or name.startswith("SQLITE_READONLY")):
+            return False
+        wal = self.path + "-wal"
+        if os.path.exists(wal) and os.path.getsize(wal) > 0:
+            raise LibraryError(f"{self.path}: cannot read: its folder is read-only and {wal} holds "
+                               "commits not yet in the file; open it once where the folder is "
+                               "writable (or copy the folder with both files)") from None
+        return True
+
+    def _open_error(self, e: sqlite3.Error) -> LibraryError:
+        name = errors.errorname(e)
+        if errors.is_busy(name):
+            return errors.from_sqlite(e, self.path, self.timeout)
+        if name.startswith("SQLITE_READONLY") or name.startswith("SQLITE_CANTOPEN"):
+            return LibraryError(f"{self.path}: cannot write: the file or its folder is read-only ({e}); "
+                                "commands that only read it work, to write give --db a writable copy",
+                                sqlite_errorname=name)
+        return LibraryError(f"{self.path}: not a usable database file ({e})",
+                            sqlite_errorname=name or None)
 
     # -- plumbing --------------------------------------------------------------------------------
 
@@ -135,6 +212,10 @@ class Library:
         if conn.execute("SELECT 1 FROM runs WHERE run_id = ?", (run_id,)).fetchone() is None:
             raise LibraryError(f"no run {run_id!r} in {self.path}")
 
+    def _damaged(self, what: str, e: Damaged) -> LibraryError:
+        return LibraryError(f"{self.path}: {what} is damaged ({e}); the rest of the library is intact: "
+                            "restore this file from a backup to read it, or leave it be")
+
     # -- runs ------------------------------------------------------------------------------------
 
     def create_run(self, kind: str, creature: str, creature_text: str, params: dict,
@@ -148,6 +229,13 @@ class Library:
         gait) may be given in either gait id form; it is stored as the permanent ``RUN#IDX``.
         Raises LibraryError on a bad argument.
         """
+        return self.get_run(self._insert_run(self._run_values(
+            kind, creature, creature_text, params, seed, total, dtype, device, sanlab_version, parent_gait)))
+
+    def _run_values(self, kind: str, creature: str, creature_text: str, params: dict, seed: int | None,
+                    total: int, dtype: str | None, device: str | None, sanlab_version: str | None,
+                    parent_gait: str | None) -> dict:
+        """The ``runs`` columns of a new run, every value checked (LibraryError)."""
         if kind not in _schema.RUN_KINDS:
             raise LibraryError(f"unknown run kind {kind!r} "
                                f"(expected one of {', '.join(_schema.RUN_KINDS)})")
@@ -158,14 +246,22 @@ class Library:
         total = index(total, "total")
         if parent_gait is not None:
             parent_gait = self.gait(parent_gait).gait_id
+        status = "done" if kind == "import" else "running"
+        optional = lambda v, what: None if v is None else text(v, what)
         values = dict(
             kind=kind, created=datetime.now(timezone.utc).isoformat(timespec="microseconds"),
-            creature=str(creature), creature_text=creature_text,
-            creature_hash=sha256(creature_text), params=to_json(params, "run params"),
+            creature=text(str(creature), "creature"), creature_text=text(creature_text, "creature_text"),
+            creature_hash=sha256(creature_text), params=to_json(params, "run params", finite=True),
             seed=None if seed is None else integer(seed, "seed"),
-            sanlab_version=sanlab_version or __version__, device=device, dtype=dtype,
-            status="done" if kind == "import" else "running", parent_gait=parent_gait,
-            total=total)
+            sanlab_version=text(sanlab_version or __version__, "sanlab_version"),
+            device=optional(device, "device"), dtype=optional(dtype, "dtype"),
+            status=status, parent_gait=parent_gait, total=total,
+            owner=_owner() if status == "running" else None)
+        return values
+
+    def _insert_run(self, values: dict, rows: list | None = None) -> str:
+        """Insert a run (column values) under a fresh id, and with it ``rows`` (evaluation
+        values, run id first) in the same transaction; returns the id."""
         for _ in range(20):
             run_id = secrets.token_hex(4)
             try:
@@ -173,35 +269,97 @@ class Library:
                     conn.execute(
                         f"INSERT INTO runs (run_id, {', '.join(values)}) "
                         f"VALUES (?{', ?' * len(values)})", (run_id, *values.values()))
+                    if rows:
+                        conn.executemany(
+                            "INSERT INTO evaluations (run_id, idx, encoding, params, score, speed_cm_s, "
+                            "fell, nonfinite, extra, parent) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            [(run_id, *r[1:]) for r in rows])
             except LibraryError as e:
                 if errors.is_duplicate(e.sqlite_errorname):
                     continue  # 1 in 4 billion per existing run: draw another id
                 raise
-            return self.get_run(run_id)
+            return run_id
         raise LibraryError(f"{self.path}: could not find a free run id")
 
     def set_status(self, run_id: str, status: str) -> None:
-        """Mark a run "running", "done" or "interrupted"."""
+        """Mark a run "running" (this process becomes its owner: refused while another live
+        process owns it), "done" or "interrupted"."""
         if status not in _schema.RUN_STATUSES:
             raise LibraryError(f"unknown run status {status!r} "
                                f"(expected one of {', '.join(_schema.RUN_STATUSES)})")
         with self._write() as conn:
-            if conn.execute("UPDATE runs SET status = ? WHERE run_id = ?",
-                            (status, run_id)).rowcount == 0:
+            row = conn.execute("SELECT status, owner FROM runs WHERE run_id = ?", (run_id,)).fetchone()
+            if row is None:
                 raise LibraryError(f"no run {run_id!r} in {self.path}")
+            owner = row["owner"]
+            if status == "running":
+                other = _parse_owner(owner)
+                if row["status"] == "running" and other is not None and other != _me() and _alive(other):
+                    raise LibraryError(f"{self.path}: run {run_id} is being written by process "
+                                       f"{other.get('pid')} on {other.get('host')}; wait for it to "
+                                       "finish, or stop it first")
+                owner = _owner()
+            conn.execute("UPDATE runs SET status = ?, owner = ? WHERE run_id = ?", (status, owner, run_id))
 
     def get_run(self, run_id: str) -> Run:
-        """The run with this id or unambiguous id prefix."""
+        """The run with this id or unambiguous id prefix (a LibraryError if it is damaged)."""
         run_id = self._resolve(run_id)
         with self._sql() as conn:
             row = conn.execute(_RUNS_QUERY + " WHERE r.run_id = ?", (run_id,)).fetchone()
-        return _run(row)
+        try:
+            return _run(row)
+        except Damaged as e:
+            raise self._damaged(f"run {run_id}", e) from None
 
     def runs(self) -> list[Run]:
-        """All runs, newest first."""
+        """All runs, newest first; a damaged one with status "damaged" (and whatever of it
+        could be read: text with U+FFFD for bad bytes, params {} when they do not parse)."""
         with self._sql() as conn:
             rows = conn.execute(_RUNS_QUERY + " ORDER BY r.created DESC, r.rowid DESC").fetchall()
-        return [_run(r) for r in rows]
+        out = []
+        for r in rows:
+            try:
+                out.append(_run(r))
+            except Damaged:
+                out.append(_run(r, strict=False))
+        return out
+
+    def damage(self, run_id: str) -> str | None:
+        """Why run ``run_id`` cannot be read (e.g. "its params are not valid JSON"), or None."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            row = conn.execute(_RUNS_QUERY + " WHERE r.run_id = ?", (run_id,)).fetchone()
+        try:
+            _run(row)
+        except Damaged as e:
+            return str(e)
+        return None
+
+    def mark_stale_runs(self) -> list[str]:
+        """Store "interrupted" for every run whose status says "running" but whose owner process
+        on this host is gone (killed outright); returns their ids. Runs owned on other hosts
+        are left alone (there is no telling whether their process lives)."""
+        with self._sql() as conn:
+            rows = conn.execute("SELECT run_id, owner FROM runs WHERE status = 'running'").fetchall()
+        stale = [r["run_id"] for r in rows if _stale(r["owner"])]
+        if stale:
+            with self._write() as conn:
+                for run_id in stale:  # checked again under the write lock: the owner may have moved on
+                    row = conn.execute("SELECT status, owner FROM runs WHERE run_id = ?", (run_id,)).fetchone()
+                    if row is not None and row["status"] == "running" and _stale(row["owner"]):
+                        conn.execute("UPDATE runs SET status = 'interrupted' WHERE run_id = ?", (run_id,))
+        return stale
+
+    def discard_run(self, run_id: str) -> None:
+        """Delete a run that has no evaluations yet (one that failed before its first batch), so
+        it leaves nothing behind; a run with stored evaluations is refused (nothing is lost)."""
+        with self._write() as conn:
+            self._require_run(conn, run_id)
+            n = conn.execute("SELECT count(*) FROM evaluations WHERE run_id = ?", (run_id,)).fetchone()[0]
+            if n:
+                raise LibraryError(f"run {run_id} has {n} stored evaluation{'s' * (n != 1)}; it is kept")
+            conn.execute("DELETE FROM trace WHERE run_id = ?", (run_id,))
+            conn.execute("DELETE FROM runs WHERE run_id = ?", (run_id,))
 
     # -- evaluations -----------------------------------------------------------------------------
 
@@ -280,21 +438,55 @@ class Library:
     def top(self, run_id: str, n: int | None = 10) -> list[Evaluation]:
         """The run's best ``n`` evaluations (all with ``n=None``), best first, with ranks.
 
-        Ranked by score descending, ties by idx ascending; non-finite evaluations come last.
+        Ranked by score descending, then standing before fallen, then idx ascending; non-finite
+        evaluations come last.
         """
         run_id = self._resolve(run_id)
         limit = -1 if n is None else max(0, integer(n, "n"))
         with self._sql() as conn:
             rows = conn.execute(f"SELECT * FROM evaluations WHERE run_id = ? "
                                 f"ORDER BY {_RANK_ORDER} LIMIT ?", (run_id, limit)).fetchall()
-        return [_evaluation(r, rank) for rank, r in enumerate(rows, 1)]
+        return [self._evaluation(r, rank) for rank, r in enumerate(rows, 1)]
+
+    def tally(self, run_id: str) -> dict[str, int]:
+        """How many of the run's stored evaluations there are, fell, and went non-finite:
+        {"evaluated", "fell", "nonfinite"} (what a search reports under its table)."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            n, fell, nonfinite = conn.execute(
+                "SELECT count(*), coalesce(sum(fell), 0), coalesce(sum(nonfinite), 0) FROM evaluations "
+                "WHERE run_id = ?", (run_id,)).fetchone()
+        return {"evaluated": n, "fell": fell, "nonfinite": nonfinite}
+
+    def same_runs(self, kind: str, creature_text: str, params: dict, seed: int | None) -> list[Run]:
+        """Earlier runs of ``kind`` with this exact creature text, settings and seed, newest first:
+        a new run like them would repeat them (their results are already in the library)."""
+        key = to_json(params, "run params", finite=True)
+        with self._sql() as conn:
+            rows = conn.execute(_RUNS_QUERY + " WHERE r.kind = ? AND r.creature_hash = ? AND r.seed IS ? "
+                                "ORDER BY r.created DESC", (kind, sha256(creature_text), seed)).fetchall()
+        out = []
+        for r in rows:
+            try:
+                run = _run(r)
+            except Damaged:
+                continue
+            if run.creature_text == creature_text and to_json(run.params, "run params") == key:
+                out.append(run)
+        return out
 
     def scores(self, run_id: str) -> list[float]:
         """Every stored score of the run in idx order (NaN where the score was not a number)."""
         run_id = self._resolve(run_id)
         with self._sql() as conn:
-            return [as_float(r[0]) for r in conn.execute(
-                "SELECT score FROM evaluations WHERE run_id = ? ORDER BY idx", (run_id,))]
+            rows = conn.execute("SELECT idx, score FROM evaluations WHERE run_id = ? ORDER BY idx", (run_id,)).fetchall()
+        out = []
+        for r in rows:
+            try:
+                out.append(as_float(r[1]))
+            except Damaged as e:
+                raise self._damaged(f"gait {run_id}#{r[0]}'s score", e) from None
+        return out
 
     def gait(self, gait_id: str) -> Evaluation:
         """The evaluation named ``RUN/RANK`` (1-based, best first) or ``RUN#IDX``."""
@@ -309,13 +501,19 @@ class Library:
                     n = self.count(run_id)
                     raise LibraryError(f"no gait {gait_id!r}: run {run_id} has {n} "
                                        f"evaluation{'s' * (n != 1)}")
-                return _evaluation(row, rank)
+                return self._evaluation(row, rank)
             row = conn.execute(
                 f"SELECT * FROM (SELECT *, row_number() OVER (ORDER BY {_RANK_ORDER}) AS rank "
                 "FROM evaluations WHERE run_id = ?) WHERE idx = ?", (run_id, idx)).fetchone()
         if row is None:
             raise LibraryError(f"no gait {gait_id!r}: run {run_id} has no evaluation #{idx}")
-        return _evaluation(row, row["rank"])
+        return self._evaluation(row, row["rank"])
+
+    def _evaluation(self, row: sqlite3.Row, rank: int | None) -> Evaluation:
+        try:
+            return _evaluation(row, rank)
+        except Damaged as e:
+            raise self._damaged(f"gait {row['run_id']}#{row['idx']}", e) from None
 
     # -- artefact audits -------------------------------------------------------------------------
 
@@ -366,7 +564,10 @@ class Library:
         with self._sql() as conn:
             rows = conn.execute("SELECT trial, score, accepted FROM trace WHERE run_id = ? "
                                 "ORDER BY trial", (run_id,)).fetchall()
-        return [TracePoint(r[0], as_float(r[1]), bool(r[2])) for r in rows]
+        try:
+            return [TracePoint(r[0], as_float(r[1]), bool(r[2])) for r in rows]
+        except Damaged as e:
+            raise self._damaged(f"the tuning trace of run {run_id}", e) from None
 
     # -- exchange --------------------------------------------------------------------------------
 
@@ -389,17 +590,17 @@ class Library:
         d = validate_gait(data)
         run_params = dict(d["run_params"], imported_from=d.get("source"))
         seed = run_params.get("seed")
-        run = self.create_run(
+        run = self._run_values(
             "import", d["creature"], d["creature_text"], run_params,
-            seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None, total=1,
-            dtype=d.get("dtype"), device=None, sanlab_version=d.get("sanlab_version"))
+            seed if isinstance(seed, int) and not isinstance(seed, bool) else None, 1,
+            d.get("dtype"), None, d.get("sanlab_version"), None)
         score = d["score"]
-        self.add_batch(run.run_id, [{
+        row = _evaluation_values("", 0, {
             "idx": 0, "encoding": d["encoding"], "params": d["params"],
             "score": math.nan if score is None else score,
             "speed_cm_s": d["speed_cm_s"], "fell": d["fell"],
-            "nonfinite": d.get("nonfinite", False), "extra": d.get("extra")}])
-        return f"{run.run_id}/1"
+            "nonfinite": d.get("nonfinite", False), "extra": d.get("extra")})
+        return f"{self._insert_run(run, [row])}/1"  # the run and its gait in one transaction
 
 
 # -- rows ----------------------------------------------------------------------------------------
@@ -415,10 +616,9 @@ def _evaluation_values(run_id: str, i: int, row: Any) -> tuple:
     if unknown:
         raise LibraryError(f"batch row {i}: unknown field {', '.join(sorted(map(str, unknown)))} "
                            f"(put anything else in 'extra')")
-    where = f"batch row {i} (idx {row['idx']!r})"
+    where = f"batch row {i} (idx {str(row['idx'])[:40]})"
     idx = index(row["idx"], f"{where}: idx")
-    if not isinstance(row["encoding"], str):
-        raise LibraryError(f"{where}: encoding must be a str")
+    text(row["encoding"], f"{where}: encoding")
     params = row.get("params") or {}
     extra = row.get("extra")
     if not isinstance(params, dict) or not (extra is None or isinstance(extra, dict)):
@@ -441,19 +641,104 @@ def _trace_values(run_id: str, i: int, row: Any) -> tuple:
             int(bool(row["accepted"])))
 
 
-def _run(row: sqlite3.Row) -> Run:
-    return Run(run_id=row["run_id"], kind=row["kind"], created=row["created"],
-               creature=row["creature"], creature_text=row["creature_text"],
-               creature_hash=row["creature_hash"], params=json.loads(row["params"]),
-               seed=row["seed"], sanlab_version=row["sanlab_version"], device=row["device"],
-               dtype=row["dtype"], status=row["status"], parent_gait=row["parent_gait"],
-               total=row["total"], count=row["n"])
+def _cell(row: sqlite3.Row, column: str, read: Any) -> Any:
+    """``read(row[column])``, a Damaged error naming the column if the cell cannot be read."""
+    try:
+        return read(row[column])
+    except Damaged as e:
+        raise Damaged(f"its {column}: {e}") from None
+
+
+def _optional(read: Any) -> Any:
+    return lambda v: None if v is None else read(v)
+
+
+def _run(row: sqlite3.Row, strict: bool = True) -> Run:
+    """The Run of a ``runs`` row; ``strict=False``: whatever can be read, status "damaged"."""
+    if not strict:
+        lenient = lambda v: v if isinstance(v, str) else "" if v is None else repr(v)
+        try:
+            params = json.loads(str(row["params"]))
+        except (json.JSONDecodeError, RecursionError):
+            params = {}
+        return Run(run_id=lenient(row["run_id"]), kind=lenient(row["kind"]), created=lenient(row["created"]),
+                   creature=lenient(row["creature"]) or "?", creature_text="", creature_hash="",
+                   params=params if isinstance(params, dict) else {}, seed=None,
+                   sanlab_version=lenient(row["sanlab_version"]), device=None, dtype=None, status="damaged",
+                   parent_gait=None, total=row["total"] if isinstance(row["total"], int) else 0, count=row["n"])
+    status = _cell(row, "status", from_text)
+    if status == "running" and "owner" in row.keys() and _stale(row["owner"]):
+        status = "interrupted"  # its process is gone: it was killed before it could say so
+    return Run(run_id=_cell(row, "run_id", from_text), kind=_cell(row, "kind", from_text),
+               created=_cell(row, "created", from_text), creature=_cell(row, "creature", from_text),
+               creature_text=_cell(row, "creature_text", from_text),
+               creature_hash=_cell(row, "creature_hash", from_text), params=_cell(row, "params", from_json),
+               seed=_cell(row, "seed", _optional(_int)), sanlab_version=_cell(row, "sanlab_version", from_text),
+               device=_cell(row, "device", _optional(from_text)), dtype=_cell(row, "dtype", _optional(from_text)),
+               status=status, parent_gait=_cell(row, "parent_gait", _optional(from_text)),
+               total=_cell(row, "total", _int), count=row["n"])
+
+
+def _int(v: Any) -> int:
+    if isinstance(v, int) and not isinstance(v, bool):
+        return v
+    raise Damaged(f"an integer was expected, the cell holds {str(v)[:40]!r}")
 
 
 def _evaluation(row: sqlite3.Row, rank: int | None) -> Evaluation:
-    return Evaluation(run_id=row["run_id"], idx=row["idx"], encoding=row["encoding"],
-                      params=json.loads(row["params"]), score=as_float(row["score"]),
-                      speed_cm_s=as_float(row["speed_cm_s"]), fell=bool(row["fell"]),
+    return Evaluation(run_id=row["run_id"], idx=row["idx"], encoding=_cell(row, "encoding", from_text),
+                      params=_cell(row, "params", from_json), score=_cell(row, "score", as_float),
+                      speed_cm_s=_cell(row, "speed_cm_s", as_float), fell=bool(row["fell"]),
                       nonfinite=bool(row["nonfinite"]),
-                      extra=None if row["extra"] is None else json.loads(row["extra"]),
-                      parent=row["parent"], rank=rank)
+                      extra=_cell(row, "extra", _optional(from_json)),
+                      parent=_cell(row, "parent", _optional(from_text)), rank=rank)
+
+
+# -- owners of running runs ----------------------------------------------------------------------
+
+
+def _process_start(pid: int) -> str | None:
+    """When process ``pid`` started (Linux: clock ticks since boot, /proc), so that a reused pid
+    is not taken for the owner; None where that cannot be known."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[19].decode()
+    except (OSError, IndexError):
+        return None
+
+
+def _me() -> dict:
+    return {"host": socket.gethostname(), "pid": os.getpid(), "start": _process_start(os.getpid())}
+
+
+def _owner() -> str:
+    return json.dumps(_me(), sort_keys=True)
+
+
+def _parse_owner(owner: Any) -> dict | None:
+    try:
+        o = json.loads(owner) if isinstance(owner, str) and not isinstance(owner, BadText) else None
+    except (json.JSONDecodeError, RecursionError):
+        return None
+    return o if isinstance(o, dict) and isinstance(o.get("pid"), int) else None
+
+
+def _alive(owner: dict) -> bool:
+    """Whether the owner process still runs (True where it cannot be told: another host)."""
+    if owner.get("host") != socket.gethostname():
+        return True
+    pid = owner["pid"]
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True  # someone else's process, or a pid we cannot ask about: assume it lives
+    start = owner.get("start")
+    return start is None or _process_start(pid) in (None, start)
+
+
+def _stale(owner: Any) -> bool:
+    """A running run's owner column says its process is gone."""
+    o = _parse_owner(owner)
+    return o is not None and not _alive(o)

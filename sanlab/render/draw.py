@@ -274,14 +274,20 @@ def draw_label(canvas: Canvas, view: View, string: str, where: str = "tl", size:
 # ------------------------------------------------------------------------------ SAN panel
 
 
-def panel_rows(scene) -> list[tuple[str, np.ndarray, Color]]:
-    """(group, values [F, k], colour) of the panel: sensors, hidden nodes, actuator nodes."""
+def panel_rows(scene) -> list[tuple[str, np.ndarray, Color, list[str]]]:
+    """(group, values [F, k], colour, names [k]) of the panel: sensors, hidden nodes, actuator
+    nodes, each row named as the creature file names it (hidden nodes H1, H2, ...)."""
+    spec = scene.spec
     groups = [
-        ("sensors", scene.bits, NODE_SENSOR),
-        ("hidden", scene.nodes[:, : scene.n_hidden], NODE_HIDDEN),
-        ("actuators", scene.nodes[:, scene.n_hidden :], NODE_ACTUATOR),
+        ("sensors", scene.bits, NODE_SENSOR, [s.name for s in spec.sensors]),
+        ("hidden", scene.nodes[:, : scene.n_hidden], NODE_HIDDEN, [f"H{i + 1}" for i in range(scene.n_hidden)]),
+        ("actuators", scene.nodes[:, scene.n_hidden :], NODE_ACTUATOR, [a.name for a in spec.actuators]),
     ]
     return [g for g in groups if g[1].shape[1]]
+
+
+NAMED_ROWS = 40  # up to this many rows each is named (and tall enough to read its name)
+NAME_H = 10  # px per named row
 
 
 def panel_height(scene, width: int) -> int:
@@ -292,6 +298,8 @@ def panel_height(scene, width: int) -> int:
 
 
 def _row_h(rows: int) -> int:
+    if rows <= NAMED_ROWS:
+        return NAME_H
     return int(np.clip(round(100 / max(rows, 1)), 3, 8))
 
 
@@ -309,8 +317,9 @@ def _panel_image(scene, name: str, vals: np.ndarray, color: Color, rh: int) -> n
 
 def draw_panel(canvas: Canvas, scene, box, frames=None) -> None:
     """A raster of the SAN's outputs over the whole run in the pixel box (x0, y0, x1, y1):
-    rows = sensors (grey), hidden nodes (blue), actuator nodes (orange), columns = time; a red
-    cursor at each frame of ``frames`` (an int or a list)."""
+    rows = sensors (grey), hidden nodes (blue), actuator nodes (orange), each named as in the
+    creature file (up to NAMED_ROWS rows; beyond, by group), columns = time; a red cursor at each
+    frame of ``frames`` (an int or a list)."""
     x0, y0, x1, y1 = box
     saved = canvas.view
     canvas.view = View.screen(canvas.width, canvas.height)
@@ -319,14 +328,21 @@ def draw_panel(canvas: Canvas, scene, box, frames=None) -> None:
     groups = panel_rows(scene)
     rows = sum(g[1].shape[1] for g in groups)
     rh = _row_h(rows)
-    label_w = 64
+    named = rows <= NAMED_ROWS
+    label_w = 96 if named else 64
     gx0, gx1 = x0 + label_w, x1 - 10
     y = y0 + 8
     F = scene.n_frames
-    for name, vals, color in groups:
+    for name, vals, color, names in groups:
         k = vals.shape[1]
         canvas.raster(_panel_image(scene, name, vals, color, rh), (gx0, y, gx1, y + k * rh))
-        canvas.text((gx0 - 6, y + k * rh / 2), f"{name}", color if name != "sensors" else MUTED, 10, anchor="rm")
+        text = color if name != "sensors" else MUTED
+        if named:
+            for r, row in enumerate(names):
+                shown = row if len(row) <= 14 else row[:13] + "…"
+                canvas.text((gx0 - 6, y + (r + 0.45) * rh), shown, text, 8, anchor="rm")
+        else:
+            canvas.text((gx0 - 6, y + k * rh / 2), f"{name}", text, 10, anchor="rm")
         y += k * rh + 4
     canvas.text((gx0, y + 1), f"{scene.t[0]:g} s", MUTED, 9, anchor="la")
     canvas.text((gx1, y + 1), f"{scene.t[0] + scene.duration:.3g} s", MUTED, 9, anchor="ra")

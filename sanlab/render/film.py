@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
-from typing import Any
 
 import numpy as np
 
@@ -113,9 +112,10 @@ def camera(scene, width: int, height: int, mode: str = "auto") -> list[View]:
     return [View.centred(float(x), float(y), w, width, height) for x, y in zip(cx, cy)]
 
 
-def fixed_view(scene, width: int, height: int, frames=None, scale: float | None = None) -> View:
-    """One view containing the creature over ``frames`` (default: all), with the ground band
-    on the vertical plane. ``scale`` (px/m): use it where the trajectory fits, else fit."""
+def content_box(scene, frames=None) -> tuple[float, float, float, float]:
+    """(x0, y0, x1, y1) (m) that a fixed view of ``scene`` over ``frames`` (default: all) must
+    show: the creature (and follow point) with a margin, down to the ground on the vertical
+    plane."""
     s = scene.size()
     margin = 0.15 * s
     xlo, xhi, ylo, yhi = _extents(scene)
@@ -125,17 +125,25 @@ def fixed_view(scene, width: int, height: int, frames=None, scale: float | None 
     y0, y1 = float(ylo.min()) - margin, float(yhi.max()) + margin
     if scene.plane == "vertical":
         y0 = min(float(ylo.min()), float(np.min(scene.terrain(np.linspace(x0, x1, 64)))))
-        fit = min(width / (x1 - x0), height * (1 - GROUND_BAND) / (y1 - y0))
-    else:
-        fit = min(width / (x1 - x0), height / (y1 - y0))
+    return x0, y0, x1, y1
+
+
+def fixed_view(scene, width: int, height: int, frames=None, scale: float | None = None) -> View:
+    """One view containing the creature over ``frames`` (default: all), with the ground band
+    on the vertical plane. ``scale`` (px/m): use it where the trajectory fits, else fit. Room
+    the content does not fill is shared equally above and below it (on the vertical plane: half
+    to the sky, half to the ground), so the drawing sits in the middle of the picture rather
+    than under a band of empty sky."""
+    x0, y0, x1, y1 = content_box(scene, frames)
+    band = GROUND_BAND if scene.plane == "vertical" else 0.0
+    fit = min(width / (x1 - x0), height * (1 - band) / (y1 - y0))
     k = fit if scale is None else min(scale, fit)
     w, h = width / k, height / k
     cx = 0.5 * (x0 + x1)
-    if scene.plane == "vertical":
-        bottom = y0 - GROUND_BAND * h
-        return View(cx - w / 2, bottom, cx + w / 2, bottom + h, width, height)
-    cy = 0.5 * (y0 + y1)
-    return View(cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2, width, height)
+    used = (y1 - y0) / (1 - band)  # the content and its ground band
+    spare = max(0.0, h - used)
+    bottom = y0 - band * used - 0.5 * spare
+    return View(cx - w / 2, bottom, cx + w / 2, bottom + h, width, height)
 
 
 def frames(scene, width: int = 640, nodes: bool = False, camera_mode: str = "auto") -> Iterator:
@@ -185,24 +193,42 @@ MP4_PARAMS = [
 
 
 def write_mp4(path: str, images, fps: float, size: tuple[int, int]) -> int:
-    """H.264 (yuv420p, crf 18) at ``fps``; returns the number of frames written."""
+    """H.264 (yuv420p, crf 18) at ``fps``; returns the number of frames written.
+
+    Runs imageio-ffmpeg's bundled ffmpeg itself, with the command imageio-ffmpeg's
+    ``write_frames`` would build, but started in its own process group by ``process_group=0``
+    rather than by a Python ``preexec_fn``: that runs no Python in the forked child, so Ctrl-C
+    still reaches only sanlab and JAX's warning that ``os.fork()`` may deadlock never fires.
+    Raises OSError with ffmpeg's last message if it fails (a full disk, a bad path)."""
+    import subprocess
+    from fractions import Fraction
+
     import imageio_ffmpeg
 
-    # Its annotations say int for fps and quality; it documents (and we need) a float frame rate
-    # and quality=None (no -qscale, so that crf decides).
-    write_frames: Any = imageio_ffmpeg.write_frames
-    gen = write_frames(
-        path, size, fps=float(fps), codec="libx264", quality=None, macro_block_size=2,
-        ffmpeg_log_level="error", output_params=["-crf", "18", *MP4_PARAMS],
-    )
-    gen.send(None)
+    cmd = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{size[0]}x{size[1]}",
+        "-pix_fmt", "rgb24", "-r", str(Fraction(float(fps)).limit_denominator()), "-i", "-",
+        "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-v", "error", "-crf", "18", *MP4_PARAMS, path,
+    ]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            process_group=0)
+    assert proc.stdin is not None and proc.stderr is not None
     n = 0
     try:
         for im in images:
-            gen.send(np.ascontiguousarray(np.asarray(im.convert("RGB"), np.uint8)))
+            proc.stdin.write(np.ascontiguousarray(np.asarray(im.convert("RGB"), np.uint8)).tobytes())
             n += 1
-    finally:
-        gen.close()
+        proc.stdin.close()
+    except BrokenPipeError:
+        pass  # ffmpeg stopped reading: its message says why
+    except BaseException:
+        proc.kill()
+        proc.wait()
+        raise
+    err = proc.stderr.read().decode("utf-8", "replace").strip()
+    if proc.wait() != 0:
+        last = err.splitlines()[-1] if err else f"exit status {proc.returncode}"
+        raise OSError(f"ffmpeg could not write {path}: {last}")
     return n
 
 

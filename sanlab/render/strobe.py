@@ -1,14 +1,15 @@
 """Strobe pictures (multi-exposure, like the paper's Figures 10-15) and contact sheets.
 
-A strobe picture shows the whole trajectory in one fixed view: the creature drawn every Δt,
-older poses fainter (their colours mixed towards the background), the newest one in full with
-its centre of mass; the centre of mass's path as a thin line; the ground with distance ticks;
-a scale bar. Δt is chosen so that successive poses are about 0.4 creature widths apart along
+A strobe picture shows the whole trajectory in one fixed view, fitted to what moves: the
+creature drawn every Δt, older poses fainter (their colours mixed towards the background; a
+legend says pale is early), the newest one in full with its centre of mass; the centre of
+mass's path as a thin line; the ground with distance ticks; a scale bar; which way and how far
+the creature moved along x (an arrow). Δt is chosen so that successive poses are about 0.4 creature widths apart along
 the path, and at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded
 frames.
 
 A contact sheet puts one strobe tile per gait on a grid (:func:`sheet_layout`), each labelled
-with its rank, gait id and speed. Tiles share one scale (so that distances compare at a
+with its rank, gait id, speed and an arrow for its direction along x. Tiles share one scale (so that distances compare at a
 glance) unless a trajectory does not fit at it, or the common scale would shrink most tiles more
 than twofold: then that tile is fitted on its own; every tile has its scale bar.
 """
@@ -20,8 +21,8 @@ import math
 import numpy as np
 
 from sanlab.render import draw
-from sanlab.render.canvas import PillowCanvas, View
-from sanlab.render.film import even, fixed_view
+from sanlab.render.canvas import PillowCanvas, View, mix
+from sanlab.render.film import GROUND_BAND, content_box, even, fixed_view
 
 MIN_EXPOSURES, MAX_EXPOSURES = 8, 24
 MAX_DT = 0.4  # s: at least this often (within MAX_EXPOSURES), to catch fast cycles
@@ -54,15 +55,37 @@ def exposures(scene, n: int | None = None, most: int | None = None) -> list[int]
 
 
 def strobe_height(scene, width: int) -> int:
-    """A picture height that fits the trajectory's box at ``width`` (28%..80% of the width)."""
-    s = scene.size()
-    m = 0.15 * s
-    x0, y0, x1, y1 = scene.bounds()
-    bw = x1 - x0 + 2 * m
-    bh = y1 - y0 + 2 * m
-    if scene.plane == "vertical":
-        bh = bh / (1 - 0.2)
-    return even(int(np.clip(width * bh / bw, 0.28 * width, 0.8 * width)))
+    """The picture height at ``width`` that fits what moves (:func:`film.content_box`, and the
+    ground band on the vertical plane) exactly, within 20% to 80% of the width."""
+    x0, y0, x1, y1 = content_box(scene)
+    bh = (y1 - y0) / (1 - GROUND_BAND) if scene.plane == "vertical" else y1 - y0
+    return even(int(np.clip(width * bh / (x1 - x0), 0.2 * width, 0.8 * width)))
+
+
+def motion(scene) -> tuple[str, str]:
+    """(arrow, words) for the direction the centre of mass moved along x over the scene, e.g.
+    ("→", "+x 14 cm"); ("", "") if it did not move."""
+    dx = float(scene.com[-1, 0] - scene.com[0, 0])
+    if not np.isfinite(dx) or abs(dx) < 1e-4:
+        return "", ""
+    d = abs(dx)
+    size = f"{d:.3g} m" if d >= 1 else f"{d * 100:.3g} cm" if d >= 0.01 else f"{d * 1000:.3g} mm"
+    return ("→" if dx > 0 else "←"), f"{'+' if dx > 0 else '-'}x {size}"
+
+
+def draw_legend(canvas, view: View, at: tuple[float, float], size: float = 11) -> None:
+    """"early ▪▪▪ late": three swatches from pale to full, right-aligned at pixel ``at``."""
+    saved = canvas.view
+    canvas.view = View.screen(view.width, view.height)
+    x, y = at
+    canvas.text((x, y), "late", draw.TEXT, size, anchor="rm")
+    x -= 32
+    for k in range(3):
+        fade = FADE_OLDEST * (1 - k / 2)
+        colour = mix(draw.ROOT, draw.BACKGROUND, fade)
+        canvas.rect((x - 12 * (3 - k), y - 4, x - 12 * (3 - k) + 9, y + 4), colour, True)
+    canvas.text((x - 42, y), "early", draw.TEXT, size, anchor="rm")
+    canvas.view = saved
 
 
 def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, overlays: bool = True) -> None:
@@ -81,9 +104,14 @@ def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, 
     if overlays:
         step = scene.t[idx[1]] - scene.t[idx[0]] if n > 1 else 0.0
         what = f"Δt = {step:.2f} s  ({n} exposures over {scene.duration:.1f} s)" if n > 1 else f"t = {scene.t[idx[0]]:.2f} s"
+        arrow, words = motion(scene)
+        if arrow:
+            what += f"   moved {arrow} {words}"
         draw.draw_label(canvas, view, what, "tl", 13)
         draw.draw_label(canvas, view, scene.title, "tr", 12, draw.MUTED)
         draw.draw_scale_bar(canvas, view)
+        if n > 1:
+            draw_legend(canvas, view, (view.width - 12, view.height - 16))
 
 
 def strobe(scene, width: int = 1000, n: int | None = None, nodes: bool = False):
@@ -140,6 +168,7 @@ def contact_sheet(tiles: list[tuple[str, object]], title: str = "", width: int =
     sheet = Image.new("RGB", (W, H), draw.GRID)
     head = PillowCanvas(W, HEADER, draw.BACKGROUND)
     head.text((10, HEADER / 2), title, draw.TEXT, 15, anchor="lm")
+    draw_legend(head, View.screen(W, HEADER), (W - 12, HEADER / 2))
     sheet.paste(head.image(), (0, 0))
     tw, th = lay["tile"]
     fits = [fixed_view(sc, tw, th - LABEL).scale for _, sc in tiles]
@@ -153,7 +182,8 @@ def contact_sheet(tiles: list[tuple[str, object]], title: str = "", width: int =
         canvas.view = View.screen(tw, th)
         canvas.rect((0, 0, tw, LABEL), draw.BACKGROUND, True)
         canvas.segment((0, LABEL - 0.5), (tw, LABEL - 0.5), 1.0, draw.GRID)
-        canvas.text((8, LABEL / 2 + 1), label, draw.TEXT, 12, anchor="lm")
+        arrow, _ = motion(sc)
+        canvas.text((8, LABEL / 2 + 1), f"{label} {arrow}".rstrip(), draw.TEXT, 12, anchor="lm")
         draw.draw_scale_bar(canvas, inner, (tw - 10, LABEL / 2 + 1), 11)  # in the label strip
         sheet.paste(canvas.image(), (x0, y0))
     return sheet

@@ -34,16 +34,25 @@ def test_commands_that_read_the_library_refuse_a_missing_file(tmp_path, args):
     assert not db.exists()
 
 
+def cart_export(tmp_path) -> dict:
+    """A valid export of a (made-up) cart gait: real creature text and encoding, no simulation."""
+    from sanlab.creature import load, read_source
+    from sanlab.san import San
+
+    san = San.for_creature(load("cart"))
+    with Library(tmp_path / "src.db") as lib:
+        run = lib.create_run("search", "cart", read_source("cart")[0], {"metric": "distance", "seconds": 6.0}, 0, 1)
+        lib.add_batch(run.run_id, [{"idx": 0, "encoding": san.encode(san.random_weights(0, 0)), "score": 1.0,
+                                    "params": {"delay_on": 0.1, "delay_off": 0.1}}])
+        return lib.export_gait(f"{run.run_id}/1")
+
+
 def test_import_starts_a_library_where_there_was_none(tmp_path):
-    src = tmp_path / "src.db"
-    with Library(src) as lib:
-        run = lib.create_run("search", "blob", 'name = "blob"\n', {"metric": "distance"}, 0, 1)
-        lib.add_batch(run.run_id, [{"idx": 0, "encoding": "san1-0-0-0-A", "score": 1.0}])
-        exported = lib.export_gait(f"{run.run_id}/1")
+    exported = cart_export(tmp_path)
     gait = tmp_path / "gait.json"
     gait.write_text(json.dumps(exported))
     db = tmp_path / "new.db"
     r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
     assert r.exit_code == 0, r.output
     with Library(db) as lib:
-        assert lib.gait(r.stdout.strip()).encoding == "san1-0-0-0-A"
+        assert lib.gait(r.stdout.strip()).encoding == exported["encoding"]

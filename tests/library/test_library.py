@@ -35,6 +35,22 @@ def row(idx: int, score: float, **kw) -> dict:
     return r
 
 
+def real_run(lib: Library) -> tuple[Run, list[str]]:
+    """A run of the built-in cart with three real encodings: what an export must hold to be
+    imported (the import decodes it against its creature)."""
+    from sanlab.creature import load, read_source
+    from sanlab.san import San
+
+    san = San.for_creature(load("cart"))
+    run = new_run(lib, creature="cart", creature_text=read_source("cart")[0],
+                  params={"seconds": 6.0, "metric": "distance", "batch": 4})
+    return run, [san.encode(san.random_weights(7, i)) for i in range(3)]
+
+
+def real_row(idx: int, score: float, enc: list[str], **kw) -> dict:
+    return row(idx, score, encoding=enc[idx], params={"delay_on": 0.1, "delay_off": 0.12}, **kw)
+
+
 def assert_one_line(err: pytest.ExceptionInfo, *needles: str) -> str:
     msg = str(err.value)
     assert "\n" not in msg and msg
@@ -266,20 +282,20 @@ def test_run_id_collision_draws_again(tmp_path, monkeypatch):
 
 def test_export_import_round_trip(tmp_path):
     with Library(tmp_path / "a.db") as a:
-        run = new_run(a)
-        a.add_batch(run.run_id, [row(0, 1.0), row(1, 4.25, fell=True), row(2, 2.0)])
+        run, enc = real_run(a)
+        a.add_batch(run.run_id, [real_row(0, 1.0, enc), real_row(1, 4.25, enc, fell=True), real_row(2, 2.0, enc)])
         exported = a.export_gait(f"{run.run_id}/1")
     text = json.dumps(exported, allow_nan=False)  # strict JSON
     assert exported["format"] == "sanlab-gait" and exported["source"] == f"{run.run_id}#1"
     with Library(tmp_path / "b.db") as b:
         gid = b.import_gait(json.loads(text))
         ev = b.gait(gid)
-        assert (ev.encoding, ev.params, ev.score, ev.fell) == ("enc-1", {"k1": [1.0, 2.0]}, 4.25,
+        assert (ev.encoding, ev.params, ev.score, ev.fell) == (enc[1], {"delay_on": 0.1, "delay_off": 0.12}, 4.25,
                                                                True)
         imported = b.get_run(gid.split("/")[0])
         assert imported.kind == "import" and imported.status == "done"
-        assert imported.creature_text == CREATURE_TEXT and imported.creature == "blob"
-        assert imported.params["seconds"] == 10.0
+        assert imported.creature_text == run.creature_text and imported.creature == "cart"
+        assert imported.params["seconds"] == 6.0
         assert imported.params["imported_from"] == f"{run.run_id}#1"
         again = b.export_gait(gid)
         for key in ("encoding", "params", "score", "speed_cm_s", "fell", "creature_text",
@@ -289,8 +305,8 @@ def test_export_import_round_trip(tmp_path):
 
 def test_export_of_nonfinite_gait_is_strict_json(tmp_path):
     with Library(tmp_path / "a.db") as lib:
-        run = new_run(lib)
-        lib.add_batch(run.run_id, [row(0, math.nan, speed_cm_s=math.inf)])
+        run, enc = real_run(lib)
+        lib.add_batch(run.run_id, [real_row(0, math.nan, enc, speed_cm_s=math.inf)])
         exported = lib.export_gait(f"{run.run_id}#0")
         json.dumps(exported, allow_nan=False)
         ev = lib.gait(lib.import_gait(exported))
@@ -310,8 +326,8 @@ def test_export_of_nonfinite_gait_is_strict_json(tmp_path):
 ])
 def test_import_rejects_bad_gaits(tmp_path, change, needle):
     with Library(tmp_path / "a.db") as lib:
-        run = new_run(lib)
-        lib.add_batch(run.run_id, [row(0, 1.0)])
+        run, enc = real_run(lib)
+        lib.add_batch(run.run_id, [real_row(0, 1.0, enc)])
         data = lib.export_gait(f"{run.run_id}/1")
         change(data)
         with pytest.raises(LibraryError) as err:
@@ -479,7 +495,12 @@ def test_killed_writer_leaves_complete_batches(tmp_path):
         n = lib.count(run_id)
         assert n >= 3 * batch and n % batch == 0
         assert lib.done_indices(run_id) == set(range(n))
-        assert lib.get_run(run_id).status == "running"
+        # It was killed before it could say so: its owner process is gone, so it reads as
+        # interrupted (and mark_stale_runs stores that), never "running" for ever.
+        assert lib.get_run(run_id).status == lib.runs()[0].status == "interrupted"
+        assert lib._conn.execute("SELECT status FROM runs").fetchone()[0] == "running"
+        assert lib.mark_stale_runs() == [run_id] and lib.mark_stale_runs() == []
+        assert lib._conn.execute("SELECT status FROM runs").fetchone()[0] == "interrupted"
         assert lib._conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
 
 

@@ -16,9 +16,6 @@ from sanlab.render import draw, film, strobe
 from sanlab.render.canvas import PillowCanvas, View
 from tests.helpers import FPS
 
-# imageio-ffmpeg starts ffmpeg with subprocess (fork + exec), which JAX warns about: harmless here
-pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
-
 
 def _close(pixel, color, tol=40) -> bool:
     return float(np.abs(np.asarray(pixel[:3], float) - np.asarray(color, float)).max()) <= tol
@@ -71,6 +68,9 @@ def test_gif_has_every_frame_at_the_requested_rate(scene1, tmp_path):
     assert film.gif_durations(4, 100.0) == [10] * 4
 
 
+# Reading the film back with imageio-ffmpeg forks with a Python pre-exec hook, which JAX warns
+# about; writing it (sanlab's own) does not (test_mp4_export_gives_no_fork_warning).
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_mp4_has_every_frame(scene1, tmp_path):
     import imageio_ffmpeg
 
@@ -176,3 +176,54 @@ def test_link_outlines_follow_tuned_length_scales(scene1):
     ends = big.to_world(0, 0, big.shape_points(0))
     assert np.hypot(*(ends[1] - ends[0])) == pytest.approx(0.4, rel=1e-5)  # L1 is 0.2 m long
     assert big.outline_points().shape == scene1.outline_points().shape
+
+
+def test_mp4_export_gives_no_fork_warning(scene1, tmp_path):
+    import warnings
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        film.animate(scene1, str(tmp_path / "a.mp4"), width=160)
+    assert not [w for w in seen if "fork" in str(w.message)], [str(w.message) for w in seen]
+
+
+def test_mp4_errors_are_oserrors_with_ffmpegs_reason(scene1, tmp_path):
+    with pytest.raises(OSError, match="ffmpeg could not write"):
+        film.animate(scene1, str(tmp_path / "missing" / "a.mp4"), width=160)
+
+
+def test_the_raster_names_every_row_as_the_creature_file_does(scene1):
+    groups = draw.panel_rows(scene1)
+    names = [n for g in groups for n in g[3]]
+    spec = scene1.spec
+    assert names == [s.name for s in spec.sensors] + [f"H{i + 1}" for i in range(spec.n_hidden)] + [a.name for a in spec.actuators]
+    assert draw._row_h(len(names)) == draw.NAME_H  # tall enough to read each name
+
+
+def test_a_strobe_fits_what_moves(scene1):
+    w = 1000
+    h = strobe.strobe_height(scene1, w)
+    x0, y0, x1, y1 = film.content_box(scene1)
+    want = w * (y1 - y0) / (1 - film.GROUND_BAND) / (x1 - x0)
+    assert h == film.even(int(np.clip(want, 0.2 * w, 0.8 * w)))
+    view = film.fixed_view(scene1, w, h)
+    assert view.y1 - y1 <= 0.02 * (view.y1 - view.y0) + 1e-9  # no band of empty sky above it
+    tall = film.fixed_view(scene1, w, w)  # a taller picture than it needs: the room is shared
+    used = (y1 - y0) / (1 - film.GROUND_BAND)
+    above, below = tall.y1 - y1, (y0 - film.GROUND_BAND * used) - tall.y0
+    assert above == pytest.approx(below) and above > 0
+
+
+def test_strobes_say_which_way_it_moved_and_that_pale_is_early(scene1):
+    import dataclasses
+
+    from sanlab.render.canvas import mix
+
+    for shift, arrow, words in ((0.2, "→", "+x 20 cm"), (-0.05, "←", "-x 5 cm"), (0.0, "", "")):
+        com = scene1.com.copy()
+        com[-1, 0] = com[0, 0] + shift
+        assert strobe.motion(dataclasses.replace(scene1, com=com, _cache={})) == (arrow, words)
+    img = np.asarray(strobe.strobe(scene1, 800).convert("RGB"))
+    corner = img[-30:, -140:].reshape(-1, 3)
+    assert any(_close(p, draw.ROOT, 12) for p in corner)  # the legend's darkest swatch ...
+    assert any(_close(p, mix(draw.ROOT, draw.BACKGROUND, strobe.FADE_OLDEST), 12) for p in corner)  # ... its palest

@@ -1,0 +1,362 @@
+"""``sanlab check FILE --simulate``: what only a simulation shows about a creature file (the
+counterpart of Gymnasium's environment checker).
+
+The creature is dropped for two seconds with every servo holding the middle of its range (a
+second to settle from its start pose into that one, as the bounder needs, and one to see it
+rest), and also run while its actuators sweep their ranges (to see which sensors can change);
+each of these is reported in one line, as a warning when it looks wrong:
+
+- ``start``: how deep its start pose puts a contact point into the ground (and which; the
+  simulator lifts the creature onto the ground), or how high it floats above it;
+- ``sinking``: links that go below the ground in the drop where they have no contact point;
+- ``ground``: the static sag on the ground and the ground's damping ratio for this creature;
+- ``standing``: whether it comes to rest (the drift of its centre of mass, its speed at the end);
+- ``strength``: each actuator's strength against its gravity load (paper §3.3: a 10 degree
+  deflection should hold half the body weight);
+- ``radians``: angle ranges that look like radians (every |value| < 6.3 on a ``_deg`` field);
+- ``sensors``: sensors that never turn on, or never turn off, in the drop or the sweeps (those
+  the actuators move: touch, joint-angle and length sensors; tilt sensors, angle sensors on a
+  root and eyes depend on the body's attitude or the follow point, and are not judged, nor is
+  a touch sensor on the body that stays off: it touches once the body lies down).
+
+Warnings, never errors: a creature may mean to float or to fall. :func:`warnings` is the short
+form a command that starts a run can print once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sanlab.creature import geometry
+from sanlab.creature.spec import AngleSensor, AngularActuator, Creature, EyeSensor, TiltSensor
+
+SECONDS = 2.0  # the drop (and each sweep: one cycle of every actuator through its range)
+FPS = 100.0  # frames recorded per second
+RADIAN_LIKE = 6.3  # |value| below this on every end of a _deg range: probably radians (2 pi = 6.28)
+STRENGTH_BAND = (1 / 20, 20.0)  # strength / gravity load outside it: an order-of-magnitude mistake
+FLOAT_TOLERANCE = 0.01  # m above the ground before a start pose "floats"
+SINK_TOLERANCE = 0.01  # m below the ground before a link without a contact there "sinks"
+SAG_LIMIT = 0.02  # m of static sag before the ground is "too soft"
+DAMPING_BAND = (0.02, 20.0)  # the ground's damping ratio outside it: bouncing or glue
+REST_SPEED = 0.02  # m/s: the centre of mass at rest at the end of the second
+SWEEPS = 4  # runs with the actuators sweeping their ranges (different phases), besides the drop
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One line of the report: ``check`` (start, sinking, ground, standing, strength, radians,
+    sensors), whether it is a ``warning``, the ``message`` and its numbers (SI units)."""
+
+    check: str
+    warning: bool
+    message: str
+    values: dict = field(default_factory=dict)
+
+
+# -- without simulating ----------------------------------------------------------------------------
+
+
+def radian_ranges(spec: Creature) -> list[Finding]:
+    """Angle ranges of the file (``min_deg``/``max_deg``, ``fell_angle_deg``) every end of which
+    is below 6.3 in magnitude: likely radians written where degrees belong."""
+    out = []
+
+    def look(where: str, lo: float, hi: float) -> None:
+        d = (math.degrees(lo), math.degrees(hi))
+        if max(abs(d[0]), abs(d[1])) < RADIAN_LIKE and d != (0.0, 0.0):
+            out.append(Finding("radians", True, f"{where}: min_deg, max_deg = [{d[0]:g}, {d[1]:g}] look like radians "
+                               f"(every |value| < {RADIAN_LIKE}); the file takes degrees, e.g. [{math.degrees(d[0]):.0f}, "
+                               f"{math.degrees(d[1]):.0f}]", {"min_deg": d[0], "max_deg": d[1]}))
+
+    for a in spec.actuators:
+        if isinstance(a, AngularActuator):
+            look(f"actuator {a.name}", a.min, a.max)
+    for s in spec.sensors:
+        if isinstance(s, (AngleSensor, TiltSensor, EyeSensor)):
+            look(f"sensor {s.name} ({s.kind})", s.min, s.max)
+    for link in spec.links:
+        if link.limit is not None:
+            look(f"link {link.name} limit", link.limit.min, link.limit.max)
+    fell = math.degrees(spec.evaluation.fell_angle)
+    if spec.evaluation.fell_links and fell < RADIAN_LIKE:
+        out.append(Finding("radians", True, f"evaluation.fell_angle_deg = {fell:g} looks like radians (below "
+                           f"{RADIAN_LIKE}); the file takes degrees", {"fell_angle_deg": fell}))
+    if not out:
+        out.append(Finding("radians", False, "angle ranges: in degrees as the file wants (none looks like radians)"))
+    return out
+
+
+def _subtree(spec: Creature, root: str) -> list[int]:
+    inside = {root}
+    for link in spec.links:  # parents come before children
+        if link.parent in inside:
+            inside.add(link.name)
+    return [i for i, link in enumerate(spec.links) if link.name in inside]
+
+
+def strength(spec: Creature) -> list[Finding]:
+    """Each actuator's holding force at a 10 degree error (a tenth of its range for a linear one)
+    against its gravity load: the larger of lifting what hangs from it (its subtree's weight at
+    its centre of mass's distance) and, for a limb that can stand (contact points below the
+    joint), half the creature's weight at the limb's reach (paper §3.3)."""
+    g = spec.world.gravity
+    if spec.world.plane != "vertical" or g == 0 or not spec.actuators:
+        return [Finding("strength", False, "actuators: no gravity load to compare with (" +
+                        ("horizontal plane)" if spec.world.plane != "vertical" else "no gravity)" if g == 0 else "none)"))]
+    frames = geometry.initial_frames(spec)
+    weight = g * sum(link.mass for link in spec.links if not (link.parent is None and link.fixed))
+    out = []
+    for act in spec.actuators:
+        if isinstance(act, AngularActuator):
+            joint = frames[act.joint][:2]
+            members = _subtree(spec, act.joint)
+            held = act.ks * math.radians(10)
+            how = "10 deg of error"
+        else:
+            joint = geometry.world_point(spec, act.a.link, act.a.at)
+            members = _subtree(spec, act.b.link)
+            held = act.ks * 0.1 * (act.max - act.min)
+            how = "a tenth of its range"
+        lift = reach = 0.0
+        for i in members:
+            link = spec.links[i]
+            f = frames[link.name]
+            c = geometry.transform(f, link.com)
+            lift += g * link.mass * math.dist(c, joint)
+            for p in link.contacts:
+                reach = max(reach, math.dist(geometry.transform(f, p), joint))
+        load = max(lift, 0.5 * weight * reach)
+        unit = "N m" if isinstance(act, AngularActuator) else "N"
+        if not isinstance(act, AngularActuator):  # a force against half the weight
+            load = 0.5 * weight if reach > 0 else lift / max(reach, 1e-9) if lift else 0.5 * weight
+        if load <= 0:
+            out.append(Finding("strength", False, f"actuator {act.name}: carries no gravity load", {"held": held}))
+            continue
+        ratio = held / load
+        lo, hi = STRENGTH_BAND
+        values = {"held": held, "load": load, "ratio": ratio}
+        times = f"{ratio:.0f}" if ratio >= 10 else f"{ratio:.2g}"
+        text = f"actuator {act.name}: {how} holds {held:.3g} {unit} against a gravity load of {load:.3g} {unit} ({times}x)"
+        if ratio > hi:
+            out.append(Finding("strength", True, text + f": {ratio:.0f} times stronger than §3.3's sizing (ks in N m/rad "
+                               "where N m/deg belongs?)", values))
+        elif ratio < lo:
+            out.append(Finding("strength", True, text + f": {1 / ratio:.0f} times weaker than §3.3's sizing "
+                               "(it cannot hold itself up)", values))
+        else:
+            out.append(Finding("strength", False, text, values))
+    return out
+
+
+# -- simulating ------------------------------------------------------------------------------------
+
+
+def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -> list[Finding]:
+    """Every finding of the module docstring, in its order (one compile and one batched rollout
+    of the drop and the sweeps)."""
+    import jax
+
+    from sanlab import sim
+    from sanlab.sim.dynamics import terrain_height
+
+    model = sim.compile_creature(spec, dtype)
+    A = len(spec.actuators)
+    rng = np.random.default_rng(0)
+    rows = [np.zeros(A + 1)]  # f = 0, phase 0: every servo at mid target
+    for k in range(SWEEPS):  # 1 Hz sweeps through the whole range, phases varied between them
+        phases = rng.uniform(0, 2 * math.pi, A) if k else np.zeros(A)
+        rows.append(np.concatenate([phases, [1.0 / seconds]]))
+    params = np.stack(rows).astype(dtype)
+    r = sim.rollout(model, sim.SineController(), params, seconds, record_fps=FPS)
+    assert r.frames is not None
+    q = np.asarray(r.frames.q, float)  # [B, F, D]
+    bits = np.asarray(r.frames.bits) > 0.5  # [B, F, S]
+    poses = jax.jit(jax.vmap(jax.vmap(lambda qq: sim.poses(model, qq))))(q.astype(dtype))
+    P = {k: np.asarray(v, float) for k, v in poses.items()}
+    finite = bool(np.all(np.isfinite(q[0])))
+
+    def ground(x: np.ndarray) -> np.ndarray:
+        if spec.world.plane != "vertical":
+            return np.full(np.shape(x), -np.inf)
+        h, _ = terrain_height(model.structure, model.params, np.asarray(x, float))
+        return np.broadcast_to(np.asarray(h, float), np.shape(x))
+
+    out = [_start(spec, ground)]
+    if not finite:
+        out.append(Finding("standing", True, "the drop went non-finite within the second: nothing else can be judged"))
+    else:
+        out += _sinking(spec, P, ground)
+        out += _ground(spec, P)
+        out.append(_standing(spec, P, r.frames.t))
+    out += strength(spec)
+    out += radian_ranges(spec)
+    out += _sensors(spec, bits)
+    return out
+
+
+def _start(spec: Creature, ground: Any) -> Finding:
+    """How the file's start pose meets the ground (before the simulator seats it)."""
+    if spec.world.plane != "vertical":
+        return Finding("start", False, "start: horizontal plane, every contact rests on the floor")
+    frames = geometry.initial_frames(spec)
+    worst = None
+    for link in spec.links:
+        for k, p in enumerate(link.contacts):
+            x, y = geometry.transform(frames[link.name], p)
+            gap = y - float(ground(np.array(x)))
+            if worst is None or gap < worst[0]:
+                worst = (gap, link.name, k)
+    if worst is None:
+        return Finding("start", False, "start: no contact points (nothing can touch the ground)")
+    gap, name, k = worst
+    values = {"gap_m": gap, "link": name, "contact": k}
+    if gap < -1e-6:
+        return Finding("start", True, f"start: contact {k} of link {name} starts {-gap * 100:.3g} cm below the ground "
+                       "(the simulator lifts the creature onto it; fix position or angle_deg)", values)
+    if gap > FLOAT_TOLERANCE:
+        return Finding("start", True, f"start: floats {gap * 100:.3g} cm above the ground (lowest: contact {k} of link "
+                       f"{name}); it falls that far first", values)
+    return Finding("start", False, f"start: rests on the ground (lowest contact {gap * 1000:.2g} mm above it, contact {k} "
+                   f"of link {name})", values)
+
+
+def _sinking(spec: Creature, P: dict, ground: Any) -> list[Finding]:
+    """Links whose outline goes below the ground where they have no contact point, in the drop
+    (a sweep may throw a creature over, and whether a fallen creature's back has contacts is
+    another question)."""
+    if spec.world.plane != "vertical":
+        return []
+    links = P["links"][0]  # [F, L, 3]: the drop
+    out = []
+    for i, link in enumerate(spec.links):
+        pts = [p for p in (*link.shape.points, (0.0, 0.0)) if not any(math.dist(p, c) < 1e-9 for c in link.contacts)]
+        if not pts:
+            continue
+        p = np.asarray(pts, float)
+        x, y, a = links[..., i, 0:1], links[..., i, 1:2], links[..., i, 2:3]
+        wx = x + np.cos(a) * p[:, 0] - np.sin(a) * p[:, 1]
+        wy = y + np.sin(a) * p[:, 0] + np.cos(a) * p[:, 1]
+        depth = float(np.max(ground(wx) - wy))
+        if depth > SINK_TOLERANCE:
+            why = "it has none" if not link.contacts else "its contacts are elsewhere"
+            out.append(Finding("sinking", True, f"link {link.name} goes {depth * 100:.3g} cm below the ground where it has "
+                               f"no contact point ({why}: add contacts there)", {"link": link.name, "depth_m": depth}))
+    if not out:
+        out.append(Finding("sinking", False, "sinking: no link goes below the ground away from its contact points"))
+    return out
+
+
+def _ground(spec: Creature, P: dict) -> list[Finding]:
+    """Static sag at the end of the drop and the ground's damping ratio for this creature."""
+    if spec.world.plane != "vertical" or not P["depth"].shape[-1]:
+        return []
+    depth = P["depth"][0, -1]  # the drop's last frame
+    touching = depth > 0
+    g = spec.world.ground
+    n = int(touching.sum())
+    if n == 0:
+        return [Finding("ground", True, "ground: nothing rests on it at the end of the second (still falling, or bouncing?)")]
+    mass = sum(link.mass for link in spec.links if not (link.parent is None and link.fixed))
+    sag = float(depth[touching].mean())
+    zeta = g.damping / (2 * math.sqrt(g.stiffness * mass / n))
+    values = {"sag_m": sag, "contacts": n, "damping_ratio": zeta}
+    text = (f"ground: static sag {sag * 1000:.2g} mm on {n} contact point{'s' * (n != 1)}, damping ratio {zeta:.3g} "
+            f"(stiffness {g.stiffness:g} N/m, damping {g.damping:g} N s/m)")
+    lo, hi = DAMPING_BAND
+    if sag > SAG_LIMIT:
+        return [Finding("ground", True, text + ": too soft for this creature (raise world.ground.stiffness)", values)]
+    if zeta < lo:
+        return [Finding("ground", True, text + ": it bounces (raise world.ground.damping)", values)]
+    if zeta > hi:
+        return [Finding("ground", True, text + ": overdamped, landings stick (lower world.ground.damping)", values)]
+    return [Finding("ground", False, text, values)]
+
+
+def _standing(spec: Creature, P: dict, t: Any) -> Finding:
+    """Does the creature come to rest, servos at mid targets? Drift of its centre of mass."""
+    com = P["com"][0]  # [F, 2]
+    t = np.asarray(t, float)
+    drift = float(np.hypot(*(com[-1] - com[0])))
+    k = max(1, int(round(0.2 * FPS)))
+    speed = float(np.hypot(*(com[-1] - com[-1 - k])) / max(t[-1] - t[-1 - k], 1e-9)) if len(t) > k else 0.0
+    values = {"drift_m": drift, "end_speed_m_s": speed}
+    if speed > REST_SPEED:
+        return Finding("standing", True, f"standing: still moving at {speed * 100:.2g} cm/s after {t[-1]:.0f} s with the "
+                       f"servos at mid targets (drifted {drift * 100:.2g} cm)", values)
+    return Finding("standing", False, f"standing: comes to rest with the servos at mid targets (its centre of mass "
+                   f"moved {drift * 100:.2g} cm in all)", values)
+
+
+def _judged(spec: Creature, s: Any) -> bool:
+    """Whether the actuators move what sensor ``s`` senses (see the module docstring)."""
+    if s.kind in ("eye", "tilt"):
+        return False
+    return not (s.kind == "angle" and spec.link(s.link).parent is None)
+
+
+def _on_body(spec: Creature, s: Any) -> bool:
+    """A touch sensor on a root link (the body): it touches when the body lies down, which a drop
+    does not show, so only "never turns off" is judged."""
+    return s.kind == "touch" and spec.link(s.link).parent is None
+
+
+def _reaches(spec: Creature, s: Any, on: bool) -> bool:
+    """For a joint-angle sensor on a servo-driven joint: whether the servo's target range lets it
+    turn on (``on``) or off at all. A sweep at 0.5 Hz may not push a joint to the very end of its
+    range, where a real gait (with the ground pushing back) can: a sensor is reported only when
+    its range misses the servo's (never on) or covers it (never off), and the simulation agrees."""
+    if not isinstance(s, AngleSensor):
+        return False
+    servo = next((a for a in spec.actuators if isinstance(a, AngularActuator) and a.joint == s.link), None)
+    if servo is None:
+        return False
+    if on:
+        return s.max >= servo.min and s.min <= servo.max
+    return not (s.min <= servo.min and servo.max <= s.max)
+
+
+def _why(spec: Creature, s: Any) -> str:
+    if not isinstance(s, AngleSensor):
+        return ""
+    servo = next((a for a in spec.actuators if isinstance(a, AngularActuator) and a.joint == s.link), None)
+    if servo is None:
+        return ""
+    d = math.degrees
+    return (f": its range [{d(s.min):.4g}, {d(s.max):.4g}] deg against the servo's targets "
+            f"[{d(servo.min):.4g}, {d(servo.max):.4g}] deg")
+
+
+def _sensors(spec: Creature, bits: np.ndarray) -> list[Finding]:
+    """Sensors that never turn on, or never off, in the drop and the sweeps (of those the
+    actuators move: see :func:`_judged` and :func:`_reaches`)."""
+    out = []
+    for i, s in enumerate(spec.sensors):
+        if not _judged(spec, s):
+            continue
+        seen = bits[..., i]
+        if not seen.any() and (_reaches(spec, s, True) or _on_body(spec, s)):
+            continue
+        if seen.all() and _reaches(spec, s, False):
+            continue
+        why = _why(spec, s)
+        if not seen.any():
+            out.append(Finding("sensors", True, f"sensor {s.name} ({s.kind}) never turns on, not even while the actuators "
+                               f"sweep their ranges{why}", {"sensor": s.name, "always": False}))
+        elif seen.all():
+            out.append(Finding("sensors", True, f"sensor {s.name} ({s.kind}) never turns off, not even while the actuators "
+                               f"sweep their ranges{why}", {"sensor": s.name, "always": True}))
+    if not out:
+        skipped = [s.name for s in spec.sensors if not _judged(spec, s)]
+        out.append(Finding("sensors", False, "sensors: each turns on and off while the actuators sweep their ranges" +
+                           (f" (not judged: {', '.join(skipped)}, which sense the body's attitude or the follow point)"
+                            if skipped else "")))
+    return out
+
+
+def warnings(spec: Creature, dtype: str = "float32") -> list[str]:
+    """The warnings of :func:`simulate`, one line each (for ``search`` to print once)."""
+    return [f.message for f in simulate(spec, dtype=dtype) if f.warning]

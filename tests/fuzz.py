@@ -1,0 +1,175 @@
+"""Mutated inputs for the fuzz tests, as Hypothesis strategies: creature files derived from the
+built-ins (and, in ``tests/library``, gait exports derived from a valid one), mutated the way a
+careless or hostile user would: values of the wrong type or container, numbers that overflow or
+vanish, deep nesting, odd keys (newlines, escape sequences), deleted, added and duplicated
+fields, and raw-text damage (truncation, stray lines).
+
+The tests run a bounded, seeded number of examples; a larger campaign, with counts of each
+outcome, is ``python -m tests.fuzz --creatures 20000`` (see :func:`main`).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from collections.abc import Iterator
+from typing import Any
+
+import tomlkit
+from hypothesis import strategies as st
+
+from sanlab.creature import _toml, builtin_names, read_source
+
+FIELDS = sorted(
+    _toml.TOP | _toml.WORLD | _toml.GROUND | set().union(*_toml.TERRAIN.values()) | _toml.FOLLOW | _toml.SAN
+    | _toml.EVALUATION | _toml.LINK | _toml.SPRING | _toml.LIMIT | _toml.FRICTION | _toml.POINT
+    | set().union(*_toml.SENSOR.values()) | set().union(*_toml.ACTUATOR.values()) | _toml.SPRINGS | {"type", "kind"}
+)
+NUMBERS = [
+    0, 1, -1, 2, 7, 40, 2**31, 2**63 - 1, 2**64, -(2**70), 10**30, 0.0, -0.0, 0.5, -3.5, 1e-300, 1e-12, 1e-9, 1e-5,
+    1e5, 1e6, 1e7, 1e12, 3.5e38, 1e39, 1e200, -1e200, math.inf, -math.inf, math.nan,
+]
+STRINGS = [
+    "", " ", "touch", "angle", "tilt", "eye", "length", "angular", "linear", "segment", "polygon", "point", "flat",
+    "hill", "rough", "slope", "vertical", "horizontal", "distance", "pursuit", "forward", "L1", "L2", "body", "S1",
+    "x" * 10_000, "\x1b[2J\x1b[H", "a\nb", "\u202e", "\x9b31m", "\x00", "café", "../../etc/passwd",
+]
+KEYS = FIELDS + ["mas", "nmae", "a\nb", "\x1b[31mred", "", " ", "type\n", "1", "é"]
+SOURCE = "fuzz.toml"
+
+
+def scalars() -> st.SearchStrategy:
+    return st.one_of(
+        st.sampled_from(NUMBERS), st.sampled_from(STRINGS), st.booleans(), st.integers(-(10**20), 10**20),
+        st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12),
+    )
+
+
+def values() -> st.SearchStrategy:
+    pairs = st.lists(st.lists(st.sampled_from([0, 0.1, -0.2, 1e200, 1e39, 1e-300]), min_size=2, max_size=2), max_size=5)
+    leaves = st.one_of(scalars(), pairs)
+    return st.recursive(leaves, lambda ch: st.lists(ch, max_size=4) | st.dictionaries(st.sampled_from(KEYS), ch, max_size=3),
+                        max_leaves=8)
+
+
+def paths(node: Any, prefix: tuple = ()) -> Iterator[tuple]:
+    """Every path (tuple of keys and indices) into a parsed document, the root first."""
+    yield prefix
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from paths(v, prefix + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from paths(v, prefix + (i,))
+
+
+def _at(node: Any, path: tuple) -> Any:
+    for k in path:
+        node = node[k]
+    return node
+
+
+@st.composite
+def mutated(draw, doc: dict, most: int = 4) -> dict:
+    """``doc`` (a parsed document) with 1 to ``most`` mutations."""
+    doc = copy.deepcopy(doc)
+    for _ in range(draw(st.integers(1, most))):
+        where = list(paths(doc))
+        path = draw(st.sampled_from(where))
+        node = _at(doc, path)
+        op = draw(st.sampled_from(["replace", "replace", "scale", "delete", "add", "duplicate", "nest"]))
+        if not path and op in ("replace", "scale", "delete", "nest"):
+            op = "add"
+        parent, key = (_at(doc, path[:-1]), path[-1]) if path else (None, None)
+        if op == "replace":
+            parent[key] = draw(values())
+        elif op == "scale":
+            if isinstance(node, (int, float)) and not isinstance(node, bool):
+                parent[key] = node * draw(st.sampled_from([0, -1, 1e-9, 1e-3, 10, 1e3, 1e6, 1e30, 1e300]))
+            else:
+                parent[key] = draw(st.sampled_from(NUMBERS))
+        elif op == "delete":
+            del parent[key]
+        elif op == "add":
+            if isinstance(node, dict):
+                node[draw(st.sampled_from(KEYS))] = draw(values())
+            elif isinstance(node, list):
+                node.append(draw(values()) if not node else copy.deepcopy(node[-1]))
+        elif op == "duplicate" and isinstance(node, list) and node:
+            node.extend(copy.deepcopy(node[:1]) * draw(st.sampled_from([1, 2, 50, 300])))
+        elif op == "nest":
+            depth = draw(st.sampled_from([2, 10, 100]))
+            for _ in range(depth):
+                node = [node]
+            parent[key] = node
+    return doc
+
+
+def _lines(text: str, draw) -> str:
+    lines = text.splitlines()
+    op = draw(st.sampled_from(["truncate", "insert", "delete", "deep", "bytes"]))
+    if op == "truncate":
+        return text[: draw(st.integers(0, len(text)))]
+    if op == "insert":
+        i = draw(st.integers(0, len(lines)))
+        line = draw(st.sampled_from([
+            "[[links]]", "[[sensors]]", "[world]", "[world.ground]", "[evaluation]", "[san]", "[[actuators]]",
+            'name = "\\u001b[2J"', '"a\\nb" = 1', "dt = 1e-9", "hidden = 1000000", "stiffness = 1e12", "x = 1e39",
+            "type = [\"touch\"]", "mass = {}", "points = [[1e200, 0], [0, 1e200]]", "[[links.points]]", "= 3",
+        ]))
+        return "\n".join(lines[:i] + [line] + lines[i:]) + "\n"
+    if op == "delete" and lines:
+        i = draw(st.integers(0, len(lines) - 1))
+        return "\n".join(lines[:i] + lines[i + 1 :]) + "\n"
+    if op == "deep":
+        n = draw(st.sampled_from([200, 600, 3000]))
+        opener, closer = draw(st.sampled_from([("[", "]"), ("{ a = ", " }")]))
+        return text + f"\n[fuzz]\nv = {opener * n}1{closer * n}\n"
+    i = draw(st.integers(0, len(text)))
+    junk = draw(st.sampled_from(["\x00", "\x1b", "\r", '"', "'''", "[", "]]", "\ufeff", "\\u", "#"]))
+    return text[:i] + junk + text[i:]
+
+
+@st.composite
+def creature_texts(draw) -> str:
+    """A creature file's text: a built-in, mutated as a document (mostly) or as text."""
+    text, _ = read_source(draw(st.sampled_from(builtin_names())))
+    if draw(st.integers(0, 3)) == 0:
+        return _lines(text, draw)
+    doc = draw(mutated(tomllib.loads(text)))
+    try:
+        return tomlkit.dumps(doc)
+    except Exception:  # what tomlkit cannot write (too deep for it) is damaged as text
+        return _lines(text, draw)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """A larger campaign: ``python -m tests.fuzz [--creatures N] [--exports N] [--seed S]``;
+    prints how many inputs were tried, accepted, refused with the documented one-line error, and
+    anything else (which must be 0)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("--creatures", type=int, default=20_000)
+    ap.add_argument("--exports", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args(argv)
+    bad = 0
+    if args.creatures:
+        from tests.creature.test_fuzz import campaign
+
+        counts = campaign(args.creatures, args.seed)
+        print("creature files:", dict(counts))
+        bad += counts["other"]
+    if args.exports:
+        from tests.library.test_fuzz_import import campaign as exports
+
+        counts = exports(args.exports, args.seed)
+        print("gait exports:", dict(counts))
+        bad += counts["other"]
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
