@@ -344,7 +344,7 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
     if rows:
         best = rows[0]["gait"]
         console.print(f"next: sanlab show {best}{safe(db_opt)}    sanlab render {best} -o best.png{safe(db_opt)}    "
-                      f"sanlab tune {best}{safe(db_opt)}", soft_wrap=True)
+                      f"sanlab tune {best}{safe(db_opt)}    sanlab audit {best}{safe(db_opt)}", soft_wrap=True)
 
 
 class ProgressBar:

@@ -25,6 +25,7 @@ from sanlab.cli._common import (
     fail,
     library_call,
     load_or_exit,
+    next_steps,
     open_library,
     print_distribution,
     print_top,
@@ -99,3 +100,5 @@ def search(
     run = lib.get_run(run_id)
     print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.settings.metric}")
     print_distribution(lib.scores(run_id))
+    earlier = [r.run_id for r in lib.same_runs("search", run.creature_text, run.params, run.seed) if r.run_id != run_id]
+    next_steps(db, run_id, rows, lib.tally(run_id), earlier)
