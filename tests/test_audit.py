@@ -135,21 +135,21 @@ def test_audit_command_prints_and_stores(audited):
     assert (bad.exit_code == 2 and "nope" in bad.stderr and bad.exception is None) or isinstance(bad.exception, SystemExit)
 
 
-def test_an_older_library_is_upgraded_with_an_empty_audits_table(tmp_path):
+def test_a_version_2_library_is_upgraded_with_an_empty_audits_table(tmp_path):
     import sqlite3
 
     from sanlab.library import _schema
 
-    path = tmp_path / "v1.db"
+    path = tmp_path / "v2.db"
     con = sqlite3.connect(path)
-    for statement in _schema.DDL[:-1]:  # version 1: no audits table
+    for statement in _schema.DDL[:-1]:  # version 2: no audits table
         con.execute(statement)
     con.execute(f"PRAGMA application_id = {_schema.APPLICATION_ID}")
-    con.execute("PRAGMA user_version = 1")
+    con.execute("PRAGMA user_version = 2")
     con.commit()
     con.close()
     with Library(path) as lib:
         assert lib.runs() == []
     con = sqlite3.connect(path)
-    assert con.execute("PRAGMA user_version").fetchone()[0] == 2
+    assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 3
     assert con.execute("SELECT count(*) FROM audits").fetchone()[0] == 0
