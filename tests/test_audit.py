@@ -72,14 +72,14 @@ kd = 0.00001
 """
 
 
-def _far_threelink() -> tuple[str, str]:
-    """The built-in three-link chain placed 5 km from the origin: float32 there resolves 0.5 mm,
-    more than the chain moves in a 1 ms step, so what it does in float32 is an artefact of the
-    arithmetic (a real mistake: a creature file with its position in the wrong unit)."""
+def _coarse_threelink() -> tuple[str, str]:
+    """The built-in three-link chain simulated at 10 ms, the coarsest step the format allows: its
+    servos, contacts and node delays (70 ms: seven steps) are not resolved, and whatever its best
+    random network does at that step is largely an artefact of the step."""
     from sanlab.creature import read_source
 
     text, where = read_source("threelink")
-    return text.replace("position = [0.0, 0.0]", "position = [5000.0, 0.0]"), where
+    return text.replace("dt = 0.001", "dt = 0.01"), where
 
 
 @pytest.fixture(scope="module")
@@ -87,8 +87,8 @@ def audited(tmp_path_factory):
     path = tmp_path_factory.mktemp("audit") / "lib.db"
     lib = Library(path)
     sled = run_search(lib, SLED, "sled.toml", controllers=8, seconds=2.0, seed=0, ensemble=4)
-    text, where = _far_threelink()
-    assert "5000.0" in text
+    text, where = _coarse_threelink()
+    assert "dt = 0.01 " in text
     coarse = run_search(lib, text, where, controllers=16, seconds=3.0, seed=0, ensemble=4)
     out = {"sled": audit_and_store(lib, f"{sled}/1"), "coarse": audit_and_store(lib, f"{coarse}/1")}
     lib.close()
@@ -104,11 +104,12 @@ def test_a_converged_motion_is_not_flagged(audited):
     assert a.worst < 0.03 and not a.flagged
 
 
-def test_an_arithmetic_artefact_is_flagged(audited):
+def test_a_gait_of_an_unresolved_step_is_flagged(audited):
     _, out, _, _ = audited
     a = out["coarse"]
     assert a.nominal_cm_s == pytest.approx(a.stored_cm_s, abs=1e-6)
-    assert a.flagged and a.worst > 0.5, a
+    assert a.nominal_cm_s > 5.0
+    assert a.flagged and a.worst > 0.25, a
 
 
 def test_the_verdict_is_stored_shown_and_exported(audited):

@@ -31,7 +31,7 @@ def tuned(tmp_path, name: str = "bounder", morphology: bool = True, seed: int = 
     theta = space.nominal()
     for _ in range(200):
         theta = space.perturb(theta, int(rng.integers(len(space))), float(rng.choice([-1, 1])))
-    params = space.gait_params(theta, sim.compile_creature(spec))
+    params = space.gait_params(theta, sim.compile_creature(spec)).to_json()
     san = San.for_creature(spec)
     path = str(tmp_path / "g.db")
     with Library(path) as lib:
@@ -56,12 +56,12 @@ def test_names_of_inputs_and_nodes():
 def test_parameters_in_file_units(tmp_path):
     g = gait(*tuned(tmp_path))
     rows = {(r["part"], r["name"]): r for r in file_values(g)["rows"]}
-    model = g.params["model"]
+    model = g.params.model
     assert rows[("actuator A1", "min_deg")]["value"] == pytest.approx(math.degrees(model["act_min"][0]))
     assert rows[("actuator A1", "ks")]["value"] == pytest.approx(model["act_ks"][0] * math.pi / 180)
     assert rows[("actuator A1", "ks")]["file"] == pytest.approx(0.4) and rows[("actuator A1", "ks")]["unit"] == "N m/deg"
-    assert rows[("node H1", "T_on")]["value"] == pytest.approx(1 / g.params["k1"][0])
-    assert rows[("link body", "length scale")]["value"] == g.params["scale"][0]
+    assert rows[("node H1", "T_on")]["value"] == pytest.approx(1 / g.params.k1[0])
+    assert rows[("link body", "length scale")]["value"] == g.params.scale[0]
     sensors = {p for p, _ in rows if p.startswith("sensor")}
     assert sensors == {f"sensor S{i}" for i in range(3, 9)}  # the range sensors, not the touch sensors
     net = network_table(g)

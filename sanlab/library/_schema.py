@@ -94,6 +94,7 @@ AUDITS_DDL = """
     """
 DDL = (*DDL, AUDITS_DDL)
 TABLES = ("runs", "evaluations", "trace", "audits")
+ADDED_IN = {"audits": 3}  # tables an older file, read as it is (read-only), does not have yet
 
 # MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
 # always creates the newest schema directly.
@@ -174,7 +175,9 @@ def open_schema(conn: sqlite3.Connection, path: str, readonly: bool = False) -> 
         raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
     elif version < SCHEMA_VERSION:
         _upgrade(conn, path)
-    missing = [t for t in TABLES if not _has_table(conn, t)]
+    if not readonly:
+        version = SCHEMA_VERSION  # created or upgraded
+    missing = [t for t in TABLES if ADDED_IN.get(t, 1) <= version and not _has_table(conn, t)]
     if missing:
         raise LibraryError(f"{path}: damaged sanlab gait library (missing table {missing[0]!r})")
     if readonly:

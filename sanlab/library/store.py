@@ -537,6 +537,8 @@ class Library:
         """Every stored audit of a run's gaits, by evaluation index."""
         run_id = self._resolve(run_id)
         with self._sql() as conn:
+            if conn.execute("SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = 'audits'").fetchone() is None:
+                return {}  # an older library opened read-only, as it is
             rows = conn.execute("SELECT idx, created, flagged, worst, result FROM audits WHERE run_id = ?",
                                 (run_id,)).fetchall()
         return {r[0]: AuditRecord(f"{run_id}#{r[0]}", r[1], bool(r[2]), as_float(r[3]), json.loads(r[4])) for r in rows}

@@ -62,7 +62,7 @@ def outcome(data) -> str:
             assert lib.runs() == [], "a refused import wrote a run"
             return "error"
         g = Gait.from_library(lib, gid)  # the creature loads, the network decodes ...
-        check_params(g.spec, g.params)  # ... the parameters fit it
+        check_params(g.spec, g.params.to_json())  # ... the parameters fit it
         p = g.san_params()
         assert p.weights.shape[-2:] == g.weights.shape and all(math.isfinite(float(x)) for x in p.k1.reshape(-1))
         assert g.seconds > 0 and g.metric
