@@ -29,6 +29,7 @@ from sanlab.cli._common import (
     open_library,
     print_distribution,
     print_top,
+    safe,
     top_rows,
 )
 from sanlab.creature import read_source
@@ -62,8 +63,9 @@ def search(
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
     text = where = ""
     if creature is not None:
-        load_or_exit(creature)
+        spec = load_or_exit(creature)[0]
         text, where = read_source(creature)
+        _print_warnings(spec, creature)
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
     bar = ProgressBar(console.is_terminal and not as_json)
@@ -102,3 +104,20 @@ def search(
     print_distribution(lib.scores(run_id))
     earlier = [r.run_id for r in lib.same_runs("search", run.creature_text, run.params, run.seed) if r.run_id != run_id]
     next_steps(db, run_id, rows, lib.tally(run_id), earlier)
+
+
+def _print_warnings(spec, creature: str) -> None:
+    """The warnings of `sanlab check` that need no simulation (angle ranges that look like
+    radians, actuators too weak or too strong for their load), once, on stderr; the simulated
+    ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
+    `sanlab check --simulate`."""
+    from rich.console import Console
+
+    from sanlab.check import radian_ranges, strength
+
+    err = Console(stderr=True)  # stdout stays the table, or the JSON
+    found = [f.message for f in (*radian_ranges(spec), *strength(spec)) if f.warning]
+    for message in found:
+        err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
+    if found:
+        err.print(f"(sanlab check {safe(creature)} --simulate says more)", soft_wrap=True, highlight=False)

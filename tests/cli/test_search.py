@@ -117,3 +117,18 @@ def test_missing_run_and_bad_gait_ids_are_clear_errors(tmp_path):
         r = subprocess.run(SANLAB + args + ["--db", db], capture_output=True, text=True)
         assert r.returncode == 2, args
         assert "Traceback" not in r.stderr and r.stderr.strip(), args
+
+
+def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
+    from tests.helpers import DATA
+
+    db = str(tmp_path / "g.db")
+    r = subprocess.run(SANLAB + ["search", str(DATA / "radians.toml"), "-n", "8", "--seconds", "0.2", "--db", db,
+                                 "--json"], capture_output=True, text=True, check=True)
+    assert json.loads(r.stdout)["evaluated"] == 8  # stdout stays JSON
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("warning:")]
+    assert any("look like radians" in w for w in warnings) and any("stronger than" in w for w in warnings)
+    assert len(warnings) == len(set(warnings))  # each once
+    quiet = subprocess.run(SANLAB + ["search", "cart", "-n", "8", "--seconds", "0.2", "--db", db, "--json"],
+                           capture_output=True, text=True, check=True)
+    assert "warning:" not in quiet.stderr
