@@ -230,7 +230,8 @@ def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
     nonfinite = np.any(rows["nonfinite"], axis=1)
     K = member_score.shape[1]
     return ScoreBatch(np.median(member_score, 1), np.median(member_speed, 1), np.median(member_dist, 1),
-                      np.sum(fell, axis=1) > K / 2, np.any(nonfinite, axis=1), member_score, member_speed)
+                      np.sum(fell, axis=1) > K / 2, np.any(nonfinite, axis=1), member_score, member_speed,
+                      np.median(rows["dx_m"].mean(1), 1) if "dx_m" in rows else None)
 
 
 def _tree(fn, model: Model) -> Model:

@@ -8,6 +8,8 @@ the JSON (``sanlab.library.records`` decodes rows through these).
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,11 +92,15 @@ class Scores:
     nonfinite: bool
     member_scores: tuple[float, ...] = ()
     member_speeds: tuple[float, ...] = ()  # cm/s
+    dx_m: float | None = None  # m, signed displacement along x (the members' median; None: unknown)
 
     def to_json(self) -> dict[str, Any]:
-        return {"score": self.score, "speed_cm_s": self.speed_cm_s, "distance_m": self.distance_m,
-                "fell": self.fell, "nonfinite": self.nonfinite,
-                "members": {"score": list(self.member_scores), "speed_cm_s": list(self.member_speeds)}}
+        out = {"score": self.score, "speed_cm_s": self.speed_cm_s, "distance_m": self.distance_m,
+               "fell": self.fell, "nonfinite": self.nonfinite,
+               "members": {"score": list(self.member_scores), "speed_cm_s": list(self.member_speeds)}}
+        if self.dx_m is not None and math.isfinite(self.dx_m):
+            out["dx_m"] = self.dx_m
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Scores:
@@ -109,14 +115,16 @@ class Scores:
         return cls(score, speed, nan if d.get("distance_m") is None else float(d["distance_m"]),
                    bool(d.get("fell", False)), bool(d.get("nonfinite", False)),
                    tuple(float(x) for x in ms) if ms else (score,),
-                   tuple(float(x) for x in mv) if mv else (speed,))
+                   tuple(float(x) for x in mv) if mv else (speed,),
+                   None if d.get("dx_m") is None else float(d["dx_m"]))
 
 
 @dataclass(frozen=True)
 class ScoreBatch:
     """Scores of a batch of B evaluations as arrays (what an evaluator returns; compact to send
     between processes): score, speed_cm_s, distance_m [B] float64; fell, nonfinite [B] bool;
-    member_score, member_speed_cm_s [B, K] float64."""
+    member_score, member_speed_cm_s [B, K] float64; dx_m [B] float64 (m, signed displacement
+    along x, the members' median; NaN where unknown)."""
 
     score: np.ndarray
     speed_cm_s: np.ndarray
@@ -125,6 +133,11 @@ class ScoreBatch:
     nonfinite: np.ndarray
     member_score: np.ndarray
     member_speed_cm_s: np.ndarray
+    dx_m: Any = None
+
+    def __post_init__(self):
+        if self.dx_m is None:
+            object.__setattr__(self, "dx_m", np.full(len(self.score), np.nan))
 
     def __len__(self) -> int:
         return len(self.score)
@@ -134,7 +147,8 @@ class ScoreBatch:
         return Scores(float(self.score[k]), float(self.speed_cm_s[k]), float(self.distance_m[k]),
                       bool(self.fell[k]), bool(self.nonfinite[k]),
                       tuple(float(x) for x in self.member_score[k]),
-                      tuple(float(x) for x in self.member_speed_cm_s[k]))
+                      tuple(float(x) for x in self.member_speed_cm_s[k]),
+                      float(self.dx_m[k]) if np.isfinite(self.dx_m[k]) else None)
 
     def rows(self) -> list[Scores]:
         return [self.row(k) for k in range(len(self))]
@@ -148,4 +162,4 @@ class ScoreBatch:
         return ScoreBatch(*(np.concatenate([getattr(b, f) for b in batches]) for f in _FIELDS))
 
 
-_FIELDS = ("score", "speed_cm_s", "distance_m", "fell", "nonfinite", "member_score", "member_speed_cm_s")
+_FIELDS = ("score", "speed_cm_s", "distance_m", "fell", "nonfinite", "member_score", "member_speed_cm_s", "dx_m")

@@ -201,6 +201,8 @@ class EvaluationRow:
         """The ``Library.add_batch`` row of this record."""
         s = self.scores.to_json()
         extra = {"distance_m": s["distance_m"], "members": s["members"], **self.extra}
+        if "dx_m" in s:
+            extra["dx_m"] = s["dx_m"]
         return {"idx": self.idx, "encoding": self.encoding, "params": self.params.to_json(),
                 "score": s["score"], "speed_cm_s": s["speed_cm_s"], "fell": s["fell"],
                 "nonfinite": s["nonfinite"], "extra": extra, "parent": self.parent}

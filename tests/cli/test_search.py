@@ -64,7 +64,9 @@ def test_search_json_has_the_documented_shape(tmp_path):
     out = json.loads(r.stdout)
     assert set(out) == {"run_id", "evaluated", "top"} and out["evaluated"] == 20
     first = out["top"][0]
-    assert {"gait", "score", "speed_cm_s", "fell", "encoding"} <= set(first)
+    assert {"gait", "score", "speed_cm_s", "fell", "encoding", "dx_m", "direction"} <= set(first)
+    for row in out["top"]:  # the signed displacement is stored with every evaluation
+        assert row["dx_m"] is not None and row["direction"] == ("+x" if row["dx_m"] > 0 else "-x" if row["dx_m"] < 0 else None)
     assert first["gait"] == f"{out['run_id']}/1"
     runs = json.loads(subprocess.run(SANLAB + ["runs", "--db", db, "--json"], capture_output=True,
                                      text=True, check=True).stdout)
