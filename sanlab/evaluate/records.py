@@ -9,7 +9,6 @@ the JSON (``sanlab.library.records`` decodes rows through these).
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 from typing import Any
 
