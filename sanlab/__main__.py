@@ -1,5 +1,5 @@
 """``python -m sanlab`` runs the command line."""
 
-from sanlab.cli import app
+from sanlab.cli import run
 
-app(prog_name="sanlab")
+run()

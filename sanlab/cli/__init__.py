@@ -65,4 +65,34 @@ app.command()(reproduce.reproduce)
 app.command()(render.render)
 app.command()(studio.studio)
 
-__all__ = ["app"]
+
+
+def run() -> None:
+    """The ``sanlab`` program: :data:`app`, with a command-line mistake (an unknown option, a value
+    out of range) reported as one line on stderr, exit 2, like every other error."""
+    import sys
+
+    # Typer vendors Click and exports only some of its exceptions: find the bases by name.
+    bases = {c.__name__: c for c in typer.BadParameter.__mro__}
+    usage_error, click_exception = bases["UsageError"], bases["ClickException"]
+    try:
+        code = app(prog_name="sanlab", standalone_mode=False)
+    except usage_error as e:
+        ctx = getattr(e, "ctx", None)
+        if type(e).__name__ == "NoArgsIsHelpError" and ctx is not None:
+            typer.echo(ctx.get_help())
+            code = 0
+        else:
+            name = ctx.command_path if ctx is not None else "sanlab"
+            typer.echo(f"{name}: {e.format_message()} (see {name} --help)", err=True)
+            code = e.exit_code
+    except click_exception as e:
+        typer.echo(f"sanlab: {e.format_message()}", err=True)
+        code = e.exit_code
+    except typer.Abort:
+        typer.echo("aborted", err=True)
+        code = 130
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+__all__ = ["app", "run"]

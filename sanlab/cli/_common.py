@@ -41,7 +41,7 @@ EnsembleOpt = Annotated[int, typer.Option(
                        "1 mm and 0.5 deg); 1: a single unperturbed rollout.")]
 BackendOpt = Annotated[str, typer.Option(
     "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
-                      "pip install 'sanlab[cluster]').")]
+                      "pip install 'sanlab\\[cluster]').")]
 AddressOpt = Annotated[str | None, typer.Option(
     "--address", help="With --backend ray: the cluster (auto, or ray://HOST:PORT); default: start one here.")]
 WorkersOpt = Annotated[int | None, typer.Option(
@@ -95,6 +95,7 @@ def ensemble_or_exit(members: int) -> Any:
     """The :class:`sanlab.evaluate.Ensemble` of ``--ensemble K``, or exit 2 with one line."""
     from sanlab.evaluate import Ensemble
 
+    check_count("--ensemble", members, 1, MAX_MEMBERS)
     try:
         return Ensemble(members=members)
     except ValueError as e:
@@ -149,6 +150,7 @@ def open_library(path: str, *, create: bool = False, readonly: bool = False) -> 
 MAX_COUNT = 10_000_000  # controllers, trials: more would not finish in a day
 MAX_BATCH = 65_536
 MAX_TOP = 10_000
+MAX_MEMBERS = 256  # ensemble members: each evaluation is this many rollouts
 SEED_RANGE = (0, 2**63 - 1)  # what the library stores (an SQLite INTEGER) and NumPy seeds take
 
 

@@ -20,6 +20,7 @@ from sanlab.cli._common import (
     WorkersOpt,
     backend_or_exit,
     check_dtype,
+    check_run_args,
     console,
     ensemble_or_exit,
     fail,
@@ -64,6 +65,7 @@ def search(
     text = where = ""
     if creature is not None:
         spec = load_or_exit(creature)[0]
+        check_run_args(spec, controllers=controllers, seconds=seconds, metric=metric, seed=seed, batch=batch, top=top)
         text, where = read_source(creature)
         _print_warnings(spec, creature)
     engine = backend_or_exit(backend, address, workers)

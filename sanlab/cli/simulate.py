@@ -10,13 +10,13 @@ from rich.markup import escape
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import CreatureArg, DtypeOpt, EnsembleOpt, check_dtype, console, ensemble_or_exit, load_or_exit
+from sanlab.cli._common import CreatureArg, DtypeOpt, EnsembleOpt, check_dtype, check_run_args, console, ensemble_or_exit, load_or_exit
 
 
 def simulate(
     creature: CreatureArg,
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to run.")] = 200,
-    seconds: Annotated[float, typer.Option(min=0.001, help="Simulated time per controller (s).")] = 6.0,
+    seconds: Annotated[float | None, typer.Option(min=0.001, help="Simulated time per controller (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     ensemble: EnsembleOpt = 8,
     dtype: DtypeOpt = "float32",
@@ -27,6 +27,8 @@ def simulate(
     scores), without storing them."""
     check_dtype(dtype)
     c, _ = load_or_exit(creature)
+    check_run_args(c, controllers=controllers, seconds=seconds, seed=seed)
+    seconds = seconds if seconds is not None else c.evaluation.seconds
     ens = ensemble_or_exit(ensemble)
     configure()
     from sanlab.engine_report import simulate_random

@@ -18,7 +18,10 @@ from sanlab.cli._common import (
     JsonOpt,
     ProgressBar,
     WorkersOpt,
+    MAX_BATCH,
     backend_or_exit,
+    check_count,
+    check_seed,
     console,
     ensemble_or_exit,
     fail,
@@ -55,6 +58,9 @@ def tune(
     from sanlab.search.tune import tune as run_tune
 
     ens = ensemble_or_exit(ensemble)
+    check_count("--trials", trials)
+    check_count("--batch", batch, 1, MAX_BATCH)
+    check_seed(seed)
     if (gait is None) == (not resume):
         raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
     engine = backend_or_exit(backend, address, workers)

@@ -134,3 +134,21 @@ def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
     quiet = subprocess.run(SANLAB + ["search", "cart", "-n", "8", "--seconds", "0.2", "--db", db, "--json"],
                            capture_output=True, text=True, check=True)
     assert "warning:" not in quiet.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ["search", "bounder", "-n", "0"],  # out of range (Typer's check)
+    ["search", "bounder", "--frobnicate"],  # unknown option
+    ["tune", "x/1", "--trials", "abc"],  # not a number
+    ["search", "bounder", "--seconds", "inf"],  # sanlab's own check, before a run exists
+    ["search", "bounder", "--ensemble", "100000"],
+    ["simulate", "bounder", "--seconds", "1e9"],
+])
+def test_command_line_mistakes_are_one_line_with_exit_2(tmp_path, args):
+    db = tmp_path / "g.db"
+    r = subprocess.run(SANLAB + args + (["--db", str(db)] if args[0] != "simulate" else []),
+                       capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr and "╭" not in r.stderr, r.stderr
+    assert r.stdout == "" and not db.exists()  # nothing started, nothing stored
