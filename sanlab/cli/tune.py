@@ -11,6 +11,7 @@ from rich.table import Table
 
 from sanlab import configure
 from sanlab.cli._common import (
+    MAX_BATCH,
     AddressOpt,
     BackendOpt,
     DbOpt,
@@ -18,7 +19,6 @@ from sanlab.cli._common import (
     JsonOpt,
     ProgressBar,
     WorkersOpt,
-    MAX_BATCH,
     backend_or_exit,
     check_count,
     check_seed,
