@@ -93,7 +93,8 @@ def tune(
         raise fail(f"tune: {e}") from None
     except LibraryError as e:
         raise fail(str(e)) from None
-    rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials}
+    rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials,
+             "accepted": r.accepted}
             for r in results]
     if render_dir:
         from sanlab.cli.render import render_into
@@ -108,4 +109,7 @@ def tune(
                       f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
     console.print(f"{len(results)} chain(s) x {trials if not resume else results[0].trials} trials in "
-                  f"{results[0].seconds:.0f} s (this session; 'after' is the tuned gait re-scored on a held-out ensemble)")
+                  f"{results[0].seconds:.0f} s (this session). 'before' is the start re-scored on the chain's own "
+                  "ensemble draws, 'after' the tuned gait re-scored on held-out draws: with an ensemble of a chaotic "
+                  "gait these differ from the stored score, and 'after' can be below 'before'; `sanlab audit` "
+                  "says how far such a score can be trusted.")

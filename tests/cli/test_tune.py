@@ -22,7 +22,8 @@ def test_tune_cli_json(bounder_run):
     r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "5", "--batch", "64",
                                  "--ensemble", "1", "--db", str(db), "--json"], capture_output=True, text=True, check=True)
     out = json.loads(r.stdout)
-    assert set(out) == {"gait", "tuned_gait", "before", "after", "trials"}
+    assert set(out) == {"gait", "tuned_gait", "before", "after", "trials", "accepted"}
+    assert 0 <= out["accepted"] <= out["trials"]
     assert out["trials"] == 5 and out["after"]["score"] >= out["before"]["score"]
     assert set(out["before"]) == {"score", "speed_cm_s"}
     bad = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "newton", "--db", str(db)],
