@@ -18,13 +18,14 @@ sanlab.configure()
 
 @pytest.fixture(scope="session")
 def lib_run(tmp_path_factory) -> tuple[str, str]:
-    """(library path, run id) of one tiny seeded phase-1 search on the cart (16 controllers, 1 s)."""
+    """(library path, run id) of one tiny seeded phase-1 search on the cart (16 controllers, 1 s,
+    single samples: its best gait is the one the picture tests were written against)."""
     from sanlab.search import run_search
 
     db = tmp_path_factory.mktemp("render") / "gaits.db"
     text, where = read_source("cart")
     with Library(str(db)) as lib:
-        run_id = run_search(lib, text, where, controllers=16, seconds=1.0, batch=16)
+        run_id = run_search(lib, text, where, controllers=16, seconds=1.0, batch=16, ensemble=1)
     return str(db), run_id
 
 

@@ -81,3 +81,12 @@ def time_limit(cpu: float = 10.0, wall: float = 120.0):
 def one_line_error(message: str, source: str) -> bool:
     """Whether ``message`` is the loader's documented error: one printable line about ``source``."""
     return message.startswith(f"{source}: ") and message.isprintable() and len(message) < 2000
+
+
+def interruptible() -> None:
+    """``preexec_fn`` of a command a test interrupts with SIGINT: a shell that started the test
+    suite in the background leaves SIGINT ignored, every child inherits that, and Python then
+    installs no KeyboardInterrupt handler (as Unix asks); give the child the default back."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

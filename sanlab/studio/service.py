@@ -370,7 +370,7 @@ class Service:
         spec = gait.spec
         if terrain is not None and spec.world.plane == "vertical":
             spec = dataclasses.replace(spec, world=dataclasses.replace(spec.world, terrain=_terrain(terrain)))
-        key = (spec, repr(sorted((gait.params.get("model") or {}).items())))
+        key = (spec, repr(sorted(gait.params.model.items())))
         with self._lock:
             if key not in self._compiled:
                 self._compiled[key] = dataclasses.replace(gait, spec=spec).model()
@@ -579,7 +579,7 @@ def geometry(gait, model) -> dict:
     rows, follow_path [[x, y], ...] or None, size (m, the largest link extent)."""
     spec = gait.spec
     names = {l.name: i for i, l in enumerate(spec.links)}
-    scale = gait.params.get("scale")
+    scale = gait.params.scale
     p = model.params
     links = []
     for i, l in enumerate(spec.links):

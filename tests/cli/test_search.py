@@ -14,7 +14,7 @@ import time
 import pytest
 
 from sanlab.library import Library
-from tests.helpers import SANLAB
+from tests.helpers import SANLAB, interruptible
 
 
 def _count(db) -> int:
@@ -30,7 +30,8 @@ def _count(db) -> int:
 def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     db = tmp_path / "gaits.db"
     args = ["search", "cart", "-n", "640", "--batch", "64", "--seconds", "1", "--seed", "9", "--db", str(db)]
-    proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=interruptible)
     deadline = time.time() + 240
     while _count(db) < 64 and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from sanlab.library import Library
-from tests.helpers import SANLAB
+from tests.helpers import SANLAB, interruptible
 
 
 def test_tune_cli_json(bounder_run):
@@ -48,7 +48,8 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
         s.backup(d)  # two copies of the library: one to interrupt, one to run uninterrupted
         s.backup(r)
     args = ["tune", f"{run_id}/1", "--method", "sa", "--trials", "150", "--batch", "16", "--seed", "4"]
-    proc = subprocess.Popen(SANLAB + args + ["--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(SANLAB + args + ["--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=interruptible)
     deadline = time.time() + 300
     while _trace_count(db) < 10 and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)

@@ -27,6 +27,7 @@ from sanlab.creature.spec import (
     Terrain,
     World,
 )
+from sanlab.evaluate.records import GaitParams
 from sanlab.metrics import Metric, scores
 from sanlab.san import San
 from sanlab.search.space import Space
@@ -76,7 +77,7 @@ def test_tuned_parameters_cannot_buy_motion_on_ice():
     space = Space(spec, morphology=True)
     model = sim.compile_creature(spec)
     rng = np.random.default_rng(7)
-    theta0 = space.nominal({"delay_on": spec.san.delay_on, "delay_off": spec.san.delay_off})
+    theta0 = space.nominal(GaitParams(spec.san.delay_on, spec.san.delay_off))
     thetas = []
     for _ in range(48):
         th = theta0.copy()

@@ -60,8 +60,10 @@ def library(tmp_path_factory) -> dict:
     db = str(tmp_path_factory.mktemp("studio") / "gaits.db")
     text, where = read_source(SEARCH["creature"])
     with Library(db) as lib:
+        # single samples: its best gait is the one these tests were written against (it moves
+        # within live mode's first chunks)
         cart = run_search(lib, text, where, controllers=SEARCH["controllers"], seconds=SEARCH["seconds"],
-                          seed=SEARCH["seed"])
+                          seed=SEARCH["seed"], ensemble=1)
         fish = lib.import_gait(json.loads((DATA / "fish_gait.json").read_text()))
     return {"db": db, "cart": cart, "fish": fish}
 
