@@ -12,7 +12,7 @@ runs (search, import, reproduce, studio) may create it.
 from __future__ import annotations
 
 import signal
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -73,7 +73,7 @@ def run() -> None:
     import sys
 
     # Typer vendors Click and exports only some of its exceptions: find the bases by name.
-    bases = {c.__name__: c for c in typer.BadParameter.__mro__}
+    bases: dict[str, Any] = {c.__name__: c for c in typer.BadParameter.__mro__}
     usage_error, click_exception = bases["UsageError"], bases["ClickException"]
     try:
         code = app(prog_name="sanlab", standalone_mode=False)
