@@ -34,6 +34,7 @@ from sanlab.cli._common import (
     top_rows,
 )
 from sanlab.creature import read_source
+from sanlab.creature.spec import SCORE_UNITS
 
 
 def search(
@@ -102,7 +103,9 @@ def search(
         typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
         return
     run = lib.get_run(run_id)
-    print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {run.settings.metric}")
+    metric = run.settings.metric or ""
+    print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {metric}",
+              SCORE_UNITS.get(metric, ""))
     print_distribution(lib.scores(run_id))
     earlier = [r.run_id for r in lib.same_runs("search", run.creature_text, run.params, run.seed) if r.run_id != run_id]
     next_steps(db, run_id, rows, lib.tally(run_id), earlier)
