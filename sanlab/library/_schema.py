@@ -152,18 +152,9 @@ def open_schema(conn: sqlite3.Connection, path: str, readonly: bool = False) -> 
     empty file is refused, an older schema read as it is)."""
     app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     version = conn.execute("PRAGMA user_version").fetchone()[0]
-    if readonly:
-        if app_id == 0 and version == 0 and _is_empty(conn):
+    if app_id == 0 and version == 0 and _is_empty(conn):
+        if readonly:
             raise LibraryError(f"{path}: an empty file, not yet a gait library (a search creates one)")
-        if app_id != APPLICATION_ID:
-            raise LibraryError(f"{path}: not a sanlab gait library "
-                               "(it is an SQLite database of another application)")
-        if version > SCHEMA_VERSION:
-            raise LibraryError(f"{path}: written by a newer sanlab (library schema version "
-                               f"{version}; this sanlab reads up to {SCHEMA_VERSION})")
-        if version < 1:
-            raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
-    elif app_id == 0 and version == 0 and _is_empty(conn):
         _create(conn)
     elif app_id != APPLICATION_ID:
         raise LibraryError(f"{path}: not a sanlab gait library "
@@ -173,7 +164,7 @@ def open_schema(conn: sqlite3.Connection, path: str, readonly: bool = False) -> 
                            f"{version}; this sanlab reads up to {SCHEMA_VERSION})")
     elif version < 1:
         raise LibraryError(f"{path}: damaged sanlab gait library (schema version {version})")
-    elif version < SCHEMA_VERSION:
+    elif version < SCHEMA_VERSION and not readonly:
         _upgrade(conn, path)
     if not readonly:
         version = SCHEMA_VERSION  # created or upgraded
