@@ -66,7 +66,7 @@ def job(spec=None) -> dict:
     spec = bounder_spec() if spec is None else spec
     if spec.dt != 1e-3:
         raise ValueError(f"the benchmark runs at dt = 1 ms, {spec.name} has {spec.dt}")
-    xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="Euler")
+    xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="implicitfast")
     import mujoco
 
     mj: Any = mujoco  # compiled bindings: nothing a type checker can read
@@ -284,6 +284,64 @@ def mujoco_steps_per_s(
             warnings=sum(w for _, _, w in results),
         )  # fmt: skip
     return rate
+
+
+def mujoco_c_loop_steps_per_s(spec=None, *, batch: int = 256, steps: int = 1000, repeats: int = 3,
+                              threads: int | None = None, seed: int = 0) -> float:
+    """Creature-steps per second of MuJoCo's own C rollout loop (``mujoco.rollout``, one thread
+    per core) on the same converted model: the strongest route a MuJoCo user would write.
+
+    ``mujoco.rollout`` runs open-loop controls, so there is no network in the loop: each creature
+    gets a fixed random sequence of servo targets in its actuators' ranges (each held for 70 ms,
+    the SAN's fastest node delay), and MuJoCo's own ``position`` actuators (kp = ks, kv = kd, the
+    same PD servos) turn them into torques inside the C loop, integrated by "implicitfast" (its
+    velocity-implicit Euler: the servos' damping is stiff for light links at 1 ms). The best of ``repeats`` timed calls
+    after a warm-up call; raises RuntimeError if MuJoCo reports an unstable run (that would
+    time a different job).
+    """
+    import mujoco
+    import numpy as np
+    from mujoco import rollout as mjr
+
+    mm = _converter()
+    spec = bounder_spec() if spec is None else spec
+    mj: Any = mujoco
+    xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="implicitfast")
+    from sanlab.creature.spec import AngularActuator
+
+    for a in spec.actuators:  # the converter's motors, as MuJoCo's PD servos
+        assert isinstance(a, AngularActuator)  # to_mjcf refuses linear ones
+        motor = f'<motor name="{a.name}" joint="{a.joint}:joint" gear="1"/>'
+        if motor not in xml:
+            raise RuntimeError(f"unexpected MJCF for actuator {a.name}")
+        xml = xml.replace(motor, f'<position name="{a.name}" joint="{a.joint}:joint" kp="{a.ks!r}" kv="{a.kd!r}"/>')
+    m = mj.MjModel.from_xml_string(xml)
+    threads = threads or _cores()
+    datas = [mj.MjData(m) for _ in range(threads)]
+    d = datas[0]
+    qpos0 = np.zeros(m.nq)
+    qpos0[np.asarray(mm.qpos_index(spec, m), int)] = mm.initial_q(spec)
+    d.qpos[:] = qpos0
+    mj.mj_forward(m, d)
+    sig = mj.mjtState.mjSTATE_FULLPHYSICS
+    x0 = np.zeros(mj.mj_stateSize(m, sig))
+    mj.mj_getState(m, d, x0, sig)
+    rng = np.random.default_rng(seed)
+    hold = max(1, int(round(0.07 / m.opt.timestep)))
+    span = np.array([[a.min, a.max] for a in spec.actuators])
+    n_hold = -(-steps // hold)
+    pick = rng.uniform(span[:, 0], span[:, 1], size=(batch, n_hold, len(span)))
+    ctrl = np.repeat(pick, hold, axis=1)[:, :steps]
+    state0 = np.repeat(x0[None], batch, axis=0)
+    states = np.asarray(mjr.rollout([m] * batch, datas, state0, ctrl, nstep=steps)[0])  # warm-up
+    if not np.all(np.isfinite(states)) or any(int(dd.warning.number.sum()) for dd in datas):
+        raise RuntimeError(f"MuJoCo's rollout of {spec.name} went unstable")
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        mjr.rollout([m] * batch, datas, state0, ctrl, nstep=steps)
+        best = min(best, time.perf_counter() - t0)
+    return batch * steps / best
 
 
 if __name__ == "__main__":

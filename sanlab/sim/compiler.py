@@ -10,14 +10,15 @@ from sanlab.sim.dynamics import seat_on_ground
 from sanlab.sim.model import Model, assemble
 
 
-def compile_creature(spec: Creature, dtype: Any = "float32") -> Model:
+def compile_creature(spec: Creature, dtype: Any = "float32", articulated: bool | None = None) -> Model:
     """The compiled model of ``spec``: structure static, numbers as arrays of ``dtype``
-    ("float32", the default, or "float64").
+    ("float32", the default, or "float64"); articulated: the step's linear algebra (see
+    :func:`sanlab.sim.model.assemble`; None picks by size).
 
     In the vertical plane every free tree whose contact points start below the ground is lifted
     just clear of it: a body started inside the ground would be launched by the penalty spring.
     """
-    model = assemble(spec, dtype)
+    model = assemble(spec, dtype, articulated)
     if spec.world.plane == "vertical" and model.structure.contacts:
         model = model.with_params(q0=seat_on_ground(model, model.params.q0))
     return model

@@ -39,12 +39,14 @@ Units: SI throughout.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
 
+from sanlab.sim import articulated
 from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.sparse import SymMatrix, add, axpy, mul, neg, sub
 
@@ -81,7 +83,7 @@ class Frame(NamedTuple):
     gate: Any = None  # unbatched runtime-true boolean that fences XLA fusion (see _barrier)
     com: list | None = None  # per link: centre of mass, world
     S: dict | None = None  # per rotational link of a free tree: (sum over its subtree of m (c - X_k)) / m_tree
-    M: SymMatrix | None = None  # mass matrix M(q_n), tree coordinates
+    M: Any = None  # mass matrix M(q_n), tree coordinates: a SymMatrix, or articulated.Bodies
     u: list | None = None  # per dof velocity in tree coordinates (root origins, angle rates)
 
 
@@ -120,7 +122,10 @@ def jacobian(st: Structure, fr: Frame, i: int, p: Vec) -> dict:
     Forces, the mass matrix and the linear solve of a step live in these coordinates, where a
     point depends only on the dofs of its own chain (no fill-in); the state's coordinates, a
     free tree's centre of mass, differ from them by a linear change of variables (see
-    :func:`_to_tree` and friends)."""
+    :func:`_to_tree` and friends). On the articulated route, the point on its body
+    (:class:`articulated.BodyPoint`)."""
+    if st.articulated:
+        return fr.M.point(i, p)
     ls = st.links[i]
     J: dict = {ls.dof_x: (1.0, 0.0), ls.dof_y: (0.0, 1.0)} if ls.dof_x >= 0 else {}
     if not ls.point:
@@ -133,11 +138,15 @@ def jacobian(st: Structure, fr: Frame, i: int, p: Vec) -> dict:
 
 def _rot_row(st: Structure, i: int) -> dict:
     """Row of ones over the rotational dofs that turn link i (its absolute angle's gradient)."""
+    if st.articulated:
+        return articulated.rotation_row(i)
     return {st.links[k].dof_rot: 1.0 for k in st.links[i].chain if st.links[k].dof_rot >= 0}
 
 
 def _project(J: dict, n: Vec) -> dict:
     """Row g = J^T n (how each dof moves the point along n)."""
+    if isinstance(J, articulated.BodyPoint):
+        return articulated.project(J, n)
     out = {}
     for d, (jx, jy) in J.items():
         v = add(mul(jx, n[0]), mul(jy, n[1]))
@@ -279,8 +288,13 @@ def _positions(model: Model, q, gate) -> Frame:
     return fr._replace(cp=cp, depth=depth, terrain=terrain)
 
 
-def _mass_matrix(st: Structure, p: Params, fr: Frame) -> SymMatrix:
-    """M(q) in tree coordinates: sum over links of m J_c^T J_c + I r r^T."""
+def _mass_matrix(st: Structure, p: Params, fr: Frame) -> Any:
+    """M(q) in tree coordinates: sum over links of m J_c^T J_c + I r r^T (a SymMatrix), or on
+    the articulated route one spatial inertia per body (:class:`articulated.Bodies`)."""
+    if st.articulated:
+        B = articulated.Bodies(st, fr.X, fr.com, p.mass, p.inertia)
+        B.a = _barrier(B.a, fr.gate, "M")
+        return B
     terms = _Terms()
     for ls in st.links:
         i = ls.index
@@ -630,6 +644,39 @@ def _inertial_force(st: Structure, p: Params, fr: Frame, T: "_Terms") -> None:
                 T.force(neg(add(mul(ux, Pn[0]), mul(uy, Pn[1]))), {st.links[chain[n]].dof_rot: 1.0})
 
 
+def _inertial_force_linear(st: Structure, p: Params, fr: Frame, T: "_Terms") -> None:
+    """dT/dq of :func:`_inertial_force` in O(n): for joint k, dT/dq_k = -sum over its subtree of
+    u_i x (v_ci - V_k), with u_i = m_i (v_ci - v_c) and V_k the velocity of joint k's origin
+    (the chain's suffix sums there are the relative velocity v_ci - V_k turned by 90 degrees), so
+    two subtree sums, sum u_i x v_ci and sum u_i, give every joint's entry."""
+    kids = _children(st)
+    for tree in st.trees:
+        if tree.point:
+            continue
+        root = st.links[tree.root]
+        vc = (fr.qd[root.dof_x], fr.qd[root.dof_y]) if tree.free else (0.0, 0.0)
+        A: dict = {}
+        B: dict = {}
+        for i in reversed(tree.links):
+            ls = st.links[i]
+            if ls.parent < 0 and not tree.free:
+                continue  # welded to the world
+            v = _point_vel(fr, i, fr.com[i])
+            ux, uy = mul(p.mass[i], sub(v[0], vc[0])), mul(p.mass[i], sub(v[1], vc[1]))
+            a, bx, by = sub(mul(ux, v[1]), mul(uy, v[0])), ux, uy
+            for c in kids[i]:
+                a, bx, by = add(a, A[c]), add(bx, B[c][0]), add(by, B[c][1])
+            A[i], B[i] = a, (bx, by)
+            if ls.dof_rot >= 0 and ls.parent >= 0:
+                Vk = fr.V[i]
+                T.force(add(neg(a), sub(mul(bx, Vk[1]), mul(by, Vk[0]))), {ls.dof_rot: 1.0})
+
+
+@functools.lru_cache(maxsize=256)
+def _children(st: Structure) -> dict[int, tuple[int, ...]]:
+    return {ls.index: tuple(k.index for k in st.links if k.parent == ls.index) for ls in st.links}
+
+
 def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     """Integrate one step from a prepared frame with actuator activations ``u`` [A] in [0, 1].
 
@@ -646,7 +693,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         T.outer(add(mul(h, c), mul(h * h, k)), g)
         T.force(sub(force, mul(mul(h, k), rate)), g)
 
-    _inertial_force(st, p, fr, T)
+    (_inertial_force_linear if st.articulated else _inertial_force)(st, p, fr, T)
 
     # gravity: on a free tree's centre of mass (mapped to tree coordinates); link by link in a
     # welded tree
@@ -664,8 +711,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 ls = st.links[i]
                 if ls.parent < 0:
                     continue
-                gy = {d: v[1] for d, v in jacobian(st, fr, i, fr.com[i]).items() if not _zero(v[1])}
-                T.force(neg(p.mass[i] * p.gravity), gy)
+                T.force(neg(p.mass[i] * p.gravity), _project(jacobian(st, fr, i, fr.com[i]), (0.0, 1.0)))
         for d, f in enumerate(_force_to_tree(st, fr, weight)):
             T.force(f, {d: 1.0})
 
@@ -789,10 +835,16 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         ct = p.water_t * L
         element(_project(Ja, tan), -ct * vt, 0.0, ct, vt)
 
-    A, Q = T.assemble(_elimination_order(st), fr.gate, base=fr.M)
-    rhs = {d: mul(h, v) for d, v in Q.items()}
-    A.a, rhs = _barrier((A.a, rhs), fr.gate, 'A')
-    du = _barrier(A.solve(rhs), fr.gate, 'du')
+    if st.articulated:
+        mat, vec = _barrier((T.mat, T.vec), fr.gate, 'terms')
+        S = _barrier(articulated.gather(mat, vec), fr.gate, 'A')
+        F = {b: tuple(mul(h, x) for x in f) for b, f in S.F.items()}
+        du = _barrier(fr.M.solve({d: mul(h, v) for d, v in S.tau.items()}, S.arm, S.E, F), fr.gate, 'du')
+    else:
+        A, Q = T.assemble(_elimination_order(st), fr.gate, base=fr.M)
+        rhs = {d: mul(h, v) for d, v in Q.items()}
+        A.a, rhs = _barrier((A.a, rhs), fr.gate, 'A')
+        du = _barrier(A.solve(rhs), fr.gate, 'du')
     ustar = [add(qd[d], du[d]) for d in range(st.ndof)]
     # p_{n+1} = M v* in state coordinates = S^T (M_tree u*) = p_n + S^T M_tree du
     Mdu = fr.M.matvec(du)

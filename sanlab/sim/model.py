@@ -90,6 +90,7 @@ class Structure:
     follow: bool
     follow_loop: bool
     dt: float
+    articulated: bool = False  # the step's linear algebra: O(n) articulated-body (see sim.articulated) or dense
 
     @property
     def n_sensors(self) -> int:
@@ -249,11 +250,26 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
     return out
 
 
-def assemble(spec: Creature, dtype: Any = "float32") -> Model:
+# The step's linear algebra switches from the dense, trace-time factorisation to the O(n)
+# articulated-body route (sim.articulated) at this many dofs (measured: benchmarks/engine.py).
+ARTICULATED_FROM_DOFS = 0
+
+
+def articulated_supported(spec: Creature) -> bool:
+    """Whether the articulated route can step ``spec``: trees of rigid links only (no point
+    masses, no linear springs or actuators, which join two bodies)."""
+    return not (any(l.is_point for l in spec.links) or spec.springs
+                or any(a.kind == "linear" for a in spec.actuators))
+
+
+def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = None) -> Model:
     """Build the static structure and parameter arrays of ``spec``, bodies where the file puts
     them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
 
-    dtype: "float32" (default) or "float64".
+    dtype: "float32" (default) or "float64". articulated: the step's linear algebra, O(n)
+    articulated-body (True) or dense (False); None (default) picks by size
+    (``ARTICULATED_FROM_DOFS``). Raises ValueError for True on a creature the articulated route
+    does not support (see :func:`articulated_supported`).
     """
     from sanlab import _jax
 
@@ -265,6 +281,10 @@ def assemble(spec: Creature, dtype: Any = "float32") -> Model:
     names = {l.name: i for i, l in enumerate(spec.links)}
     links, trees, q0 = _trees(spec, names)
     ndof = len(q0)
+    if articulated is None:
+        articulated = articulated_supported(spec) and ndof >= ARTICULATED_FROM_DOFS
+    elif articulated and not articulated_supported(spec):
+        raise ValueError(f"{spec.name}: the articulated route takes no point masses, linear springs or actuators")
 
     contacts, contact_pts, contact_load = [], [], []
     for i, l in enumerate(spec.links):
@@ -381,6 +401,7 @@ def assemble(spec: Creature, dtype: Any = "float32") -> Model:
         follow=w.follow is not None,
         follow_loop=follow_loop,
         dt=spec.dt,
+        articulated=bool(articulated),
     )
 
     def arr(x, shape=None):
