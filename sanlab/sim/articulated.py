@@ -102,11 +102,14 @@ class Bodies:
     uses it: ``solve`` and ``matvec`` over dof-keyed dicts.
 
     structure: the model's ``Structure``; ``X`` / ``com``: per link origin and centre of mass,
-    world (m); mass (kg) and inertia about the centre of mass (kg m^2) as indexable arrays.
+    world (m); mass (kg) and inertia about the centre of mass (kg m^2) as indexable arrays;
+    fence: ``fence(tree, name) -> tree``, keeps XLA from re-deriving intermediates (see
+    ``dynamics._barrier``; default: none).
     """
 
-    def __init__(self, structure, X: list, com: list, mass, inertia):
+    def __init__(self, structure, X: list, com: list, mass, inertia, fence=None):
         st = self.st = structure
+        self.fence = fence or (lambda tree, name: tree)
         self.children: dict[int, list[int]] = {ls.index: [] for ls in st.links}
         for ls in st.links:
             if ls.parent >= 0:
@@ -216,6 +219,9 @@ class Bodies:
                 j = ls.parent
                 IA[j] = _sym_add(IA[j], Ia)
                 pA[j] = tuple(add(a, c) for a, c in zip(pA[j], pa))
+                # fenced link by link: left to itself, XLA's fusion re-derives the whole subtree's
+                # recursion inside every consumer (the bounder ran 2x slower unfenced)
+                IA[j], pA[j], U[i], invD[i], uu[i] = self.fence((IA[j], pA[j], Ui, inv, ui), "aba")
             a: dict = {}
             if welded:
                 a[tree.root] = _ZERO3
@@ -242,6 +248,7 @@ class Bodies:
                 x[ls.dof_rot] = xi
                 if self.children[i]:
                     a[i] = _axpy(ap, xi, self.s[i])
+                    a[i], x[ls.dof_rot] = self.fence((a[i], xi), "aba")
         return x
 
 

@@ -13,7 +13,9 @@ from sanlab.sim.model import Model, assemble
 def compile_creature(spec: Creature, dtype: Any = "float32", articulated: bool | None = None) -> Model:
     """The compiled model of ``spec``: structure static, numbers as arrays of ``dtype``
     ("float32", the default, or "float64"); articulated: the step's linear algebra (see
-    :func:`sanlab.sim.model.assemble`; None picks by size).
+    :func:`sanlab.sim.model.assemble`; None picks by size). Both routes give the same step to
+    round-off; the articulated one costs O(n) per step for an n-link creature instead of up to
+    O(n^3).
 
     In the vertical plane every free tree whose contact points start below the ground is lifted
     just clear of it: a body started inside the ground would be launched by the penalty spring.

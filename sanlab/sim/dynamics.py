@@ -292,7 +292,7 @@ def _mass_matrix(st: Structure, p: Params, fr: Frame) -> Any:
     """M(q) in tree coordinates: sum over links of m J_c^T J_c + I r r^T (a SymMatrix), or on
     the articulated route one spatial inertia per body (:class:`articulated.Bodies`)."""
     if st.articulated:
-        B = articulated.Bodies(st, fr.X, fr.com, p.mass, p.inertia)
+        B = articulated.Bodies(st, fr.X, fr.com, p.mass, p.inertia, lambda t, name: _barrier(t, fr.gate, name))
         B.a = _barrier(B.a, fr.gate, "M")
         return B
     terms = _Terms()

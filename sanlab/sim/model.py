@@ -250,9 +250,14 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
     return out
 
 
-# The step's linear algebra switches from the dense, trace-time factorisation to the O(n)
-# articulated-body route (sim.articulated) at this many dofs (measured: benchmarks/engine.py).
-ARTICULATED_FROM_DOFS = 0
+# The step's linear algebra: from this many dofs on, the O(n) articulated-body route
+# (sim.articulated) rather than the dense trace-time factorisation. None: never by default.
+# Measured (benchmarks/engine.py --growth, 2 cores, batch 2048): on an N-link chain the
+# articulated route is 1.7x faster at 8 links and 2.8x at 16, but the compiled rollout of 5- and
+# 6-link chains ran 10-100x slower than the dense route's for a reason not yet found (not
+# recompilation, denormals or the device split; a bare scan of the same step is fast), so it is
+# chosen explicitly (compile_creature(..., articulated=True)) until that is understood.
+ARTICULATED_FROM_DOFS: int | None = None
 
 
 def articulated_supported(spec: Creature) -> bool:
@@ -268,7 +273,7 @@ def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = 
 
     dtype: "float32" (default) or "float64". articulated: the step's linear algebra, O(n)
     articulated-body (True) or dense (False); None (default) picks by size
-    (``ARTICULATED_FROM_DOFS``). Raises ValueError for True on a creature the articulated route
+    (``ARTICULATED_FROM_DOFS``, at present: dense). Raises ValueError for True on a creature the articulated route
     does not support (see :func:`articulated_supported`).
     """
     from sanlab import _jax
@@ -282,7 +287,8 @@ def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = 
     links, trees, q0 = _trees(spec, names)
     ndof = len(q0)
     if articulated is None:
-        articulated = articulated_supported(spec) and ndof >= ARTICULATED_FROM_DOFS
+        articulated = (ARTICULATED_FROM_DOFS is not None and articulated_supported(spec)
+                       and ndof >= ARTICULATED_FROM_DOFS)
     elif articulated and not articulated_supported(spec):
         raise ValueError(f"{spec.name}: the articulated route takes no point masses, linear springs or actuators")
 

@@ -49,7 +49,11 @@ def neg(a: Scalar) -> Scalar:
 
 
 def sub(a: Scalar, b: Scalar) -> Scalar:
-    return add(a, neg(b))
+    if is_const(b, 0.0):
+        return a
+    if is_const(a, 0.0):
+        return neg(b)
+    return a - b  # one operation, and bit-equal to a + (-b)
 
 
 def axpy(y: dict, a: Scalar, x: dict) -> None:
