@@ -38,7 +38,7 @@ import numpy as np
 
 from sanlab.creature import geometry
 from sanlab.creature.spec import MAX_PENETRATION, METRICS, PENETRATION_FRACTION
-from sanlab.sim.dynamics import centre_of_mass, follow_point, prepare, terrain_height, wrap_angle
+from sanlab.sim.dynamics import centre_of_mass, follow_point, poses, terrain_height, wrap_angle
 
 
 class MetricAcc(NamedTuple):
@@ -91,8 +91,7 @@ class Metric:
                    ev.direction, max_depth(spec))
 
     def init(self, model, state):
-        fr = prepare(model, state)
-        p, _ = centre_of_mass(model, fr)
+        p = _com(model, state)
         z = jnp.zeros((), state.q.dtype)
         return MetricAcc(p, p[1], z, z, jnp.zeros((), bool), p, z)
 
@@ -122,8 +121,14 @@ class Metric:
         return acc._replace(hop=hop, pursuit=pursuit, fell=fell, deepest=deepest)
 
     def finish(self, model, acc: MetricAcc, state) -> MetricAcc:
-        p, _ = centre_of_mass(model, prepare(model, state))
-        return acc._replace(p=p)
+        return acc._replace(p=_com(model, state))
+
+
+def _com(model, state) -> tuple:
+    """Centre of mass (x, y) of a state from its positions alone: no velocity solve (outside the
+    step's loop it would be unfenced, and XLA's fusion can blow such a solve up)."""
+    c = poses(model, state.q)["com"]
+    return (c[0], c[1])
 
 
 def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -> dict[str, np.ndarray]:

@@ -470,10 +470,12 @@ def initial_state(model: Model) -> State:
     return make_state(model)
 
 
-def velocity(model: Model, state: State) -> Any:
-    """The velocity M(q)^-1 p [D] of one state (what ``qd`` holds outside a rollout's loop)."""
+def velocity(model: Model, state: State, gate=None) -> Any:
+    """The velocity M(q)^-1 p [D] of one state (what ``qd`` holds outside a rollout's loop).
+    gate: as for :func:`prepare` (a rollout passes its own, so that this last solve is fenced
+    like every step's)."""
     st = model.structure
-    fr = _positions(model, state.q, None)
+    fr = _positions(model, state.q, gate)
     M = _mass_matrix(st, model.params, fr)
     u = M.solve(dict(enumerate(_force_to_tree(st, fr, [state.p[d] for d in range(st.ndof)]))))
     return _dense(_from_tree(st, fr, [u[d] for d in range(st.ndof)]), state.q.dtype)

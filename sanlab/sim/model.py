@@ -251,13 +251,12 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
 
 
 # The step's linear algebra: from this many dofs on, the O(n) articulated-body route
-# (sim.articulated) rather than the dense trace-time factorisation. None: never by default.
-# Measured (benchmarks/engine.py --growth, 2 cores, batch 2048): on an N-link chain the
-# articulated route is 1.7x faster at 8 links and 2.8x at 16, but the compiled rollout of 5- and
-# 6-link chains ran 10-100x slower than the dense route's for a reason not yet found (not
-# recompilation, denormals or the device split; a bare scan of the same step is fast), so it is
-# chosen explicitly (compile_creature(..., articulated=True)) until that is understood.
-ARTICULATED_FROM_DOFS: int | None = None
+# (sim.articulated) rather than the dense trace-time factorisation. Measured back to back
+# (benchmarks/engine.py's growth table, 2 cores, batch 2048): the two routes run at the same
+# speed up to 8 dofs (bounder 7, walker 8, a 4-link chain 6: within 6 %), and the articulated one
+# is 1.4-1.6x faster from 8-link chains (10 dofs) on, 2.8x at 16 links, and compiles faster.
+# Above every built-in creature (at most 8 dofs), so that their results keep their last bits.
+ARTICULATED_FROM_DOFS: int | None = 9
 
 
 def articulated_supported(spec: Creature) -> bool:
@@ -273,7 +272,7 @@ def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = 
 
     dtype: "float32" (default) or "float64". articulated: the step's linear algebra, O(n)
     articulated-body (True) or dense (False); None (default) picks by size
-    (``ARTICULATED_FROM_DOFS``, at present: dense). Raises ValueError for True on a creature the articulated route
+    (``ARTICULATED_FROM_DOFS``). Raises ValueError for True on a creature the articulated route
     does not support (see :func:`articulated_supported`).
     """
     from sanlab import _jax

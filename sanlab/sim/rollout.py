@@ -129,7 +129,7 @@ def _one(model: Model, controller: Controller, observer: Observer | None, n_step
     finish = getattr(observer, "finish", None)  # optional (see Observer)
     if finish is not None:
         acc = finish(model, acc, state)
-    state = state._replace(qd=velocity(model, state))
+    state = state._replace(qd=velocity(model, state, gate))
     finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
     return state, acc, deepest, finite, frames, cstate
 

@@ -558,7 +558,7 @@ def _continuation():
                 return carry, rec
 
             (state, cs), (q, bits, nodes) = jax.lax.scan(frame, (state, cstate), None, length=frames)
-            state = state._replace(qd=sim.velocity(model, state))
+            state = state._replace(qd=sim.velocity(model, state, gate))
             finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
             poses = jax.vmap(lambda x: sim.poses(model, x))(q)
             return state, cs, finite, {"q": q, "bits": bits, "nodes": nodes, "poses": poses}

@@ -181,3 +181,11 @@ def test_every_supported_builtin_agrees_over_a_closed_loop_rollout(name):
     san, p = random_sans(spec, 4, seed=0, dtype="float64")
     out = [sim.rollout(sim.compile_creature(spec, "float64", articulated=a), san, p, steps=60).state for a in (False, True)]
     np.testing.assert_allclose(np.asarray(out[1].q), np.asarray(out[0].q), rtol=0, atol=1e-10)
+
+
+def test_the_route_is_chosen_by_size():
+    # every built-in stays on the dense route (their results keep their last bits); a long chain
+    # goes articulated
+    assert not any(sim.compile_creature(creature.load(n)).structure.articulated for n in ("bounder", "walker"))
+    assert sim.compile_creature(spec_of("chain12")).structure.articulated
+    assert not sim.compile_creature(spec_of("chain12"), articulated=False).structure.articulated
