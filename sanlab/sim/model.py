@@ -254,7 +254,7 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
 # (sim.articulated) rather than the dense trace-time factorisation. Measured back to back
 # (benchmarks/engine.py's growth table, 2 cores, batch 2048): the two routes run at the same
 # speed up to 8 dofs (bounder 7, walker 8, a 4-link chain 6: within 6 %), and the articulated one
-# is 1.4-1.6x faster from 8-link chains (10 dofs) on, 2.8x at 16 links, and compiles faster.
+# is 1.5x faster on an 8-link chain (10 dofs), 3.6x on a 16-link one, and compiles faster.
 # Above every built-in creature (at most 8 dofs), so that their results keep their last bits.
 ARTICULATED_FROM_DOFS: int | None = 9
 
