@@ -30,8 +30,10 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
             start = lib.gait(lib.get_run(tuned.split("/")[0]).parent_gait)
             assert abs(start.speed_cm_s - float(r[6])) < 0.05  # ... tuned from the search's best
             # annealing keeps the best it has seen (single samples: the held-out re-evaluation of
-            # the best vector is its own score; with an ensemble it is scored on fresh draws)
-            assert lib.gait(tuned).score >= start.score
+            # the best vector is its own score; with an ensemble it is scored on fresh draws). The
+            # search and the tuner are two compiled programs (the tuner batches the creature's
+            # parameters too), so the same controller's score may differ in its last float32 bits
+            assert lib.gait(tuned).score >= start.score * (1 - 1e-6) - 1e-9
     # only the fish pursues a follow point; it was evaluated for its file's 30 s
     assert "## Tracking" in text and "| fish | best (" in text and "| twolink |" not in text.split("## Tracking")[1]
     assert "## Robustness" not in text  # that section is the bounder's

@@ -174,15 +174,6 @@ def test_one_controller_is_bit_identical_alone_and_in_a_batch():
         np.testing.assert_array_equal(np.asarray(alone.state.q[0]), np.asarray(full.state.q[i]))
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("name", [n for n in creature.builtin_names() if articulated_supported(creature.load(n))])
-def test_every_supported_builtin_agrees_over_a_closed_loop_rollout(name):
-    spec = creature.load(name)
-    san, p = random_sans(spec, 4, seed=0, dtype="float64")
-    out = [sim.rollout(sim.compile_creature(spec, "float64", articulated=a), san, p, steps=60).state for a in (False, True)]
-    np.testing.assert_allclose(np.asarray(out[1].q), np.asarray(out[0].q), rtol=0, atol=1e-10)
-
-
 def test_the_route_is_chosen_by_size():
     # every built-in stays on the dense route (their results keep their last bits); a long chain
     # goes articulated
