@@ -26,6 +26,7 @@ constants and vanish at trace time.
 
 from __future__ import annotations
 
+import functools
 from typing import Any, NamedTuple
 
 from sanlab.sim.sparse import SymMatrix, add, mul, neg, sub
@@ -96,6 +97,12 @@ _ZERO3 = (0.0, 0.0, 0.0)
 _ZERO6 = (0.0,) * 6
 
 
+@functools.lru_cache(maxsize=256)
+def children(structure) -> dict[int, tuple[int, ...]]:
+    """Each link's children (link indices), per structure (computed once, at trace time)."""
+    return {ls.index: tuple(k.index for k in structure.links if k.parent == ls.index) for ls in structure.links}
+
+
 class Bodies:
     """The mass matrix M(q) of a creature in tree coordinates, held as one spatial inertia per
     body (no n x n matrix is formed). Duck-compatible with ``sparse.SymMatrix`` where the step
@@ -110,10 +117,7 @@ class Bodies:
     def __init__(self, structure, X: list, com: list, mass, inertia, fence=None):
         st = self.st = structure
         self.fence = fence or (lambda tree, name: tree)
-        self.children: dict[int, list[int]] = {ls.index: [] for ls in st.links}
-        for ls in st.links:
-            if ls.parent >= 0:
-                self.children[ls.parent].append(ls.index)
+        self.children = children(st)
         self.I: dict[int, Sym3] = {}
         self.s: dict[int, tuple] = {}  # motion subspace of each joint (non-root link)
         self.ref: dict[int, Vec] = {}  # per tree (by root): reference point, world

@@ -39,7 +39,6 @@ Units: SI throughout.
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Any, NamedTuple
 
@@ -651,7 +650,7 @@ def _inertial_force_linear(st: Structure, p: Params, fr: Frame, T: "_Terms") -> 
     u_i x (v_ci - V_k), with u_i = m_i (v_ci - v_c) and V_k the velocity of joint k's origin
     (the chain's suffix sums there are the relative velocity v_ci - V_k turned by 90 degrees), so
     two subtree sums, sum u_i x v_ci and sum u_i, give every joint's entry."""
-    kids = _children(st)
+    kids = articulated.children(st)
     for tree in st.trees:
         if tree.point:
             continue
@@ -672,11 +671,6 @@ def _inertial_force_linear(st: Structure, p: Params, fr: Frame, T: "_Terms") -> 
             if ls.dof_rot >= 0 and ls.parent >= 0:
                 Vk = fr.V[i]
                 T.force(add(neg(a), sub(mul(bx, Vk[1]), mul(by, Vk[0]))), {ls.dof_rot: 1.0})
-
-
-@functools.lru_cache(maxsize=256)
-def _children(st: Structure) -> dict[int, tuple[int, ...]]:
-    return {ls.index: tuple(k.index for k in st.links if k.parent == ls.index) for ls in st.links}
 
 
 def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
