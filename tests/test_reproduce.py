@@ -12,20 +12,24 @@ from sanlab.library import Library
 from tests.helpers import SANLAB
 
 
-@pytest.mark.slow  # about 2 min: ten compiled models, the fish's 30 s evaluations
+def _rows(text: str) -> dict[str, list[str]]:
+    rows = {r[0]: r for r in (line.strip("|").split("|") for line in text.splitlines()
+                              if re.match(r"\| (twolink|fish) \| \d", line))}
+    return {k.strip(): [c.strip() for c in v] for k, v in rows.items()}
+
+
+@pytest.mark.slow  # about 3 min: a dozen compiled models, the fish's 30 s evaluations, two audits
 def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_path):
     out, db = tmp_path / "t1.md", tmp_path / "t1.db"
     subprocess.run(SANLAB + ["reproduce", "--creatures", "twolink,fish", "--controllers", "8", "--trials", "16",
                              "--seed", "3", "--ensemble", "1", "--out", str(out), "--db", str(db)], check=True, capture_output=True)
     text = out.read_text()
-    rows = {r[0]: r for r in (line.strip("|").split("|") for line in text.splitlines()
-                              if re.match(r"\| (twolink|fish) \| \d", line))}
-    rows = {k.strip(): [c.strip() for c in v] for k, v in rows.items()}
+    rows = _rows(text)
     assert set(rows) == {"twolink", "fish"}
     with Library(str(db)) as lib:
         for name, r in rows.items():
             assert tuple(int(c) for c in r[1:5]) == TABLE1[name][:4]
-            tuned = r[9].strip("`")
+            tuned = r[11].strip("`")
             assert abs(lib.gait(tuned).speed_cm_s - float(r[7])) < 0.05  # the row is the stored tuned gait
             start = lib.gait(lib.get_run(tuned.split("/")[0]).parent_gait)
             assert abs(start.speed_cm_s - float(r[6])) < 0.05  # ... tuned from the search's best
@@ -34,6 +38,12 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
             # search and the tuner are two compiled programs (the tuner batches the creature's
             # parameters too), so the same controller's score may differ in its last float32 bits
             assert lib.gait(tuned).score >= start.score * (1 - 1e-6) - 1e-9
+            # every tuned gait is audited, and the row prints the stored audit
+            audit = lib.audit(tuned)
+            assert audit is not None
+            speeds = audit.result["speeds"]
+            assert r[8] == " · ".join(f"{k} {v:.1f}" for k, v in speeds.items())
+            assert r[9].startswith("flagged" if audit.flagged else "robust")
     # only the fish pursues a follow point; it was evaluated for its file's 30 s
     assert "## Tracking" in text and "| fish | best (" in text and "| twolink |" not in text.split("## Tracking")[1]
     assert "## Robustness" not in text  # that section is the bounder's
@@ -41,3 +51,31 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
         searches = [e for e in lib.runs() if e.kind == "search"]
         assert sorted(r.creature for r in searches) == ["fish", "twolink"]
         assert {r.creature: r.params["seconds"] for r in searches} == {"fish": 30.0, "twolink": 6.0}
+
+
+def test_reproduce_resumes_from_the_library(tmp_path):
+    """A second call reuses every stored search, tuning run and audit; an interrupted tuning run
+    continues instead of starting again."""
+    import sanlab
+    from sanlab.reproduce import reproduce
+
+    sanlab.configure()
+    def call(lib: Library, controllers: int = 8) -> list[str]:
+        return _rows(reproduce(lib, ["twolink"], seed=2, controllers=controllers, trials=8, ensemble=1,
+                               log=lambda s: None))["twolink"]
+
+    with Library(str(tmp_path / "r.db")) as lib:
+        first = call(lib)
+        runs = {r.run_id: r.status for r in lib.runs()}
+        assert sorted(r.kind for r in lib.runs()) == ["search", "tune"]
+        second = call(lib)
+        assert {r.run_id: r.status for r in lib.runs()} == runs  # nothing run again
+        assert second[:12] == first[:12] and second[12].endswith("(resumed)") and not first[12].endswith("(resumed)")
+        tune_run = next(r.run_id for r in lib.runs() if r.kind == "tune")
+        lib.set_status(tune_run, "interrupted")
+        third = call(lib)
+        assert {r.run_id: r.status for r in lib.runs()} == runs  # continued to "done", not started anew
+        assert third[:12] == first[:12]
+        # other settings are another job: a new search
+        call(lib, controllers=9)
+        assert sum(r.kind == "search" for r in lib.runs()) == 2

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, check_run_args, console, fail, load_or_exit, open_library, output_file, safe
+from sanlab.cli._common import DbOpt, check_run_args, console, fail, library_call, load_or_exit, open_library, output_file, safe
 from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
 
@@ -20,9 +20,12 @@ def reproduce(
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
+    audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4, float64) and print the audit beside its speed.")] = True,
     db: DbOpt = "sanlab.db",
 ) -> None:
-    """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report."""
+    """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report.
+
+    Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped."""
     configure()
     from sanlab.reproduce import reproduce as run
 
@@ -32,8 +35,12 @@ def reproduce(
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
     lib = open_library(db, create=True)
-    report = run(lib, names, seed=seed, controllers=controllers, trials=trials, log=lambda s: console.print(s),
-              ensemble=ensemble)
+    try:
+        report = library_call(lambda: run(lib, names, seed=seed, controllers=controllers, trials=trials,
+                                          log=lambda s: console.print(s), ensemble=ensemble, audit=audit))
+    except KeyboardInterrupt:
+        typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
+        raise typer.Exit(130) from None
     with output_file(out) as path, open(path, "w", encoding="utf-8") as f:
         f.write(report)
     console.print(f"wrote {safe(out)}")
