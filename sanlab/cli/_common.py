@@ -33,7 +33,7 @@ CreatureArg = Annotated[
     str, typer.Argument(help="A built-in creature name (see `sanlab creatures`) or a .toml file.")
 ]
 DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead (machine-readable).")]
 DtypeOpt = Annotated[str, typer.Option(help="float32 or float64.")]
 METRIC_HELP = " | ".join(METRICS)
 EnsembleOpt = Annotated[int, typer.Option(
@@ -267,6 +267,21 @@ def output_file(path: str, option: str = "--out") -> Iterator[str]:
     finally:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+
+
+def refuse_with_resume(ctx: typer.Context, command: str, names: tuple[str, ...]) -> None:
+    """Exit 2 when any option of ``names`` (parameter names) was given on the command line
+    together with --resume: a resumed run keeps its own stored settings, so such an option would
+    be silently ignored."""
+    def explicit(name: str) -> bool:
+        src = ctx.get_parameter_source(name)  # typer vendors its own click: compare the enum by name
+        return src is not None and src.name in ("COMMANDLINE", "ENVIRONMENT")
+
+    given = [p for p in ctx.command.params if p.name in names and explicit(p.name)]
+    if given:
+        flags = ", ".join(p.opts[0] for p in given)
+        raise fail(f"{command}: {flags} cannot change a resumed run (it continues with its stored settings); "
+                   "drop them, or start a new run")
 
 
 def library_call(fn: Callable[..., T], *args: Any) -> T:

@@ -89,12 +89,12 @@ def check(
 def creatures(as_json: JsonOpt = False) -> None:
     """List the built-in creatures."""
     loaded = {name: load_or_exit(name)[0] for name in builtin_names()}
-    rows = [{"name": n, **_sizes(c)} for n, c in loaded.items()]
+    rows = [{"name": n, **_sizes(c), "description": c.description} for n, c in loaded.items()]
     if as_json:
         typer.echo(dump_json(rows))
         return
     table = Table("name", "links", "sensors", "actuators", "hidden", "description")
     for r in rows:
-        sizes = (str(v) for k, v in r.items() if k != "name")
-        table.add_row(safe(r["name"]), *sizes, safe(loaded[r["name"]].description))
+        sizes = (str(v) for k, v in r.items() if k not in ("name", "description"))
+        table.add_row(safe(r["name"]), *sizes, safe(r["description"]))
     console.print(table)

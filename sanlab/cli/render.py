@@ -206,7 +206,7 @@ def _render_gait(lib: Library, target: str, out: str | None, seconds: float | No
     about = f"gait {ev.gait_id} (rank {ev.rank}{_speed(gait.speed_cm_s)}{_moved(sc)})"
     arrow, words = motion(sc)
     base = {"path": path, "gait": ev.gait_id, "rank": ev.rank, "speed_cm_s": gait.speed_cm_s,
-            "dx_m": float(sc.com[-1, 0] - sc.com[0, 0]), "direction": words.split(" ")[0] if arrow else None}
+            "dx_m": sc.dx, "direction": words.split(" ")[0] if arrow else None}
     if ext == ".png":
         with output_file(path) as tmp:
             info = write_strobe(sc, tmp, width or DEFAULT_WIDTH["strobe"], nodes=nodes)

@@ -30,6 +30,7 @@ from sanlab.cli._common import (
     open_library,
     print_distribution,
     print_top,
+    refuse_with_resume,
     safe,
     top_rows,
 )
@@ -38,6 +39,7 @@ from sanlab.creature.spec import SCORE_UNITS
 
 
 def search(
+    ctx: typer.Context,
     creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
     seconds: Annotated[float | None, typer.Option(min=0.001, help="Evaluation time (s); default: the creature file's.")] = None,
@@ -63,6 +65,8 @@ def search(
     ens = ensemble_or_exit(ensemble)
     if (creature is None) == (resume is None):
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
+    if resume is not None:
+        refuse_with_resume(ctx, "search", ("controllers", "seconds", "seed", "metric", "batch", "ensemble", "dtype"))
     text = where = ""
     if creature is not None:
         spec = load_or_exit(creature)[0]

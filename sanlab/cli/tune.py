@@ -27,10 +27,12 @@ from sanlab.cli._common import (
     fail,
     library_call,
     open_library,
+    refuse_with_resume,
 )
 
 
 def tune(
+    ctx: typer.Context,
     gait: Annotated[str | None, typer.Argument(help="RUN/RANK or RUN#IDX; or a run id with --top K (omit with --resume).")] = None,
     method: Annotated[str, typer.Option(help="sa (simulated annealing) or sga (stochastic gradient ascent).")] = "sa",
     trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
@@ -63,6 +65,8 @@ def tune(
     check_seed(seed)
     if (gait is None) == (not resume):
         raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
+    if resume:
+        refuse_with_resume(ctx, "tune", ("method", "trials", "seed", "top", "morphology", "terrain", "batch", "ensemble"))
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db)  # the gaits to tune are in it: a missing file is a mistyped --db
     gaits: list[str] = []

@@ -37,7 +37,15 @@ class Scene:
     follow: np.ndarray | None = None  # [F, 2] the follow point at each frame
     follow_path: np.ndarray | None = None  # [P, 2] the whole follow spline
     scale: np.ndarray | None = None  # [L] link length scales of a gait tuned with --morphology
+    com_end: np.ndarray | None = None  # [2] the centre of mass at the run's end (None: the last frame's)
     _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def dx(self) -> float:
+        """How far the centre of mass moved along x over the whole run (m): to the run's end, not
+        to the last recorded frame, so that it does not depend on the frame rate."""
+        end = self.com[-1] if self.com_end is None else self.com_end
+        return float(end[0] - self.com[0, 0])
 
     @property
     def n_frames(self) -> int:
@@ -175,6 +183,11 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         q = q[:n]
         title = (title + "  " if title else "") + f"(non-finite after t = {float(fr.t[-1]):.2f} s)"
     P = poses(model, q)
+    com_end = None
+    if ok.all():  # the run stayed finite over its frames: its final state is where it ended
+        q_end = np.asarray(result.state.q)[:1]
+        if np.all(np.isfinite(q_end)):
+            com_end = np.asarray(poses(model, q_end)["com"][0], float)
     spec = gait.spec
     follow = path = None
     if model.structure.follow:
@@ -198,6 +211,7 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         follow=follow,
         follow_path=path,
         scale=np.asarray(gait.params.scale, float) if gait.params.scale else None,
+        com_end=com_end,
     )
 
 

@@ -65,7 +65,7 @@ def strobe_height(scene, width: int) -> int:
 def motion(scene) -> tuple[str, str]:
     """(arrow, words) for the direction the centre of mass moved along x over the scene, e.g.
     ("→", "+x 14 cm"); ("", "") if it did not move."""
-    dx = float(scene.com[-1, 0] - scene.com[0, 0])
+    dx = scene.dx
     if not np.isfinite(dx) or abs(dx) < 1e-4:
         return "", ""
     d = abs(dx)

@@ -52,8 +52,13 @@ def test_creatures_json():
     r = runner.invoke(app, ["creatures", "--json"])
     assert r.exit_code == 0, r.output
     rows = {row["name"]: row for row in json.loads(r.stdout)}
-    assert rows["cart"] == {"name": "cart", "links": 2, "sensors": 6, "actuators": 1, "hidden": 5}
-    assert rows["bounder"] == dict(name="bounder", links=5, sensors=8, actuators=4, hidden=8)
+    from sanlab.creature import load
+
+    assert rows["cart"] == {"name": "cart", "links": 2, "sensors": 6, "actuators": 1, "hidden": 5,
+                            "description": load("cart").description}
+    assert {k: v for k, v in rows["bounder"].items() if k != "description"} == \
+        dict(name="bounder", links=5, sensors=8, actuators=4, hidden=8)
+    assert all(isinstance(row["description"], str) and row["description"] for row in rows.values())
     r = runner.invoke(app, ["creatures"])
     assert r.exit_code == 0 and "bounder" in r.stdout
 

@@ -149,3 +149,18 @@ def test_render_top_writes_gifs_strobes_and_a_sheet(lib_run, tmp_path):
             assert im.size[0] > 0
     with Image.open(paths[0]) as im:
         assert im.n_frames == math.floor(1000 / 33)
+
+
+def test_the_distance_moved_does_not_depend_on_the_frame_rate(lib_run, tmp_path):
+    """The reported displacement is the run's, to its end, not to the last recorded frame."""
+    import json
+
+    db, run_id = lib_run
+    dx = {}
+    for fps in (7, 30):
+        r = cli(f"{run_id}/1", "--db", db, "--width", "160", "--fps", str(fps), "--seconds", "4", "-o", str(tmp_path / f"a{fps}.png"),
+                "--json")
+        assert r.exit_code == 0, r.output
+        dx[fps] = json.loads(r.stdout)["dx_m"]
+    assert abs(dx[7]) > 1e-3  # it moved, so a frame-rate dependence would show
+    assert dx[7] == pytest.approx(dx[30], rel=1e-5, abs=1e-7)

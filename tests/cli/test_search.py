@@ -73,6 +73,14 @@ def test_search_json_has_the_documented_shape(tmp_path):
                                      text=True, check=True).stdout)
     assert runs[0]["run_id"] == out["run_id"] and runs[0]["status"] == "done"
     assert runs[0]["creature"] == "cart" and runs[0]["evaluated"] == 20
+    # a resumed run keeps its stored settings: an option that would change them is refused, not ignored
+    for cmd in (["search", "--resume", out["run_id"], "-n", "40", "--seed", "3"],
+                ["tune", "--resume", out["run_id"], "--trials", "5"]):
+        r = subprocess.run(SANLAB + cmd + ["--db", db], capture_output=True, text=True)
+        assert r.returncode == 2 and "Traceback" not in r.stderr
+        assert "cannot change a resumed run" in r.stderr and ("--controllers, --seed" in r.stderr or "--trials" in r.stderr)
+    with Library(db) as lib:
+        assert lib.count(out["run_id"]) == 20 and len(lib.runs()) == 1
     shown = json.loads(subprocess.run(SANLAB + ["show", out["run_id"][:5], "--db", db, "--json"],
                                       capture_output=True, text=True, check=True).stdout)
     assert shown["top"] == out["top"]
