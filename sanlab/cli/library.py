@@ -142,11 +142,39 @@ def _print_values(values: dict) -> None:
 
 
 def _print_network(net: dict) -> None:
-    table = Table("node", *[safe(c) for c in net["inputs"]], title="weights (rows: nodes; columns: inputs)")
-    colours = {-2: "red", -1: "red", 0: "dim", 1: "green", 2: "green"}
-    for name, row in zip(net["nodes"], net["weights"]):
-        table.add_row(safe(name), *[f"[{colours[w]}]{w:+d}[/{colours[w]}]" if w else "[dim]0[/dim]" for w in row])
-    console.print(table)
+    """The weight matrix; split into column groups (sensors, hidden nodes, actuator nodes, and
+    narrower if need be) when it is wider than the terminal."""
+    inputs, colours = list(net["inputs"]), {-2: "red", -1: "red", 0: "dim", 1: "green", 2: "green"}
+
+    def table(cols: list[int], title: str) -> Table:
+        t = Table("node", *[safe(inputs[c]) for c in cols], title=title)
+        for name, row in zip(net["nodes"], net["weights"]):
+            t.add_row(safe(name), *[f"[{colours[row[c]]}]{row[c]:+d}[/{colours[row[c]]}]" if row[c] else "[dim]0[/dim]"
+                                    for c in cols])
+        return t
+
+    wide = console.options.update_width(10_000)  # measure unclamped: Rich caps a measurement at the width
+    fits = lambda cols: console.measure(table(cols, ""), options=wide).maximum <= console.width
+    everything = list(range(len(inputs)))
+    if fits(everything):
+        console.print(table(everything, "weights (rows: nodes; columns: inputs)"))
+    else:
+        kinds: dict[str, list[int]] = {}  # S, H, A: sensors, hidden nodes, actuator nodes
+        for c, name in enumerate(inputs):
+            kinds.setdefault(str(name)[:1], []).append(c)
+        groups: list[list[int]] = []
+        for cols in kinds.values():  # neighbouring kinds share a table when they fit together
+            if groups and fits(groups[-1] + cols):
+                groups[-1] += cols
+            else:
+                groups.append(list(cols))
+        for cols in groups:
+            while cols:
+                n = len(cols)
+                while n > 1 and not fits(cols[:n]):
+                    n -= 1
+                part, cols = cols[:n], cols[n:]
+                console.print(table(part, f"weights from {safe(inputs[part[0]])}-{safe(inputs[part[-1]])} (rows: nodes)"))
     console.print("[dim]inputs: sensors, then hidden nodes, then actuator nodes (their outputs); "
                   "each node switches on while its weighted sum is positive (after its delay)[/dim]")
 

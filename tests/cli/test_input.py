@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import resource
 import signal
 import sqlite3
@@ -331,3 +332,24 @@ def test_reproduce_checks_every_argument_before_a_run(tmp_path, args, words):
     r = runner.invoke(app, ["reproduce", "--creatures", "cart", *args, "--db", str(db)])
     assert r.exit_code == 2 and words in r.stderr, r.output
     assert not db.exists()
+
+
+def test_a_network_wider_than_the_terminal_is_split_into_tables_that_fit(lib_run, monkeypatch):
+    from rich.console import Console
+
+    import sanlab.cli.library as library_cli
+
+    db, run_id = lib_run
+    narrow = Console(width=40, force_terminal=False, color_system=None)
+    monkeypatch.setattr(library_cli, "console", narrow)
+    with narrow.capture() as cap:
+        r = runner.invoke(app, ["show", f"{run_id}/1", "--db", db, "--network"])
+    assert r.exit_code == 0, r.output
+    text = cap.get()
+    tables = [line for line in text.splitlines() if "weights from" in line]
+    assert len(tables) >= 2  # the cart's 12 inputs do not fit in 40 columns
+    assert all(len(line) <= 40 for line in text.splitlines())
+    # every weight is still shown: one cell per (node, input)
+    cells = sum(len(re.findall(r"(?<=│ )([+-][12]|0)(?= +│)", line)) for line in text.splitlines()
+                if re.match(r"│ (H\d|A\d)", line))
+    assert cells == 6 * 12
