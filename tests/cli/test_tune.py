@@ -47,7 +47,7 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
     with sqlite3.connect(src) as s, sqlite3.connect(db) as d, sqlite3.connect(ref) as r:
         s.backup(d)  # two copies of the library: one to interrupt, one to run uninterrupted
         s.backup(r)
-    args = ["tune", f"{run_id}/1", "--method", "sa", "--trials", "150", "--batch", "16", "--seed", "4"]
+    args = ["tune", f"{run_id}/1", "--method", "sa", "--trials", "64", "--batch", "8", "--seed", "4", "--ensemble", "4"]
     proc = subprocess.Popen(SANLAB + args + ["--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 300
@@ -55,7 +55,7 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
         time.sleep(0.05)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert 10 <= _trace_count(db) < 150, "the tuning should have been stopped part-way"
+    assert 10 <= _trace_count(db) < 64, "the tuning should have been stopped part-way"
     with Library(str(db)) as lib:
         run = next(r for r in lib.runs() if r.kind == "tune")
         assert lib.count(run.run_id) == 0  # the tuned gait is stored only when the chain ends
@@ -68,7 +68,7 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
     expected = json.loads(subprocess.run(SANLAB + args + ["--db", str(ref), "--json"], capture_output=True, text=True,
                                          check=True).stdout)
     assert resumed["before"] == expected["before"] and resumed["after"] == expected["after"]
-    assert resumed["trials"] == expected["trials"] == 150
+    assert resumed["trials"] == expected["trials"] == 64
     with Library(str(db)) as a, Library(str(ref)) as b:
         x, y = a.gait(resumed["tuned_gait"]), b.gait(expected["tuned_gait"])
         assert (x.params, x.score, x.extra) == (y.params, y.score, y.extra)
