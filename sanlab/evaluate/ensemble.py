@@ -10,8 +10,15 @@ rollout:
 - members 1 .. K-1: each free tree's centre of mass x and y moved by N(0, ``pose``) (m), every
   angle coordinate (root angles and joint angles) by N(0, ``angle``) (degrees), each draw clipped
   at 3 standard deviations; with ``friction`` > 0 every link's friction coefficients scaled by
-  1 + U(-friction, friction); then, in the vertical plane, the start is re-seated on the ground
-  (``sanlab.sim.dynamics.seat_on_ground``) so that no contact starts inside it.
+  1 + U(-friction, friction); with ``dt`` > 0 the member's time step scaled by 1 + U(-dt, dt)
+  (it runs the same number of steps, and its score, speed and distance are divided by the same
+  factor, so members compare over the nominal time); then, in the vertical plane, the start is
+  re-seated on the ground (``sanlab.sim.dynamics.seat_on_ground``) so that no contact starts
+  inside it.
+
+The step jitter is off by default. It nudges the integrator inside the ensemble, as the audit
+nudges it afterwards (``sanlab.audit``): a gait that only works at one exact step, which tuning
+otherwise breeds, then loses its median.
 
 The perturbations of an evaluation come from its own random stream, ``default_rng(key)``, where
 the key names the evaluation within its run (see the ``*_key`` functions): any subset of a run
@@ -67,26 +74,33 @@ class Ensemble:
 
     members: K >= 1. pose: standard deviation of each free tree's centre of mass x and y (m).
     angle: standard deviation of every angle coordinate (degrees). friction: half-width of the
-    uniform relative change of every link's friction coefficients (0: unchanged).
+    uniform relative change of every link's friction coefficients (0: unchanged). dt: half-width
+    of the uniform relative change of each member's time step (0: unchanged; below 0.5).
     """
 
     members: int = 8
     pose: float = 1e-3
     angle: float = 0.5
     friction: float = 0.0
+    dt: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.members, int) and self.members >= 1):
             raise ValueError(f"ensemble: members must be an integer >= 1, got {self.members!r}")
-        for name in ("pose", "angle", "friction"):
+        for name in ("pose", "angle", "friction", "dt"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"ensemble: {name} must be >= 0, got {v!r}")
         if self.friction >= 1:
             raise ValueError(f"ensemble: friction must be < 1, got {self.friction!r}")
+        if self.dt >= 0.5:
+            raise ValueError(f"ensemble: dt must be < 0.5, got {self.dt!r}")
 
     def to_json(self) -> dict[str, Any]:
-        return {"members": self.members, "pose": self.pose, "angle": self.angle, "friction": self.friction}
+        out = {"members": self.members, "pose": self.pose, "angle": self.angle, "friction": self.friction}
+        if self.dt:  # written only when used, so that the settings of every other run read as before
+            out["dt"] = self.dt
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any] | None) -> Ensemble:
@@ -95,7 +109,17 @@ class Ensemble:
         if not d:
             return cls(members=1)
         return cls(int(d.get("members", 1)), float(d.get("pose", 1e-3)), float(d.get("angle", 0.5)),
-                   float(d.get("friction", 0.0)))
+                   float(d.get("friction", 0.0)), float(d.get("dt", 0.0)))
+
+    def step_scales(self, key: Key) -> np.ndarray:
+        """Each member's factor on the time step [K] for the evaluation named ``key`` (member 0:
+        1, the unperturbed step; all 1 when ``dt`` is 0). Drawn from a stream of its own, so that
+        turning the step jitter on leaves every other draw as it was."""
+        scale = np.ones(self.members)
+        if self.members > 1 and self.dt > 0:
+            rng = np.random.default_rng([*key, 0])  # a longer key: no other kind of evaluation draws from it
+            scale[1:] = 1.0 + self.dt * rng.uniform(-1.0, 1.0, self.members - 1)
+        return scale
 
     def draws(self, st: Structure, key: Key, n_links: int) -> tuple[np.ndarray, np.ndarray]:
         """The perturbations of the evaluation named ``key``: (dq [K, D] to add to the start

@@ -188,7 +188,7 @@ class Evaluator:
             assert self.space is not None
             k1, k2, m = self.space.batch(pad(thetas), model)
             batched = True
-        need = batched or T > 1 or (K > 1 and self.ensemble.friction > 0)
+        need = batched or T > 1 or (K > 1 and (self.ensemble.friction > 0 or self.ensemble.dt > 0))
         if batched:
             m = _tree(lambda x: np.repeat(np.asarray(x), reps, axis=0), m)
         elif need:
@@ -197,7 +197,7 @@ class Evaluator:
             which = (np.arange(R) // K) % T
             m = m.with_params(terrain=np.stack([np.asarray(v.terrain) for v in variants])[which],
                               rough=np.stack([np.asarray(v.rough) for v in variants])[which])
-        state0 = None
+        state0, step = None, None
         if K > 1:
             st = model.structure
             draws = [self.ensemble.draws(st, k, len(self.spec.links)) for k in keys]
@@ -205,6 +205,9 @@ class Evaluator:
             if need and self.ensemble.friction > 0:
                 mu = np.repeat(np.stack([d[1] for d in draws])[:, None], T, axis=1).reshape(R, -1)
                 m = m.with_params(mu=(np.asarray(m.params.mu, float) * mu[:, :, None]).astype(model.dtype))
+            if need and self.ensemble.dt > 0:
+                step = np.repeat(np.stack([self.ensemble.step_scales(k) for k in keys])[:, None], T, axis=1).reshape(R)
+                m = m.with_params(dt=(np.asarray(m.params.dt, float) * step).astype(model.dtype))
             q0 = np.broadcast_to(np.asarray(m.params.q0, float), (R, st.ndof))
             q = (q0 + dq).astype(model.dtype)  # member 0: exactly the start
             member0 = np.arange(R) % K == 0
@@ -214,6 +217,9 @@ class Evaluator:
         r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
                         pad_to=R)
         s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+        if step is not None:  # a member with a longer step ran longer: compare over the nominal time
+            for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
+                s[name] = s[name] / step
         return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}).take(slice(0, n))
 
 

@@ -113,3 +113,31 @@ def test_records_round_trip_through_json():
     assert GaitParams.from_json(tuned.to_json()) == tuned
     k1, k2 = phase1.rates(3, 0.5, 0.5)
     assert list(k1) == [10.0] * 3 and list(k2) == pytest.approx([-1 / 0.12] * 3)
+
+
+def test_the_step_jitter_runs_each_member_at_its_own_step_and_scores_it_over_the_nominal_time():
+    from sanlab.creature import loads
+    from tests.test_audit import SLED
+
+    ens = Ensemble(members=6, dt=0.2)
+    key = search_key(0, 3)
+    s = ens.step_scales(key)
+    assert s[0] == 1.0 and (np.abs(s - 1) <= 0.2).all() and np.ptp(s) > 0.05
+    np.testing.assert_array_equal(s, ens.step_scales(key))  # one stream per evaluation
+    assert (Ensemble(members=6).step_scales(key) == 1).all()  # off by default
+    st = sim.compile_creature(BOUNDER).structure
+    np.testing.assert_array_equal(ens.draws(st, key, 5)[0], Ensemble(members=6).draws(st, key, 5)[0])  # pose draws unchanged
+    assert "dt" not in Ensemble(members=6).to_json() and Ensemble.from_json(ens.to_json()) == ens
+    with pytest.raises(ValueError, match="dt"):
+        Ensemble(dt=0.5)
+    # a sled sliding down a slope covers d(t) ~ a t^2 / 2: a member with step s runs s T seconds and,
+    # divided by s, scores about s times member 0's distance
+    sled = loads(SLED, source="sled.toml")
+    ev = Evaluator(sled, seconds=2.0, batch=1, ensemble=Ensemble(members=6, pose=0.0, angle=0.0, dt=0.2))
+    W = ev.san.random_weights(0, 0)[None]
+    r = ev(W, keys=[key])
+    ratio = r.member_score[0] / r.member_score[0, 0]
+    np.testing.assert_allclose(ratio, s, rtol=0.02)
+    plain = Evaluator(sled, seconds=2.0, batch=1, ensemble=Ensemble(members=6, pose=0.0, angle=0.0))(W, keys=[key])
+    # member 0 runs at the creature's own step (the batched-parameter program may differ in the last bits)
+    assert r.member_score[0, 0] == pytest.approx(plain.member_score[0, 0], rel=1e-5)
