@@ -13,7 +13,7 @@ run stayed finite, the creature did not fall, and it travelled at least 10 % of 
 follow point) is at least 10 % of the distance the follow point travelled.
 
 Every tuned gait is audited (:mod:`sanlab.audit`: dt/2, dt/4, float64) and the report prints the
-audit beside its speed. The job takes hours at the paper's budget, so it resumes: run the same
+audit beside its speed. The job takes over an hour at the paper's budget, so it resumes: run the same
 call again on the same library and every creature whose search, tuning or audit is already
 stored is taken from the library, and an interrupted search or tuning run continues where it
 stopped (the result is the same as an uninterrupted run's).
