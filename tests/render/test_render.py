@@ -219,10 +219,13 @@ def test_strobes_say_which_way_it_moved_and_that_pale_is_early(scene1):
 
     from sanlab.render.canvas import mix
 
+    assert scene1.com_end is not None  # the run's own end, after the last recorded frame
     for shift, arrow, words in ((0.2, "→", "+x 20 cm"), (-0.05, "←", "-x 5 cm"), (0.0, "", "")):
-        com = scene1.com.copy()
+        end = scene1.com[0] + np.array([shift, 0.0])
+        assert strobe.motion(dataclasses.replace(scene1, com_end=end, _cache={})) == (arrow, words)
+        com = scene1.com.copy()  # without a final state, the last frame stands for the end
         com[-1, 0] = com[0, 0] + shift
-        assert strobe.motion(dataclasses.replace(scene1, com=com, _cache={})) == (arrow, words)
+        assert strobe.motion(dataclasses.replace(scene1, com=com, com_end=None, _cache={})) == (arrow, words)
     img = np.asarray(strobe.strobe(scene1, 800).convert("RGB"))
     corner = img[-30:, -140:].reshape(-1, 3)
     assert any(_close(p, draw.ROOT, 12) for p in corner)  # the legend's darkest swatch ...
