@@ -182,12 +182,14 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         fr = cut_frames(fr, n)
         q = q[:n]
         title = (title + "  " if title else "") + f"(non-finite after t = {float(fr.t[-1]):.2f} s)"
-    P = poses(model, q)
-    com_end = None
-    if ok.all():  # the run stayed finite over its frames: its final state is where it ended
-        q_end = np.asarray(result.state.q)[:1]
-        if np.all(np.isfinite(q_end)):
-            com_end = np.asarray(poses(model, q_end)["com"][0], float)
+    # the run's final state rides along in the same call (one compiled program, not two), when
+    # the run stayed finite: it is where the run ended, after the last recorded frame
+    q_end = np.asarray(result.state.q, q.dtype)[:1]
+    with_end = bool(ok.all() and np.all(np.isfinite(q_end)))
+    P = poses(model, np.concatenate([q, q_end]) if with_end else q)
+    com_end = np.asarray(P["com"][-1], float) if with_end else None
+    if with_end:
+        P = {k: v[:-1] for k, v in P.items()}
     spec = gait.spec
     follow = path = None
     if model.structure.follow:
