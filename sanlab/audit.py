@@ -136,3 +136,186 @@ def audit_and_store(lib: Library, gait_id: str, **kw) -> Audit:
     a = audit(lib, gait_id, **kw)
     lib.add_audit(a.gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)
     return a
+
+
+# -- audited selection of a tuning run's gait --------------------------------------------------
+
+SELECT_TOP = 16  # a tuning run's best visited vectors audited by select_robust
+SELECTED_IDX = 1  # the evaluation index of a tuning run's audited selection (#0: the chain's best)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One vector a tuning chain visited (the start, or an accepted trial), as audited."""
+
+    trial: int  # -1: the chain's start (the parent gait's parameters)
+    chain_score: float  # the score the chain saw (one ensemble draw of the trial)
+    nominal_cm_s: float  # re-scored on the held-out ensemble, as the tuned gait is
+    speeds: dict[str, float]  # nudge name -> speed
+    changes: dict[str, float]  # nudge name -> relative change (against nominal_cm_s)
+    score: float  # the held-out score (what the selection maximises among the robust)
+
+    @property
+    def worst(self) -> float:
+        return max(self.changes.values(), default=0.0)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"trial": self.trial, "chain_score": _finite(self.chain_score), "nominal_cm_s": _finite(self.nominal_cm_s),
+                "speeds": {k: _finite(v) for k, v in self.speeds.items()},
+                "changes": {k: _finite(v) for k, v in self.changes.items()}, "score": _finite(self.score)}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Candidate:
+        num = lambda v, missing: missing if v is None else float(v)
+        return cls(int(d["trial"]), num(d.get("chain_score"), math.nan), num(d.get("nominal_cm_s"), math.nan),
+                   {k: num(v, math.nan) for k, v in d.get("speeds", {}).items()},
+                   {k: num(v, math.inf) for k, v in d.get("changes", {}).items()}, num(d.get("score"), -math.inf))
+
+
+@dataclass(frozen=True)
+class Selection:
+    """:func:`select_robust`'s outcome: the audited candidates (best chain score first) and the
+    stored gait ("RUN#1"), or None when no candidate kept its speed."""
+
+    run_id: str
+    gait_id: str | None
+    chosen: Candidate | None
+    candidates: list[Candidate]
+    threshold: float
+
+
+def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
+    """The vectors a finished or interrupted tuning run's chain stood on, in order: its start
+    (trial -1, the parent gait's parameters, its start score) and every accepted trial, rebuilt
+    from the stored trace with the chain's own random choices (so exactly the chain's vectors).
+    Raises LibraryError when ``run_id`` is not a tuning run."""
+    from sanlab.creature import loads
+    from sanlab.library import LibraryError
+    from sanlab.search import registry
+    from sanlab.search.base import Problem, Start
+    from sanlab.search.chain import Chain
+
+    run = lib.get_run(run_id)
+    s = run.settings
+    if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
+        raise LibraryError(f"run {run.run_id} is a {run.kind} run, not a tuning run")
+    spec = loads(run.creature_text, source=s.source or run.creature)
+    space = Space(spec, morphology=s.morphology)
+    parent = Gait.from_library(lib, run.parent_gait)
+    theta = space.nominal(parent.params)
+    chain = registry.make(s.method, Problem(run.run_id, space.san, s.trials, s.seed, s.chain, space,
+                                            Start(parent.weights, theta, parent.gait_id), dtype=run.dtype or "float32"))
+    assert isinstance(chain, Chain)  # every phase-2 strategy is one
+    final = [e for e in lib.top(run.run_id, None) if e.idx == 0]
+    before = (final[0].extra or {}).get("before", {}).get("score") if final else None
+    out = [(-1, float("nan") if before is None else float(before), theta)]
+    for p in lib.trace(run.run_id):
+        if p.accepted:
+            theta = space.perturb(theta, chain.which[p.trial], chain.sign[p.trial])
+            out.append((p.trial, p.score, theta))
+    return out
+
+
+def ladder(path: list[tuple[int, float, np.ndarray]], n: int) -> list[tuple[int, float, np.ndarray]]:
+    """At most ``n`` rungs of a chain's climb: for ``n`` scores evenly spaced from its start's
+    score to its best, the first vector on ``path`` (:func:`visited`) that reached it, so the
+    start, the best and the steps between are all audited; the chain's many near-copies of its
+    best (accepted moves of parameters that barely matter) are not audited over and over."""
+    finite = [v for v in path if np.isfinite(v[1])]
+    if not finite:
+        return path[:1]
+    lo, hi = finite[0][1] if path[0] is finite[0] else min(v[1] for v in finite), max(v[1] for v in finite)
+    out: list[tuple[int, float, np.ndarray]] = []
+    for j in range(n):
+        level = lo + (hi - lo) * j / max(1, n - 1)
+        first = next(v for v in finite if v[1] >= level - 1e-12 * max(1.0, abs(level)))
+        if not any(first is o for o in out):
+            out.append(first)
+    return out
+
+
+def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold: float = THRESHOLD,
+                  log=None) -> Selection:
+    """Audited selection of a finished tuning run's gait: ``top`` vectors of its chain (the
+    rungs of its climb, :func:`ladder`: its start, its best and the steps between) are re-scored
+    on the tuned gait's held-out ensemble and under every nudge of :data:`NUDGES`, and the best
+    held-out score among those whose speed no nudge moves by more than ``threshold`` is stored
+    as the run's evaluation #1 (``extra["selected"]``) with its audit. A chain's best is often a vector that
+    only works at its step (issue 10: annealing learns the integrator); its best *robust* vector
+    is the result to report. A selection stored with the same ``top`` and ``threshold`` is
+    reused. Raises LibraryError for a run that is not a finished tuning run."""
+    from sanlab import sim
+    from sanlab.evaluate.ensemble import heldout_key
+    from sanlab.library import LibraryError
+    from sanlab.library.records import EvaluationRow
+
+    run = lib.get_run(run_id)
+    s = run.settings
+    if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
+        raise LibraryError(f"run {run.run_id} is a {run.kind} run, not a tuning run")
+    stored = {e.idx: e for e in lib.top(run.run_id, None)}
+    if 0 not in stored:
+        raise LibraryError(f"run {run.run_id} has not finished: resume it first (sanlab tune --resume {run.run_id})")
+    settings = {"top": top, "threshold": threshold}
+    previous = (stored[SELECTED_IDX].extra or {}).get("selected") if SELECTED_IDX in stored else None
+    gait_id = f"{run.run_id}#{SELECTED_IDX}"
+    if previous is not None and previous.get("settings") == settings:
+        cands = [Candidate.from_json(c) for c in previous["candidates"]]
+        chosen = next(c for c in cands if c.trial == previous["trial"])
+        if lib.audit(gait_id) is None:  # stopped between storing the gait and its audit
+            _store_audit(lib, gait_id, chosen, previous.get("fell", {}), threshold, stored[SELECTED_IDX], s)
+        return Selection(run.run_id, gait_id, chosen, cands, threshold)
+    if previous is None and SELECTED_IDX in stored:
+        raise LibraryError(f"run {run.run_id}: evaluation #{SELECTED_IDX} is not an audited selection")
+
+    ranked = ladder(visited(lib, run.run_id), top)
+    parent = Gait.from_library(lib, run.parent_gait)
+    spec0 = parent.spec
+    thetas = np.stack([v[2] for v in ranked])
+    weights = np.repeat(parent.weights[None], len(ranked), axis=0)
+    keys = [heldout_key(s.seed, s.chain)] * len(ranked)
+
+    def scores(factor: float, dtype: str):
+        spec = dataclasses.replace(spec0, dt=spec0.dt * factor)
+        ev = Evaluator(spec, metric=s.metric, seconds=s.seconds, dtype=dtype, batch=len(ranked), terrain=s.terrain,
+                       ensemble=s.ensemble, space=Space(spec, morphology=s.morphology))
+        return ev(weights, thetas, keys)
+
+    nominal = scores(1.0, "float32")
+    nudged = {name: scores(factor, dtype) for name, factor, dtype in NUDGES}
+    cands = []
+    for k, (trial, chain_score, _) in enumerate(ranked):
+        v0 = float(nominal.speed_cm_s[k])
+        speeds = {n: float(b.speed_cm_s[k]) for n, b in nudged.items()}
+        changes = {n: abs(v - v0) / max(abs(v0), FLOOR_CM_S) if np.isfinite(v) and np.isfinite(v0) else math.inf
+                   for n, v in speeds.items()}
+        ok = np.isfinite(nominal.score[k]) and not bool(nominal.nonfinite[k])
+        cands.append(Candidate(int(trial), float(chain_score), v0, speeds, changes,
+                               float(nominal.score[k]) if ok else -math.inf))
+        if log:
+            log(f"trial {trial}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
+    robust = [k for k, c in enumerate(cands) if c.worst <= threshold and np.isfinite(c.score)]
+    if not robust:
+        if previous is not None:  # chosen under other settings: it does not hold under these
+            lib.remove_evaluation(gait_id)
+        return Selection(run.run_id, None, None, cands, threshold)
+    k = max(robust, key=lambda i: cands[i].score)
+    chosen = cands[k]
+    space = Space(spec0, morphology=s.morphology)
+    model = sim.compile_creature(spec0, run.dtype or "float32")
+    fell = {n: bool(b.fell[k]) for n, b in nudged.items()}
+    extra = {"selected": {"trial": chosen.trial, "settings": settings, "fell": fell,
+                          "candidates": [c.to_json() for c in cands]},
+             "theta": thetas[k].tolist()}
+    row = EvaluationRow(run.run_id, SELECTED_IDX, space.san.encode(parent.weights), space.gait_params(thetas[k], model),
+                        nominal.row(k), extra, run.parent_gait)
+    lib.add_batch(run.run_id, [row.to_json()], replace=True)
+    _store_audit(lib, gait_id, chosen, fell, threshold, lib.gait(gait_id), s)
+    return Selection(run.run_id, gait_id, chosen, cands, threshold)
+
+
+def _store_audit(lib: Library, gait_id: str, c: Candidate, fell: dict, threshold: float, stored, s) -> None:
+    """The selected gait's audit, as :func:`audit` would find it (same speeds, same ensemble)."""
+    a = Audit(gait_id, stored.speed_cm_s, c.nominal_cm_s, c.speeds, c.changes, fell, threshold,
+              Gait.from_library(lib, gait_id).spec.dt, s.ensemble.members)
+    lib.add_audit(gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)

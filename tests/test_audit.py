@@ -154,3 +154,106 @@ def test_a_version_2_library_is_upgraded_with_an_empty_audits_table(tmp_path):
     con = sqlite3.connect(path)
     assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 3
     assert con.execute("SELECT count(*) FROM audits").fetchone()[0] == 0
+
+
+# -- audited selection of a tuning run (issue 10: tuning learns the step; report what survives) ---
+
+def test_the_ladder_takes_the_start_the_best_and_the_first_vector_to_reach_each_level():
+    import numpy as np
+
+    from sanlab.audit import ladder
+
+    v = lambda x: np.array([x])
+    path = [(-1, 1.0, v(0)), (3, 1.5, v(1)), (7, 1.2, v(2)), (9, 2.0, v(3)), (12, 2.9, v(4)), (15, 3.0, v(5)),
+            (20, 3.0, v(6))]
+    rungs = ladder(path, 5)  # levels 1.0, 1.5, 2.0, 2.5, 3.0
+    assert [t for t, _, _ in rungs] == [-1, 3, 9, 12, 15]
+    # each vector once, and only the first to reach a level: trial 7 (a step back) and 20 (a tie) never are
+    assert [t for t, _, _ in ladder(path, 100)] == [-1, 3, 9, 12, 15]
+    assert [t for t, _, _ in ladder(path[:1], 16)] == [-1]
+
+
+@pytest.fixture(scope="module")
+def selected(tmp_path_factory):
+    """The three-link chain (a converged gait) tuned on a small budget, then selected."""
+    from sanlab.audit import select_robust
+    from sanlab.creature import read_source
+    from sanlab.search.tune import tune
+
+    path = tmp_path_factory.mktemp("select") / "lib.db"
+    lib = Library(path)
+    text, where = read_source("threelink")
+    run = run_search(lib, text, where, controllers=16, seconds=3.0, seed=0, ensemble=4)
+    [res] = tune(lib, [f"{run}/1"], trials=48, batch=16, ensemble=4)
+    sel = select_robust(lib, res.run_id)
+    lib.close()
+    return path, res, sel
+
+
+def test_the_chain_is_rebuilt_from_its_trace(selected):
+    import numpy as np
+
+    from sanlab.audit import visited
+
+    path, res, _ = selected
+    with Library(path) as lib:
+        path_ = visited(lib, res.run_id)
+        tuned = lib.gait(f"{res.run_id}#0")
+        best = max(path_, key=lambda v: v[1])  # the first vector with the chain's best score
+        assert path_[0][0] == -1 and len(path_) == 1 + tuned.extra["accepted"]
+        np.testing.assert_array_equal(best[2], np.array(tuned.extra["theta"]))  # exactly the chain's best vector
+        assert best[1] == pytest.approx(tuned.extra["chain_best"])
+
+
+def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(selected):
+    from sanlab.audit import audit
+
+    path, res, sel = selected
+    c = sel.chosen
+    assert sel.gait_id == f"{res.run_id}#1" and c is not None
+    assert sel.candidates[0].trial == -1 and len(sel.candidates) >= 2  # the start and at least one accepted trial
+    robust = [x for x in sel.candidates if x.worst <= sel.threshold]
+    assert c in robust and c.score == max(x.score for x in robust)
+    with Library(path) as lib:
+        stored = lib.gait(sel.gait_id)
+        assert stored.speed_cm_s == pytest.approx(c.nominal_cm_s, abs=1e-6)
+        assert lib.audit(sel.gait_id) is not None and not lib.audit(sel.gait_id).flagged
+        again = audit(lib, sel.gait_id)  # the audit's own path (batch 1, the stored gait): the same numbers
+    assert again.nominal_cm_s == pytest.approx(stored.speed_cm_s, abs=1e-6)
+    for name in ("dt/2", "dt/4", "float64"):
+        assert again.speeds[name] == pytest.approx(c.speeds[name], rel=1e-6, abs=1e-6)
+        assert abs(again.speeds[name] - stored.speed_cm_s) <= 0.15 * stored.speed_cm_s  # the issue's bar
+
+
+def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, monkeypatch):
+    import sanlab.audit as audit_mod
+
+    path, res, sel = selected
+    with Library(path) as lib:
+        def no_evaluation(*a, **k):
+            raise AssertionError("a stored selection was evaluated again")
+
+        with monkeypatch.context() as m:
+            m.setattr(audit_mod, "Evaluator", no_evaluation)
+            again = audit_mod.select_robust(lib, res.run_id)
+        assert again.chosen == sel.chosen and again.gait_id == sel.gait_id
+        strict = audit_mod.select_robust(lib, res.run_id, threshold=0.0)  # nothing survives a 0 % bar
+        assert strict.gait_id is None and strict.chosen is None
+        assert 1 not in {e.idx for e in lib.top(res.run_id, None)}  # the earlier choice is not left behind
+        assert lib.audits(res.run_id).get(1) is None
+
+
+def test_audit_select_command(selected, tmp_path):
+    import shutil
+
+    path, res, sel = selected
+    db = tmp_path / "copy.db"
+    shutil.copy(path, db)
+    r = run_cli("audit", res.run_id, "--select", "--json", "--db", str(db))
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["robust_gait"] == f"{res.run_id}#1" and out["trial"] is not None and out["worst"] <= 0.10
+    table = run_cli("audit", res.run_id, "--select", "--db", str(db)).stdout
+    assert "robust tuned gait" in table and "chosen" in table
+    bad = run_cli("audit", f"{res.run_id}/1", "--select", "--db", str(db))
+    assert bad.exit_code == 2 and "tuning run id" in bad.stderr

@@ -29,7 +29,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
     with Library(str(db)) as lib:
         for name, r in rows.items():
             assert tuple(int(c) for c in r[1:5]) == TABLE1[name][:4]
-            tuned = r[11].strip("`")
+            tuned = r[12].split("`")[1]
             assert abs(lib.gait(tuned).speed_cm_s - float(r[7])) < 0.05  # the row is the stored tuned gait
             start = lib.gait(lib.get_run(tuned.split("/")[0]).parent_gait)
             assert abs(start.speed_cm_s - float(r[6])) < 0.05  # ... tuned from the search's best
@@ -38,7 +38,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
             # search and the tuner are two compiled programs (the tuner batches the creature's
             # parameters too), so the same controller's score may differ in its last float32 bits
             assert lib.gait(tuned).score >= start.score * (1 - 1e-6) - 1e-9
-            assert lib.audit(tuned) is None and r[8:10] == ["-", "not audited"]  # --no-audit
+            assert lib.audit(tuned) is None and r[8:11] == ["-", "not audited", "not selected"]  # --no-audit
     # only the fish pursues a follow point; it was evaluated for its file's 30 s
     assert "## Tracking" in text and "| fish | best (" in text and "| twolink |" not in text.split("## Tracking")[1]
     assert "## Robustness" not in text  # that section is the bounder's
@@ -49,7 +49,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
 
 
 def test_reproduce_resumes_from_the_library(tmp_path):
-    """A second call reuses every stored search, tuning run and audit; an interrupted tuning run
+    """A second call reuses every stored search, tuning run, audit and selection; an interrupted tuning run
     continues instead of starting again."""
     import sanlab
     from sanlab.reproduce import reproduce
@@ -63,19 +63,27 @@ def test_reproduce_resumes_from_the_library(tmp_path):
         first = call(lib)
         runs = {r.run_id: r.status for r in lib.runs()}
         # the tuned gait is audited, and its row prints the stored audit
-        audit = lib.audit(first[11].strip("`"))
+        gaits = first[12].split("`")
+        audit = lib.audit(gaits[1])
         assert audit is not None
         assert first[8] == " · ".join(f"{k} {v:.1f}" for k, v in audit.result["speeds"].items())
         assert first[9].startswith("flagged" if audit.flagged else "robust")
+        # ... and its run's audited selection: the robust gait's speed, or that no rung kept its speed
+        selected = [e for e in lib.top(gaits[1].split("/")[0], None) if e.idx == 1]
+        if selected:
+            assert gaits[3] == selected[0].gait_id and first[10].startswith(f"{selected[0].speed_cm_s:.1f} (")
+            assert not lib.audit(selected[0].gait_id).flagged
+        else:
+            assert first[10].startswith("none of") and len(gaits) == 3
         assert sorted(r.kind for r in lib.runs()) == ["search", "tune"]
         second = call(lib)
         assert {r.run_id: r.status for r in lib.runs()} == runs  # nothing run again
-        assert second[:12] == first[:12] and second[12].endswith("(resumed)") and not first[12].endswith("(resumed)")
+        assert second[:13] == first[:13] and second[13].endswith("(resumed)") and not first[13].endswith("(resumed)")
         tune_run = next(r.run_id for r in lib.runs() if r.kind == "tune")
         lib.set_status(tune_run, "interrupted")
         third = call(lib)
         assert {r.run_id: r.status for r in lib.runs()} == runs  # continued to "done", not started anew
-        assert third[:12] == first[:12]
+        assert third[:13] == first[:13]
         # other settings are another job: a new search
         call(lib, controllers=9)
         assert sum(r.kind == "search" for r in lib.runs()) == 2

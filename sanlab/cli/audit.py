@@ -10,13 +10,16 @@ import typer
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, JsonOpt, console, library_call, open_library
+from sanlab.cli._common import DbOpt, JsonOpt, console, fail, library_call, open_library
 
 
 def audit(
     target: Annotated[str, typer.Argument(help="A gait (RUN/RANK or RUN#IDX), or a run id to audit its top gaits.")],
     top: Annotated[int, typer.Option(min=1, help="With a run id: audit its K best gaits.")] = 1,
     threshold: Annotated[float, typer.Option(min=0.0, help="Flag a relative speed change above this (0.10 = 10 %).")] = 0.10,
+    select: Annotated[bool, typer.Option("--select", help=(
+        "With a tuning run: audit the rungs of its climb and store the fastest that no nudge moves "
+        "by more than the threshold as its gait RUN#1."))] = False,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -24,11 +27,24 @@ def audit(
 
     Each gait is re-scored exactly as it was scored (same ensemble and draws), once per nudge; a
     gait whose robust speed changes by more than the threshold is flagged resolution-dependent,
-    here, in `sanlab show` and in exports. The audit is stored in the library."""
+    here, in `sanlab show` and in exports. The audit is stored in the library.
+
+    With --select and a tuning run: up to 16 rungs of its chain's climb (its start, its best and
+    the vectors that first reached the scores between) are audited, and the best that keeps its
+    speed is stored as the run's gait RUN#1, the tuned result to quote."""
     configure()
     from sanlab.audit import audit_and_store
 
     lib = open_library(db)
+    if select:
+        if "/" in target or "#" in target:
+            raise fail("audit --select: give a tuning run id, not a gait")
+        run = library_call(lib.get_run, target)
+        log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
+        sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json), run.run_id)
+        if as_json:
+            typer.echo(json.dumps(sel, indent=2))
+        return
     if "/" in target or "#" in target:
         gaits = [library_call(lib.gait, target).gait_id]
     else:
@@ -53,3 +69,34 @@ def audit(
     if any(a.flagged for a in results):
         console.print(f"flagged: resolution-dependent (a nudge moved the speed more than {100 * threshold:.0f} %); "
                       "`sanlab show` and exports say so")
+
+
+def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False) -> dict:
+    """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
+    ``quiet``; returns its JSON summary ({"run", "robust_gait", "trial", "speed_cm_s", "worst",
+    "candidates": [...]})."""
+    from sanlab.audit import select_robust
+
+    sel = select_robust(lib, run_id, threshold=threshold, log=log)
+    c = sel.chosen
+    out = {"run": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
+           "speed_cm_s": None if c is None else c.nominal_cm_s, "worst": None if c is None else c.worst,
+           "threshold": threshold, "candidates": [x.to_json() for x in sel.candidates]}
+    if quiet:
+        return out
+    names = list(sel.candidates[0].speeds) if sel.candidates else []
+    table = Table(title=f"run {sel.run_id}: the rungs of its climb, audited (cm/s, change against held-out)")
+    for name in ("trial", "chain score", "held out", *names, ""):
+        table.add_column(name, no_wrap=True)
+    for x in sel.candidates:
+        mark = "[green]chosen[/green]" if x is c else ("[red]flagged[/red]" if x.worst > threshold else "robust")
+        table.add_row("start" if x.trial == -1 else str(x.trial), f"{x.chain_score:.2f}", f"{x.nominal_cm_s:.1f}",
+                      *[f"{x.speeds[n]:.1f} {100 * x.changes[n]:.0f}%" for n in names], mark)
+    console.print(table)
+    if c is None:
+        console.print(f"no rung keeps its speed within {100 * threshold:.0f} % under every nudge: "
+                      "this run has no robust tuned gait")
+    else:
+        console.print(f"robust tuned gait: {sel.gait_id}, {c.nominal_cm_s:.1f} cm/s "
+                      f"({'the start' if c.trial == -1 else f'trial {c.trial}'}, worst change {100 * c.worst:.0f} %)")
+    return out

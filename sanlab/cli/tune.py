@@ -47,6 +47,9 @@ def tune(
     backend: BackendOpt = "local",
     address: AddressOpt = None,
     workers: WorkersOpt = None,
+    select: Annotated[bool, typer.Option("--select", help=(
+        "Then audit each chain's climb and store its fastest gait that survives dt/2, dt/4 and float64 "
+        "as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
@@ -100,6 +103,11 @@ def tune(
     rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials,
              "accepted": r.accepted}
             for r in results]
+    if select:
+        from sanlab.cli.audit import select_and_report
+
+        for row, r in zip(rows, results):
+            row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, quiet=True), r.run_id)
     if render_dir:
         from sanlab.cli.render import render_into
 
@@ -108,12 +116,20 @@ def tune(
         typer.echo(json.dumps(rows[0] if len(rows) == 1 and top is None else rows, indent=2))
         return
     table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
-    for r in results:
+    if select:
+        table.add_column("robust tuned gait (cm/s)")
+    for row, r in zip(rows, results):
+        robust = []
+        if select:
+            sel = row["robust"]
+            robust = ["none kept its speed" if sel["robust_gait"] is None
+                      else f"{sel['robust_gait']}: {sel['speed_cm_s']:.1f} (worst change {100 * sel['worst']:.0f} %)"]
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
-                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
+                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}", *robust)
     console.print(table)
     console.print(f"{len(results)} chain(s) x {trials if not resume else results[0].trials} trials in "
                   f"{results[0].seconds:.0f} s (this session). 'before' is the start re-scored on the chain's own "
                   "ensemble draws, 'after' the tuned gait re-scored on held-out draws: with an ensemble of a chaotic "
                   "gait these differ from the stored score, and 'after' can be below 'before'; `sanlab audit` "
-                  "says how far such a score can be trusted.")
+                  "says how far such a score can be trusted" + ("; the robust tuned gait is the one to quote." if select
+                                                                else ", and `--select` finds the fastest that survives."))

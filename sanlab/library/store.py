@@ -517,6 +517,16 @@ class Library:
 
     # -- artefact audits -------------------------------------------------------------------------
 
+    def remove_evaluation(self, gait_id: str) -> None:
+        """Delete one stored evaluation ("RUN#IDX" or "RUN/RANK") and its audit, in one
+        transaction (a derived gait that no longer holds, such as an audited selection whose
+        settings changed). Raises LibraryError for an unknown gait."""
+        ev = self.gait(gait_id)
+        with self._write() as conn:
+            conn.execute("DELETE FROM evaluations WHERE run_id = ? AND idx = ?", (ev.run_id, ev.idx))
+            if conn.execute("SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = 'audits'").fetchone():
+                conn.execute("DELETE FROM audits WHERE run_id = ? AND idx = ?", (ev.run_id, ev.idx))
+
     def add_audit(self, gait_id: str, result: dict, *, flagged: bool, worst: float) -> AuditRecord:
         """Store the audit of gait ``gait_id`` (replacing an earlier one of the same gait)."""
         ev = self.gait(gait_id)
