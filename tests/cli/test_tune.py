@@ -31,6 +31,28 @@ def test_tune_cli_json(bounder_run):
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
 
 
+def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
+    import shutil
+
+    src, run_id = bounder_run
+    db = tmp_path / "copy.db"
+    shutil.copy(src, db)
+    r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "6", "--batch", "8",
+                                 "--ensemble", "2", "--select", "--db", str(db), "--json"],
+                       capture_output=True, text=True, check=True)
+    out = json.loads(r.stdout)
+    sel, tuned_run = out["robust"], out["tuned_gait"].split("/")[0]
+    assert sel["run"] == tuned_run and sel["candidates"] and sel["candidates"][0]["trial"] == -1
+    with Library(str(db)) as lib:
+        if sel["robust_gait"] is None:  # no rung kept its speed: nothing stored, and every rung was flagged
+            assert all(any(v is None or v > 0.10 for v in c["changes"].values()) for c in sel["candidates"])
+            assert 1 not in {e.idx for e in lib.top(tuned_run, None)}
+        else:
+            assert sel["robust_gait"] == f"{tuned_run}#1" and sel["worst"] <= 0.10
+            assert lib.gait(sel["robust_gait"]).speed_cm_s == sel["speed_cm_s"]
+            assert not lib.audit(sel["robust_gait"]).flagged
+
+
 def _trace_count(db) -> int:
     try:
         with sqlite3.connect(db, timeout=5) as c:
