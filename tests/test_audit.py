@@ -124,6 +124,9 @@ def test_the_verdict_is_stored_shown_and_exported(audited):
     assert [r["resolution_dependent"] for r in shown["top"]] == [True, None]
     table = run_cli("show", coarse, "--top", "1", "--db", str(path)).stdout
     assert "resolution-dependent" in table
+    robust = run_cli("show", sled, "--top", "2", "--db", str(path)).stdout  # #1 audited and robust, #2 never audited
+    assert robust.count("audited: robust") == 1 and "resolution-dependent" not in robust
+    assert "audited: robust" in run_cli("show", f"{sled}/1", "--db", str(path)).stdout
 
 
 def test_audit_command_prints_and_stores(audited):

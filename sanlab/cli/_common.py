@@ -330,7 +330,8 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
     table = Table("rank", "gait", score, "speed (cm/s)", "flags", title=safe(title))
     for rank, r in enumerate(rows, 1):
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
-                                          ("resolution-dependent", r.get("resolution_dependent"))) if on)
+                                          ("resolution-dependent", r.get("resolution_dependent")),
+                                          ("audited: robust", r.get("resolution_dependent") is False)) if on)
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)

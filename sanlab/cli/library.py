@@ -120,7 +120,8 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
         typer.echo(dump_json(summary))
         return
     arrow = {"+x": " → (+x)", "-x": " ← (-x)"}.get(summary["direction"] or "", "")
-    flags = ", ".join(f for f, on in (("fell", ev.fell), ("non-finite", ev.nonfinite), ("resolution-dependent", flagged)) if on) or "-"
+    flags = ", ".join(f for f, on in (("fell", ev.fell), ("non-finite", ev.nonfinite), ("resolution-dependent", flagged),
+                                      ("audited: robust", audit is not None and not flagged)) if on) or "-"
     console.print(f"[bold]gait {safe(ev.gait_id)}[/bold] (rank {ev.rank} of run {safe(run.run_id)}), "
                   f"{safe(gait.spec.name)}, metric {safe(gait.metric)}: score {ev.score:.3f} "
                   f"{SCORE_UNITS.get(gait.metric, '')}, speed {ev.speed_cm_s:.1f} cm/s{arrow}, flags {flags}")
