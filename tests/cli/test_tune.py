@@ -31,6 +31,7 @@ def test_tune_cli_json(bounder_run):
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow  # about a minute: the tuner and four audit evaluators compiled in a fresh process
 def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     import shutil
 
