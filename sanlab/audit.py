@@ -118,7 +118,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
         r = ev(g.weights[None], theta, [key])
         return float(r.speed_cm_s[0]), bool(r.fell[0])
 
-    nominal, _ = speed(1.0, "float32")
+    nominal, _ = speed(1.0, run.dtype or "float32")  # as it was scored
     if log:
         log(f"{g.gait_id}: {nominal:.1f} cm/s as stored (stored {g.speed_cm_s:.1f})")
     speeds, changes, fell = {}, {}, {}
@@ -240,10 +240,12 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     rungs of its climb, :func:`ladder`: its start, its best and the steps between) are re-scored
     on the tuned gait's held-out ensemble and under every nudge of :data:`NUDGES`, and the best
     held-out score among those whose speed no nudge moves by more than ``threshold`` is stored
-    as the run's evaluation #1 (``extra["selected"]``) with its audit. A chain's best is often a vector that
-    only works at its step (issue 10: annealing learns the integrator); its best *robust* vector
-    is the result to report. A selection stored with the same ``top`` and ``threshold`` is
-    reused. Raises LibraryError for a run that is not a finished tuning run."""
+    as the run's evaluation #1 (``extra["selected"]``) with its audit. A chain's best is often a
+    vector that only works at its step (issue 10: annealing learns the integrator); its best
+    *robust* vector is the result to report. A selection stored with the same ``top`` and
+    ``threshold`` is reused; one of other settings that no rung now passes is removed. Returns
+    the :class:`Selection` (``gait_id`` None: no rung kept its speed, nothing stored). Raises
+    LibraryError for a run that is not a finished tuning run."""
     from sanlab import sim
     from sanlab.evaluate.ensemble import heldout_key
     from sanlab.library import LibraryError
@@ -281,7 +283,7 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
                        ensemble=s.ensemble, space=Space(spec, morphology=s.morphology))
         return ev(weights, thetas, keys)
 
-    nominal = scores(1.0, "float32")
+    nominal = scores(1.0, run.dtype or "float32")  # as the chain scored it
     nudged = {name: scores(factor, dtype) for name, factor, dtype in NUDGES}
     cands = []
     for k, (trial, chain_score, _) in enumerate(ranked):
