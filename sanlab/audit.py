@@ -26,7 +26,7 @@ import numpy as np
 from sanlab.evaluate import Evaluator
 from sanlab.evaluate.ensemble import Key, heldout_key, search_key
 from sanlab.gait import Gait
-from sanlab.library import Library, SearchSettings, TuneSettings
+from sanlab.library import Library, LibraryError, SearchSettings, TuneSettings
 from sanlab.search.space import Space
 
 THRESHOLD = 0.10
@@ -190,7 +190,6 @@ def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     from the stored trace with the chain's own random choices (so exactly the chain's vectors).
     Raises LibraryError when ``run_id`` is not a tuning run."""
     from sanlab.creature import loads
-    from sanlab.library import LibraryError
     from sanlab.search import registry
     from sanlab.search.base import Problem, Start
     from sanlab.search.chain import Chain
@@ -198,7 +197,8 @@ def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     run = lib.get_run(run_id)
     s = run.settings
     if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
-        raise LibraryError(f"run {run.run_id} is a {run.kind} run, not a tuning run")
+        raise LibraryError(f"run {run.run_id} is {'an' if run.kind[0] in 'aeiou' else 'a'} {run.kind} run, "
+                           "not a tuning run")
     spec = loads(run.creature_text, source=s.source or run.creature)
     space = Space(spec, morphology=s.morphology)
     parent = Gait.from_library(lib, run.parent_gait)
@@ -238,37 +238,37 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
                   log=None) -> Selection:
     """Audited selection of a finished tuning run's gait: ``top`` vectors of its chain (the
     rungs of its climb, :func:`ladder`: its start, its best and the steps between) are re-scored
-    on the tuned gait's held-out ensemble and under every nudge of :data:`NUDGES`, and the best
-    held-out score among those whose speed no nudge moves by more than ``threshold`` is stored
-    as the run's evaluation #1 (``extra["selected"]``) with its audit. A chain's best is often a
-    vector that only works at its step (issue 10: annealing learns the integrator); its best
-    *robust* vector is the result to report. A selection stored with the same ``top`` and
-    ``threshold`` is reused; one of other settings that no rung now passes is removed. Returns
-    the :class:`Selection` (``gait_id`` None: no rung kept its speed, nothing stored). Raises
-    LibraryError for a run that is not a finished tuning run."""
+    on the tuned gait's held-out ensemble and under every nudge of :data:`NUDGES`, and the one
+    with the best held-out score among those whose speed no nudge moves by more than
+    ``threshold`` is stored as the run's evaluation #1 with its audit (the start itself, when no
+    tuned rung survives). A chain's best is often a vector that only works at its step (issue
+    10: annealing learns the integrator); its best *robust* vector is the result to report.
+
+    The selection's record (every rung's speeds) is stored in the library whatever its outcome,
+    and one made with the same ``top`` and ``threshold`` is reused; made again with others, a
+    gait chosen before that no rung now earns is removed. Returns the :class:`Selection`
+    (``gait_id`` None: no rung kept its speed). Raises ValueError for a threshold that is not a
+    finite number >= 0 or ``top`` < 1, LibraryError for a run that is not a finished tuning run."""
     from sanlab import sim
     from sanlab.evaluate.ensemble import heldout_key
-    from sanlab.library import LibraryError
     from sanlab.library.records import EvaluationRow
 
+    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold >= 0):
+        raise ValueError(f"threshold: expected a finite number >= 0, got {threshold!r}")
+    if top < 1:
+        raise ValueError(f"top: expected >= 1, got {top}")
     run = lib.get_run(run_id)
     s = run.settings
     if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
-        raise LibraryError(f"run {run.run_id} is a {run.kind} run, not a tuning run")
-    stored = {e.idx: e for e in lib.top(run.run_id, None)}
-    if 0 not in stored:
+        raise LibraryError(f"run {run.run_id} is {'an' if run.kind[0] in 'aeiou' else 'a'} {run.kind} run, "
+                           "not a tuning run")
+    if not any(e.idx == 0 for e in lib.top(run.run_id, None)):
         raise LibraryError(f"run {run.run_id} has not finished: resume it first (sanlab tune --resume {run.run_id})")
     settings = {"top": top, "threshold": threshold}
-    previous = (stored[SELECTED_IDX].extra or {}).get("selected") if SELECTED_IDX in stored else None
     gait_id = f"{run.run_id}#{SELECTED_IDX}"
-    if previous is not None and previous.get("settings") == settings:
-        cands = [Candidate.from_json(c) for c in previous["candidates"]]
-        chosen = next(c for c in cands if c.trial == previous["trial"])
-        if lib.audit(gait_id) is None:  # stopped between storing the gait and its audit
-            _store_audit(lib, gait_id, chosen, previous.get("fell", {}), threshold, stored[SELECTED_IDX], s)
-        return Selection(run.run_id, gait_id, chosen, cands, threshold)
-    if previous is None and SELECTED_IDX in stored:
-        raise LibraryError(f"run {run.run_id}: evaluation #{SELECTED_IDX} is not an audited selection")
+    reused = _stored_selection(lib, run.run_id, settings, threshold)
+    if reused is not None:
+        return reused
 
     ranked = ladder(visited(lib, run.run_id), top)
     parent = Gait.from_library(lib, run.parent_gait)
@@ -295,29 +295,53 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
         cands.append(Candidate(int(trial), float(chain_score), v0, speeds, changes,
                                float(nominal.score[k]) if ok else -math.inf))
         if log:
-            log(f"trial {trial}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
+            where = "start" if trial == -1 else f"trial {trial}"
+            log(f"{where}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
     robust = [k for k, c in enumerate(cands) if c.worst <= threshold and np.isfinite(c.score)]
+    record = {"settings": settings, "candidates": [c.to_json() for c in cands], "trial": None, "fell": {}}
     if not robust:
-        if previous is not None:  # chosen under other settings: it does not hold under these
-            lib.remove_evaluation(gait_id)
+        lib.put_selection(run.run_id, SELECTED_IDX, record)
         return Selection(run.run_id, None, None, cands, threshold)
     k = max(robust, key=lambda i: cands[i].score)
     chosen = cands[k]
+    record["trial"], record["fell"] = chosen.trial, {n: bool(b.fell[k]) for n, b in nudged.items()}
     space = Space(spec0, morphology=s.morphology)
     model = sim.compile_creature(spec0, run.dtype or "float32")
-    fell = {n: bool(b.fell[k]) for n, b in nudged.items()}
-    extra = {"selected": {"trial": chosen.trial, "settings": settings, "fell": fell,
-                          "candidates": [c.to_json() for c in cands]},
-             "theta": thetas[k].tolist()}
     row = EvaluationRow(run.run_id, SELECTED_IDX, space.san.encode(parent.weights), space.gait_params(thetas[k], model),
-                        nominal.row(k), extra, run.parent_gait)
-    lib.add_batch(run.run_id, [row.to_json()], replace=True)
-    _store_audit(lib, gait_id, chosen, fell, threshold, lib.gait(gait_id), s)
+                        nominal.row(k), {"selected": {"trial": chosen.trial}, "theta": thetas[k].tolist()},
+                        run.parent_gait)
+    a = _audit_of(gait_id, chosen, record["fell"], threshold, float(nominal.speed_cm_s[k]), spec0.dt, s.ensemble.members)
+    lib.put_selection(run.run_id, SELECTED_IDX, record, row.to_json(), a.to_json(), flagged=a.flagged, worst=a.worst)
     return Selection(run.run_id, gait_id, chosen, cands, threshold)
 
 
-def _store_audit(lib: Library, gait_id: str, c: Candidate, fell: dict, threshold: float, stored, s) -> None:
+def _stored_selection(lib: Library, run_id: str, settings: dict, threshold: float) -> Selection | None:
+    """The stored selection made with ``settings``, or None (none, other settings, or a record
+    that does not read: it is made again). Its gait's audit is stored again when a plain audit
+    with another threshold replaced it (or it went missing)."""
+    rec = lib.selection(run_id)
+    if rec is None or rec.get("settings") != settings:
+        return None
+    try:
+        cands = [Candidate.from_json(c) for c in rec["candidates"]]
+        trial = rec["trial"]
+        if trial is None or rec["idx"] is None:
+            return Selection(run_id, None, None, cands, threshold)
+        chosen = next(c for c in cands if c.trial == trial)
+        stored = lib.gait(f"{run_id}#{rec['idx']}")
+        fell = {str(k): bool(v) for k, v in dict(rec.get("fell") or {}).items()}
+    except (KeyError, TypeError, ValueError, AttributeError, StopIteration, LibraryError):
+        return None  # a record that does not read, or its gait is gone: make it again
+    gait_id = stored.gait_id
+    audit_rec = lib.audit(gait_id)
+    if audit_rec is None or audit_rec.result.get("threshold") != threshold:
+        g = Gait.from_library(lib, gait_id)
+        a = _audit_of(gait_id, chosen, fell, threshold, stored.speed_cm_s, g.spec.dt, g.ensemble.members)
+        lib.add_audit(gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)
+    return Selection(run_id, gait_id, chosen, cands, threshold)
+
+
+def _audit_of(gait_id: str, c: Candidate, fell: dict, threshold: float, stored_cm_s: float, dt: float,
+              members: int) -> Audit:
     """The selected gait's audit, as :func:`audit` would find it (same speeds, same ensemble)."""
-    a = Audit(gait_id, stored.speed_cm_s, c.nominal_cm_s, c.speeds, c.changes, fell, threshold,
-              Gait.from_library(lib, gait_id).spec.dt, s.ensemble.members)
-    lib.add_audit(gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)
+    return Audit(gait_id, stored_cm_s, c.nominal_cm_s, c.speeds, c.changes, fell, threshold, dt, members)

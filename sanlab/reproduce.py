@@ -14,7 +14,7 @@ follow point) is at least 10 % of the distance the follow point travelled.
 
 Every tuned gait is audited (:mod:`sanlab.audit`: dt/2, dt/4, float64) and the report prints the
 audit beside its speed, then the audited selection of its tuning run (``sanlab.audit.select_robust``:
-the fastest rung of the chain's climb that keeps its speed under every nudge), the speed to quote.
+the best-scoring rung of the chain's climb that keeps its speed under every nudge), the speed to quote.
 
 The job takes over an hour at the paper's budget, so it resumes: run the same call again on the
 same library and every creature whose search, tuning, audit or selection is already stored is
@@ -168,7 +168,7 @@ def _tune(lib: Library, text: str, parent: str, seed: int, trials: int, ens: Ens
 
     run = _earlier(lib, "tune", text, seed, wanted)
     if run is not None and run.status == "done":
-        return f"{run.run_id}/1", True
+        return f"{run.run_id}#0", True
     if run is not None:
         [res] = tune(lib, resume=[run.run_id])
         return res.tuned_gait, True
@@ -195,11 +195,9 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
     there is one (else a new one when ``run``): ({"gait", "speed", "trial", "worst",
     "candidates"} or None, whether it was stored before). "gait" is None when no rung of the
     climb kept its speed."""
-    from sanlab.audit import SELECT_TOP, SELECTED_IDX, THRESHOLD, select_robust
+    from sanlab.audit import SELECT_TOP, THRESHOLD, select_robust
 
-    stored = [e for e in lib.top(run_id, None) if e.idx == SELECTED_IDX]
-    settings = ((stored[0].extra or {}).get("selected") or {}).get("settings") if stored else None
-    before = settings == {"top": SELECT_TOP, "threshold": THRESHOLD}
+    before = (lib.selection(run_id) or {}).get("settings") == {"top": SELECT_TOP, "threshold": THRESHOLD}
     if not before and not run:
         return None, False
     sel = select_robust(lib, run_id)
@@ -320,8 +318,9 @@ def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials:
               "", "*Robust tuned gait*: the audited selection (`sanlab audit RUN --select`): up to 16 rungs of the "
               "tuning chain's climb (its start, its best and the vectors that first reached the scores between) are "
               "audited the same way, and the best held-out score among those no nudge moves by more than 10 % is "
-              "stored as the run's gait #1. This is the tuned speed to quote; the tracking and robustness sections "
-              "below use it (the chain's best where no rung kept its speed).",
+              "stored as the run's gait #1. This is the tuned speed to quote (it can be the start itself, when no tuned "
+              "rung survives); the tracking and robustness sections, where present, use it (the chain's best where "
+              "no rung kept its speed).",
               "", "*(resumed)*: an earlier call on the same library had stored some of this creature's work; "
               "the wall time counts this call only.",
               "", "A random SAN *moved usefully* when the run stayed finite, the creature did not fall, and it "

@@ -139,14 +139,14 @@ def test_audit_command_prints_and_stores(audited):
     assert (bad.exit_code == 2 and "nope" in bad.stderr and bad.exception is None) or isinstance(bad.exception, SystemExit)
 
 
-def test_a_version_2_library_is_upgraded_with_an_empty_audits_table(tmp_path):
+def test_a_version_2_library_is_upgraded_with_empty_audits_and_selections_tables(tmp_path):
     import sqlite3
 
     from sanlab.library import _schema
 
     path = tmp_path / "v2.db"
     con = sqlite3.connect(path)
-    for statement in _schema.DDL[:-1]:  # version 2: no audits table
+    for statement in _schema.DDL[:-2]:  # version 2: no audits table, no selections table
         con.execute(statement)
     con.execute(f"PRAGMA application_id = {_schema.APPLICATION_ID}")
     con.execute("PRAGMA user_version = 2")
@@ -155,8 +155,9 @@ def test_a_version_2_library_is_upgraded_with_an_empty_audits_table(tmp_path):
     with Library(path) as lib:
         assert lib.runs() == []
     con = sqlite3.connect(path)
-    assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 3
+    assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 4
     assert con.execute("SELECT count(*) FROM audits").fetchone()[0] == 0
+    assert con.execute("SELECT count(*) FROM selections").fetchone()[0] == 0
 
 
 # -- audited selection of a tuning run (issue 10: tuning learns the step; report what survives) ---
@@ -228,22 +229,43 @@ def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(select
         assert abs(again.speeds[name] - stored.speed_cm_s) <= 0.15 * stored.speed_cm_s  # the issue's bar
 
 
-def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, monkeypatch):
+def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, tmp_path, monkeypatch):
+    import shutil
+    import sqlite3
+
     import sanlab.audit as audit_mod
 
     path, res, sel = selected
-    with Library(path) as lib:
-        def no_evaluation(*a, **k):
-            raise AssertionError("a stored selection was evaluated again")
+    db = tmp_path / "copy.db"
+    shutil.copy(path, db)
 
+    def no_evaluation(*a, **k):
+        raise AssertionError("a stored selection was evaluated again")
+
+    with Library(db) as lib:
         with monkeypatch.context() as m:
             m.setattr(audit_mod, "Evaluator", no_evaluation)
             again = audit_mod.select_robust(lib, res.run_id)
         assert again.chosen == sel.chosen and again.gait_id == sel.gait_id
+        audit_mod.audit_and_store(lib, sel.gait_id, threshold=0.0)  # a plain audit with another threshold ...
+        with monkeypatch.context() as m:
+            m.setattr(audit_mod, "Evaluator", no_evaluation)
+            audit_mod.select_robust(lib, res.run_id)
+        assert lib.audit(sel.gait_id).result["threshold"] == 0.10 and not lib.audit(sel.gait_id).flagged  # ... is undone
         strict = audit_mod.select_robust(lib, res.run_id, threshold=0.0)  # nothing survives a 0 % bar
         assert strict.gait_id is None and strict.chosen is None
         assert 1 not in {e.idx for e in lib.top(res.run_id, None)}  # the earlier choice is not left behind
         assert lib.audits(res.run_id).get(1) is None
+        with monkeypatch.context() as m:  # "none survived" is stored too, and reused
+            m.setattr(audit_mod, "Evaluator", no_evaluation)
+            assert audit_mod.select_robust(lib, res.run_id, threshold=0.0).candidates == strict.candidates
+        with pytest.raises(ValueError, match="threshold"):
+            audit_mod.select_robust(lib, res.run_id, threshold=float("inf"))
+    with sqlite3.connect(db) as con:  # a damaged record is made again, not trusted (nor a traceback)
+        con.execute("UPDATE selections SET result = '5'")
+    with Library(db) as lib:
+        remade = audit_mod.select_robust(lib, res.run_id)
+        assert remade.chosen == sel.chosen and lib.gait(sel.gait_id).speed_cm_s == pytest.approx(sel.chosen.nominal_cm_s)
 
 
 def test_audit_select_command(selected, tmp_path):
@@ -260,3 +282,5 @@ def test_audit_select_command(selected, tmp_path):
     assert "robust tuned gait" in table and "chosen" in table
     bad = run_cli("audit", f"{res.run_id}/1", "--select", "--db", str(db))
     assert bad.exit_code == 2 and "tuning run id" in bad.stderr
+    inf = run_cli("audit", res.run_id, "--select", "--threshold", "inf", "--db", str(db))
+    assert inf.exit_code == 2 and "finite" in inf.stderr

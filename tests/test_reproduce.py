@@ -69,7 +69,7 @@ def test_reproduce_resumes_from_the_library(tmp_path):
         assert first[8] == " · ".join(f"{k} {v:.1f}" for k, v in audit.result["speeds"].items())
         assert first[9].startswith("flagged" if audit.flagged else "robust")
         # ... and its run's audited selection: the robust gait's speed, or that no rung kept its speed
-        selected = [e for e in lib.top(gaits[1].split("/")[0], None) if e.idx == 1]
+        selected = [e for e in lib.top(gaits[1].split("#")[0], None) if e.idx == 1]
         if selected:
             assert gaits[3] == selected[0].gait_id and first[10].startswith(f"{selected[0].speed_cm_s:.1f} (")
             assert not lib.audit(selected[0].gait_id).flagged

@@ -4,6 +4,7 @@ flag those whose speed does not survive (``sanlab.audit``)."""
 from __future__ import annotations
 
 import json
+import math
 from typing import Annotated
 
 import typer
@@ -15,11 +16,12 @@ from sanlab.cli._common import DbOpt, JsonOpt, console, fail, library_call, open
 
 def audit(
     target: Annotated[str, typer.Argument(help="A gait (RUN/RANK or RUN#IDX), or a run id to audit its top gaits.")],
-    top: Annotated[int, typer.Option(min=1, help="With a run id: audit its K best gaits.")] = 1,
+    top: Annotated[int | None, typer.Option(min=1, help=(
+        "With a run id: audit its K best gaits (default 1); with --select: audit up to K rungs (default 16)."))] = None,
     threshold: Annotated[float, typer.Option(min=0.0, help="Flag a relative speed change above this (0.10 = 10 %).")] = 0.10,
     select: Annotated[bool, typer.Option("--select", help=(
-        "With a tuning run: audit the rungs of its climb and store the fastest that no nudge moves "
-        "by more than the threshold as its gait RUN#1."))] = False,
+        "With a tuning run: audit the rungs of its climb and store the best-scoring one that no nudge "
+        "moves by more than the threshold as its gait RUN#1."))] = False,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -30,21 +32,29 @@ def audit(
     here, in `sanlab show` and in exports. The audit is stored in the library.
 
     With --select and a tuning run: up to 16 rungs of its chain's climb (its start, its best and
-    the vectors that first reached the scores between) are audited, and the best that keeps its
-    speed is stored as the run's gait RUN#1, the tuned result to quote."""
+    the vectors that first reached the scores between) are audited, and the best-scoring one that
+    keeps its speed (the start itself, when no tuned rung does) is stored as the run's gait RUN#1,
+    the tuned result to quote."""
     configure()
-    from sanlab.audit import audit_and_store
+    from sanlab.audit import SELECT_TOP, audit_and_store
 
+    if not math.isfinite(threshold):
+        raise fail(f"audit: --threshold: expected a finite number >= 0, got {threshold}")
     lib = open_library(db)
     if select:
         if "/" in target or "#" in target:
             raise fail("audit --select: give a tuning run id, not a gait")
         run = library_call(lib.get_run, target)
         log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
-        sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json), run.run_id)
+        try:
+            sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP), run.run_id)
+        except KeyboardInterrupt:
+            typer.echo("interrupted; nothing of this selection was stored: run the same command again", err=True)
+            raise typer.Exit(130) from None
         if as_json:
             typer.echo(json.dumps(sel, indent=2))
         return
+    top = top or 1
     if "/" in target or "#" in target:
         gaits = [library_call(lib.gait, target).gait_id]
     else:
@@ -71,13 +81,13 @@ def audit(
                       "`sanlab show` and exports say so")
 
 
-def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False) -> dict:
+def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16) -> dict:
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
     ``quiet``; returns its JSON summary ({"run", "robust_gait", "trial", "speed_cm_s", "worst",
     "candidates": [...]})."""
     from sanlab.audit import select_robust
 
-    sel = select_robust(lib, run_id, threshold=threshold, log=log)
+    sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top)
     c = sel.chosen
     out = {"run": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
            "speed_cm_s": None if c is None else c.nominal_cm_s, "worst": None if c is None else c.worst,

@@ -48,8 +48,8 @@ def tune(
     address: AddressOpt = None,
     workers: WorkersOpt = None,
     select: Annotated[bool, typer.Option("--select", help=(
-        "Then audit each chain's climb and store its fastest gait that survives dt/2, dt/4 and float64 "
-        "as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
+        "Then audit each chain's climb and store its best-scoring gait that keeps its speed within 10 % "
+        "at dt/2, dt/4 and in float64 as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
@@ -93,7 +93,7 @@ def tune(
                                terrain=terrain, batch=batch, ensemble=ens, reporter=report, resume=resume or (),
                                backend=engine)
     except KeyboardInterrupt:
-        hint = " ".join(f"--resume {r}" for r in run_ids)
+        hint = " ".join(f"--resume {r}" for r in run_ids) + (" --select" if select else "")
         typer.echo(f"interrupted; resume with: sanlab tune {hint} --db {db}" if run_ids else "interrupted", err=True)
         raise typer.Exit(130) from None
     except (ValueError, ConnectionError) as e:
@@ -106,8 +106,14 @@ def tune(
     if select:
         from sanlab.cli.audit import select_and_report
 
-        for row, r in zip(rows, results):
-            row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, quiet=True), r.run_id)
+        try:
+            for row, r in zip(rows, results):
+                row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, quiet=True), r.run_id)
+        except KeyboardInterrupt:
+            cmds = "; ".join(f"sanlab audit {r.run_id} --select --db {db}" for r in results)
+            typer.echo(f"interrupted during the selection; every tuned gait is stored ({', '.join(r.tuned_gait for r in results)}). "
+                       f"To select: {cmds}", err=True)
+            raise typer.Exit(130) from None
     if render_dir:
         from sanlab.cli.render import render_into
 
@@ -132,4 +138,4 @@ def tune(
                   "ensemble draws, 'after' the tuned gait re-scored on held-out draws: with an ensemble of a chaotic "
                   "gait these differ from the stored score, and 'after' can be below 'before'; `sanlab audit` "
                   "says how far such a score can be trusted" + ("; the robust tuned gait is the one to quote." if select
-                                                                else ", and `--select` finds the fastest that survives."))
+                                                                else ", and `--select` finds the best that survives."))

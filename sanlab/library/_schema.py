@@ -9,6 +9,7 @@ read-only, an older file is read as it is (nothing is written).
 Version 2 adds ``runs.owner``: which process (host, pid, start time) writes a running run, so
 that a run whose process was killed outright reads as "interrupted", not "running" for ever; and
 ``fell`` to the rank index, which ranks a gait that stayed up before one that fell at equal scores.
+Version 3 adds ``audits`` and version 4 ``selections`` (``sanlab audit``).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from sanlab.creature.files import NotRegularFile, read_regular_file
 from sanlab.library.errors import LibraryError
 
 APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
-SCHEMA_VERSION = 3  # PRAGMA user_version
+SCHEMA_VERSION = 4  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
@@ -92,9 +93,19 @@ AUDITS_DDL = """
         FOREIGN KEY (run_id, idx) REFERENCES evaluations (run_id, idx) ON DELETE CASCADE
     ) WITHOUT ROWID
     """
-DDL = (*DDL, AUDITS_DDL)
-TABLES = ("runs", "evaluations", "trace", "audits")
-ADDED_IN = {"audits": 3}  # tables an older file, read as it is (read-only), does not have yet
+# Version 4: audited selections (``sanlab audit RUN --select``), one per tuning run, the latest
+# kept; the chosen gait itself is an evaluation of the run (with its audit).
+SELECTIONS_DDL = """
+    CREATE TABLE selections (
+        run_id      TEXT PRIMARY KEY REFERENCES runs (run_id) ON DELETE CASCADE,
+        created     TEXT NOT NULL,              -- ISO 8601, UTC
+        idx         INTEGER,                    -- the chosen gait's evaluation; NULL: no rung survived
+        result      TEXT NOT NULL               -- JSON object: settings and every audited rung
+    ) WITHOUT ROWID
+    """
+DDL = (*DDL, AUDITS_DDL, SELECTIONS_DDL)
+TABLES = ("runs", "evaluations", "trace", "audits", "selections")
+ADDED_IN = {"audits": 3, "selections": 4}  # tables an older file, read as it is (read-only), does not have yet
 
 # MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
 # always creates the newest schema directly.
@@ -111,7 +122,11 @@ def _add_audits(conn: sqlite3.Connection) -> None:
     conn.execute(AUDITS_DDL)
 
 
-MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell, 2: _add_audits}
+def _add_selections(conn: sqlite3.Connection) -> None:
+    conn.execute(SELECTIONS_DDL)
+
+
+MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell, 2: _add_audits, 3: _add_selections}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 

@@ -517,15 +517,48 @@ class Library:
 
     # -- artefact audits -------------------------------------------------------------------------
 
-    def remove_evaluation(self, gait_id: str) -> None:
-        """Delete one stored evaluation ("RUN#IDX" or "RUN/RANK") and its audit, in one
-        transaction (a derived gait that no longer holds, such as an audited selection whose
-        settings changed). Raises LibraryError for an unknown gait."""
-        ev = self.gait(gait_id)
+    def put_selection(self, run_id: str, idx: int, result: dict, gait: dict | None = None,
+                      audit: dict | None = None, *, flagged: bool = False, worst: float = 0.0) -> None:
+        """Store a tuning run's audited selection (``sanlab.audit.select_robust``) in one
+        transaction: its record ``result`` (JSON) and, as the run's evaluation ``idx``, the chosen
+        gait ``gait`` (an :meth:`add_batch` row, replacing an earlier one) with its ``audit``; with
+        ``gait`` None (no rung survived), an earlier chosen gait at ``idx`` and its audit are
+        removed. Raises LibraryError for an unknown run."""
+        run_id = self._resolve(run_id)
+        created = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        text = to_json(result, "selection")
+        audit_text = None if audit is None else to_json(audit, "audit results")
+        worst_v = real(worst, "audit: worst") if math.isfinite(worst) else None
+        values = None if gait is None else _evaluation_values(run_id, 0, {**gait, "idx": idx})
         with self._write() as conn:
-            conn.execute("DELETE FROM evaluations WHERE run_id = ? AND idx = ?", (ev.run_id, ev.idx))
-            if conn.execute("SELECT 1 FROM sqlite_schema WHERE type = 'table' AND name = 'audits'").fetchone():
-                conn.execute("DELETE FROM audits WHERE run_id = ? AND idx = ?", (ev.run_id, ev.idx))
+            self._require_run(conn, run_id)
+            conn.execute("DELETE FROM audits WHERE run_id = ? AND idx = ?", (run_id, idx))
+            conn.execute("DELETE FROM evaluations WHERE run_id = ? AND idx = ?", (run_id, idx))
+            if values is not None:
+                conn.execute("INSERT INTO evaluations (run_id, idx, encoding, params, score, speed_cm_s, "
+                             "fell, nonfinite, extra, parent) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", values)
+                if audit_text is not None:
+                    conn.execute("INSERT INTO audits (run_id, idx, created, flagged, worst, result) "
+                                 "VALUES (?, ?, ?, ?, ?, ?)", (run_id, idx, created, int(bool(flagged)), worst_v, audit_text))
+            conn.execute("INSERT OR REPLACE INTO selections (run_id, created, idx, result) VALUES (?, ?, ?, ?)",
+                         (run_id, created, None if gait is None else idx, text))
+
+    def selection(self, run_id: str) -> dict | None:
+        """A tuning run's stored audited selection ({"idx": the chosen evaluation or None,
+        "created", **its record}), or None if none was made (or the record is not a JSON
+        object: a damaged record is made again, never trusted)."""
+        run_id = self._resolve(run_id)
+        with self._sql() as conn:
+            if not _schema._has_table(conn, "selections"):
+                return None  # an older library opened read-only, as it is
+            row = conn.execute("SELECT idx, created, result FROM selections WHERE run_id = ?", (run_id,)).fetchone()
+        if row is None:
+            return None
+        try:
+            result = json.loads(row[2])
+        except (TypeError, ValueError):
+            return None
+        return {**result, "idx": row[0], "created": row[1]} if isinstance(result, dict) else None
 
     def add_audit(self, gait_id: str, result: dict, *, flagged: bool, worst: float) -> AuditRecord:
         """Store the audit of gait ``gait_id`` (replacing an earlier one of the same gait)."""

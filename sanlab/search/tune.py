@@ -38,7 +38,7 @@ METHODS = {name: registry.STRATEGIES[name] for name in registry.names(2)}
 @dataclass(frozen=True)
 class TuneResult:
     gait: str  # the parent gait
-    tuned_gait: str  # "RUN/1" of the stored tuned gait
+    tuned_gait: str  # "RUN#0": the stored tuned gait (the chain's best; an audited selection is RUN#1)
     run_id: str
     before: dict  # score, speed_cm_s of the parent under the tuning conditions
     after: dict  # score, speed_cm_s of the tuned gait (held-out ensemble)
@@ -90,7 +90,7 @@ def tune(
             before = Scores.from_json(extra["before"])
         s = library.get_run(run_id).settings
         results.append(TuneResult(
-            parent, f"{run_id}/1", run_id, {"score": before.score, "speed_cm_s": before.speed_cm_s},
+            parent, f"{run_id}#0", run_id, {"score": before.score, "speed_cm_s": before.speed_cm_s},
             {"score": after.score, "speed_cm_s": after.speed_cm_s}, s.trials if isinstance(s, TuneSettings) else 0,
             int(extra.get("accepted", 0)), summary.evaluations, time.perf_counter() - t_start))
     return results

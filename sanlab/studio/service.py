@@ -340,7 +340,7 @@ class Service:
 
     def tune(self, args: dict, reporter: Callable[[dict], None]) -> str:
         """Tune one gait (``args`` from :meth:`prepare_tune`) as `sanlab tune` does; ``reporter``
-        gets {done, total, best, rate} after each round. Returns the tuned gait's id RUN/1."""
+        gets {done, total, best, rate} after each round. Returns the tuned gait's id RUN#0."""
         from sanlab.search.tune import tune
 
         def report(p) -> None:

@@ -258,8 +258,8 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
     path = tmp_path / "v1.db"
     con = sqlite3.connect(path)
     con.execute(V1_RUNS)
-    for ddl in _schema.DDL[1:]:  # version 1's rank index had no fell, and it had no audits
-        if ddl is _schema.AUDITS_DDL:
+    for ddl in _schema.DDL[1:]:  # version 1's rank index had no fell, and it had no audits nor selections
+        if ddl in (_schema.AUDITS_DDL, _schema.SELECTIONS_DDL):
             continue
         con.execute(ddl.replace("score DESC, fell, idx", "score DESC, idx"))
     con.execute("INSERT INTO runs VALUES ('abcd1234', 'search', '2024-01-01T00:00:00', 'cart', 'x', 'h', '{}', 1, "
@@ -272,8 +272,8 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
         assert lib.runs()[0].status == "running"  # no owner recorded: nothing to tell
     assert sqlite3.connect(path).execute("PRAGMA user_version").fetchone()[0] == 1
     with Library(path) as lib:
-        assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 3
-        assert lib.audits("abcd1234") == {}
+        assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
+        assert lib.audits("abcd1234") == {} and lib.selection("abcd1234") is None
         assert lib.runs()[0].run_id == "abcd1234"
         lib.set_status("abcd1234", "running")
         owner = json.loads(lib._conn.execute("SELECT owner FROM runs").fetchone()[0])

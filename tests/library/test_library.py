@@ -212,19 +212,6 @@ def test_top_orders_by_score_then_idx_nonfinite_last(tmp_path):
             assert lib.gait(e.gait_id).rank == e.rank
 
 
-def test_remove_evaluation_takes_its_audit_and_nothing_else(tmp_path):
-    with Library(tmp_path / "g.db") as lib:
-        run = new_run(lib)
-        lib.add_batch(run.run_id, [row(0, 1.0), row(1, 2.0)])
-        lib.add_audit(f"{run.run_id}#0", {"x": 1}, flagged=False, worst=0.0)
-        lib.add_audit(f"{run.run_id}#1", {"x": 2}, flagged=True, worst=0.5)
-        lib.remove_evaluation(f"{run.run_id}/1")  # by rank: #1
-        assert [e.idx for e in lib.top(run.run_id, None)] == [0]
-        assert set(lib.audits(run.run_id)) == {0}
-        with pytest.raises(LibraryError, match="#1"):
-            lib.remove_evaluation(f"{run.run_id}#1")
-
-
 # -- ids -----------------------------------------------------------------------------------------
 
 
