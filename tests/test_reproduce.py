@@ -31,7 +31,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
             assert tuple(int(c) for c in r[1:5]) == TABLE1[name][:4]
             tuned = r[12].split("`")[1]
             assert abs(lib.gait(tuned).speed_cm_s - float(r[7])) < 0.05  # the row is the stored tuned gait
-            start = lib.gait(lib.get_run(tuned.split("/")[0]).parent_gait)
+            start = lib.gait(lib.get_run(tuned.split("#")[0]).parent_gait)
             assert abs(start.speed_cm_s - float(r[6])) < 0.05  # ... tuned from the search's best
             # annealing keeps the best it has seen (single samples: the held-out re-evaluation of
             # the best vector is its own score; with an ensemble it is scored on fresh draws). The
