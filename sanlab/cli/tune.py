@@ -122,20 +122,23 @@ def tune(
         typer.echo(json.dumps(rows[0] if len(rows) == 1 and top is None else rows, indent=2))
         return
     table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
-    if select:
-        table.add_column("robust tuned gait (cm/s)")
-    for row, r in zip(rows, results):
-        robust = []
-        if select:
-            sel = row["robust"]
-            robust = ["none kept its speed" if sel["robust_gait"] is None
-                      else f"{sel['robust_gait']}: {sel['speed_cm_s']:.1f} (worst change {100 * sel['worst']:.0f} %)"]
+    for r in results:
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
-                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}", *robust)
+                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
+    for row, r in zip(rows, results) if select else ():
+        sel = row["robust"]
+        n = len(sel["candidates"])
+        if sel["robust_gait"] is None:
+            console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within 10 % at dt/2, dt/4 "
+                          "and in float64: no robust tuned gait")
+        else:
+            where = "its start" if sel["trial"] == -1 else f"trial {sel['trial']}"
+            console.print(f"{r.run_id}: robust tuned gait {sel['robust_gait']}, {sel['speed_cm_s']:.1f} cm/s "
+                          f"({where}, worst change {100 * sel['worst']:.0f} % of {n} rungs audited)")
     console.print(f"{len(results)} chain(s) x {trials if not resume else results[0].trials} trials in "
                   f"{results[0].seconds:.0f} s (this session). 'before' is the start re-scored on the chain's own "
                   "ensemble draws, 'after' the tuned gait re-scored on held-out draws: with an ensemble of a chaotic "
                   "gait these differ from the stored score, and 'after' can be below 'before'; `sanlab audit` "
-                  "says how far such a score can be trusted" + ("; the robust tuned gait is the one to quote." if select
-                                                                else ", and `--select` finds the best that survives."))
+                  "says how far such a score can be trusted" + (", and `--select` finds the best that survives." if not select
+                                                                else "; a robust tuned gait is the one to quote."))
