@@ -96,6 +96,16 @@ def gait_key(lib: Library, gait: Gait) -> Key:
     return heldout_key(0, 0)
 
 
+def nudged_evaluator(spec, factor: float, dtype: str, *, batch: int, metric, seconds, terrain, ensemble,
+                     morphology: bool) -> Evaluator:
+    """The evaluator of ``spec`` with its step scaled by ``factor`` and in ``dtype``, otherwise
+    as the gait was scored: every nudge replays the same compiled step, only with another ``dt``
+    or dtype."""
+    spec = dataclasses.replace(spec, dt=spec.dt * factor)
+    return Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=batch, terrain=terrain,
+                     ensemble=ensemble, space=Space(spec, morphology=morphology))
+
+
 def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], ...] = NUDGES,
           threshold: float = THRESHOLD, log=None) -> Audit:
     """Audit the gait ``gait_id`` ("RUN/RANK" or "RUN#IDX") of ``lib`` (see the module
@@ -112,9 +122,8 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
     theta = None if run.kind == "search" else Space(g.spec, morphology=morphology).nominal(g.params)[None]
 
     def speed(factor: float, dtype: str) -> tuple[float, bool]:
-        spec = dataclasses.replace(g.spec, dt=g.spec.dt * factor)
-        ev = Evaluator(spec, metric=g.metric, seconds=g.seconds, dtype=dtype, batch=1, terrain=terrain,
-                       ensemble=g.ensemble, space=Space(spec, morphology=morphology))
+        ev = nudged_evaluator(g.spec, factor, dtype, batch=1, metric=g.metric, seconds=g.seconds, terrain=terrain,
+                              ensemble=g.ensemble, morphology=morphology)
         r = ev(g.weights[None], theta, [key])
         return float(r.speed_cm_s[0]), bool(r.fell[0])
 
@@ -184,6 +193,21 @@ class Selection:
     threshold: float
 
 
+def rung_name(trial: int) -> str:
+    """How a rung is named in reports: "the start" (trial -1) or "trial N"."""
+    return "the start" if trial == -1 else f"trial {trial}"
+
+
+def _tuning_run(lib: Library, run_id: str):
+    """The tuning run ``run_id`` and its settings; LibraryError for any other kind of run."""
+    run = lib.get_run(run_id)
+    s = run.settings
+    if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
+        raise LibraryError(f"run {run.run_id} is {'an' if run.kind[0] in 'aeiou' else 'a'} {run.kind} run, "
+                           "not a tuning run")
+    return run, s
+
+
 def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     """The vectors a finished or interrupted tuning run's chain stood on, in order: its start
     (trial -1, the parent gait's parameters, its start score) and every accepted trial, rebuilt
@@ -194,11 +218,8 @@ def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     from sanlab.search.base import Problem, Start
     from sanlab.search.chain import Chain
 
-    run = lib.get_run(run_id)
-    s = run.settings
-    if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
-        raise LibraryError(f"run {run.run_id} is {'an' if run.kind[0] in 'aeiou' else 'a'} {run.kind} run, "
-                           "not a tuning run")
+    run, s = _tuning_run(lib, run_id)
+    assert run.parent_gait is not None
     spec = loads(run.creature_text, source=s.source or run.creature)
     space = Space(spec, morphology=s.morphology)
     parent = Gait.from_library(lib, run.parent_gait)
@@ -206,8 +227,8 @@ def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     chain = registry.make(s.method, Problem(run.run_id, space.san, s.trials, s.seed, s.chain, space,
                                             Start(parent.weights, theta, parent.gait_id), dtype=run.dtype or "float32"))
     assert isinstance(chain, Chain)  # every phase-2 strategy is one
-    final = [e for e in lib.top(run.run_id, None) if e.idx == 0]
-    before = (final[0].extra or {}).get("before", {}).get("score") if final else None
+    final = lib.gait(f"{run.run_id}#0").extra if 0 in lib.done_indices(run.run_id) else None
+    before = (final or {}).get("before", {}).get("score")
     out = [(-1, float("nan") if before is None else float(before), theta)]
     for p in lib.trace(run.run_id):
         if p.accepted:
@@ -224,7 +245,7 @@ def ladder(path: list[tuple[int, float, np.ndarray]], n: int) -> list[tuple[int,
     finite = [v for v in path if np.isfinite(v[1])]
     if not finite:
         return path[:1]
-    lo, hi = finite[0][1] if path[0] is finite[0] else min(v[1] for v in finite), max(v[1] for v in finite)
+    lo, hi = finite[0][1], max(v[1] for v in finite)
     out: list[tuple[int, float, np.ndarray]] = []
     for j in range(n):
         level = lo + (hi - lo) * j / max(1, n - 1)
@@ -257,12 +278,9 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
         raise ValueError(f"threshold: expected a finite number >= 0, got {threshold!r}")
     if top < 1:
         raise ValueError(f"top: expected >= 1, got {top}")
-    run = lib.get_run(run_id)
-    s = run.settings
-    if run.kind != "tune" or not isinstance(s, TuneSettings) or run.parent_gait is None:
-        raise LibraryError(f"run {run.run_id} is {'an' if run.kind[0] in 'aeiou' else 'a'} {run.kind} run, "
-                           "not a tuning run")
-    if not any(e.idx == 0 for e in lib.top(run.run_id, None)):
+    run, s = _tuning_run(lib, run_id)
+    assert run.parent_gait is not None
+    if 0 not in lib.done_indices(run.run_id):
         raise LibraryError(f"run {run.run_id} has not finished: resume it first (sanlab tune --resume {run.run_id})")
     settings = {"top": top, "threshold": threshold}
     gait_id = f"{run.run_id}#{SELECTED_IDX}"
@@ -278,9 +296,8 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     keys = [heldout_key(s.seed, s.chain)] * len(ranked)
 
     def scores(factor: float, dtype: str):
-        spec = dataclasses.replace(spec0, dt=spec0.dt * factor)
-        ev = Evaluator(spec, metric=s.metric, seconds=s.seconds, dtype=dtype, batch=len(ranked), terrain=s.terrain,
-                       ensemble=s.ensemble, space=Space(spec, morphology=s.morphology))
+        ev = nudged_evaluator(spec0, factor, dtype, batch=len(ranked), metric=s.metric, seconds=s.seconds,
+                              terrain=s.terrain, ensemble=s.ensemble, morphology=s.morphology)
         return ev(weights, thetas, keys)
 
     nominal = scores(1.0, run.dtype or "float32")  # as the chain scored it
@@ -295,8 +312,7 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
         cands.append(Candidate(int(trial), float(chain_score), v0, speeds, changes,
                                float(nominal.score[k]) if ok else -math.inf))
         if log:
-            where = "start" if trial == -1 else f"trial {trial}"
-            log(f"{where}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
+            log(f"{rung_name(trial)}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
     robust = [k for k, c in enumerate(cands) if c.worst <= threshold and np.isfinite(c.score)]
     record = {"settings": settings, "candidates": [c.to_json() for c in cands], "trial": None, "fell": {}}
     if not robust:
@@ -310,7 +326,8 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     row = EvaluationRow(run.run_id, SELECTED_IDX, space.san.encode(parent.weights), space.gait_params(thetas[k], model),
                         nominal.row(k), {"selected": {"trial": chosen.trial}, "theta": thetas[k].tolist()},
                         run.parent_gait)
-    a = _audit_of(gait_id, chosen, record["fell"], threshold, float(nominal.speed_cm_s[k]), spec0.dt, s.ensemble.members)
+    a = Audit(gait_id, float(nominal.speed_cm_s[k]), chosen.nominal_cm_s, chosen.speeds, chosen.changes, record["fell"],
+              threshold, spec0.dt, s.ensemble.members)
     lib.put_selection(run.run_id, SELECTED_IDX, record, row.to_json(), a.to_json(), flagged=a.flagged, worst=a.worst)
     return Selection(run.run_id, gait_id, chosen, cands, threshold)
 
@@ -336,12 +353,8 @@ def _stored_selection(lib: Library, run_id: str, settings: dict, threshold: floa
     audit_rec = lib.audit(gait_id)
     if audit_rec is None or audit_rec.result.get("threshold") != threshold:
         g = Gait.from_library(lib, gait_id)
-        a = _audit_of(gait_id, chosen, fell, threshold, stored.speed_cm_s, g.spec.dt, g.ensemble.members)
+        a = Audit(gait_id, stored.speed_cm_s, chosen.nominal_cm_s, chosen.speeds, chosen.changes, fell, threshold,
+                  g.spec.dt, g.ensemble.members)
         lib.add_audit(gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)
     return Selection(run_id, gait_id, chosen, cands, threshold)
 
-
-def _audit_of(gait_id: str, c: Candidate, fell: dict, threshold: float, stored_cm_s: float, dt: float,
-              members: int) -> Audit:
-    """The selected gait's audit, as :func:`audit` would find it (same speeds, same ensemble)."""
-    return Audit(gait_id, stored_cm_s, c.nominal_cm_s, c.speeds, c.changes, fell, threshold, dt, members)

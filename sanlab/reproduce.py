@@ -266,8 +266,9 @@ def _robust(sel: dict | None) -> str:
         return "not selected"
     if not sel.get("gait"):
         return f"none of {sel['candidates']} rungs"
-    where = "the start" if sel["trial"] == -1 else f"trial {sel['trial']}"
-    return f"{sel['speed']:.1f} ({where}, worst change {100 * sel['worst']:.0f} %)"
+    from sanlab.audit import rung_name
+
+    return f"{sel['speed']:.1f} ({rung_name(sel['trial'])}, worst change {100 * sel['worst']:.0f} %)"
 
 
 def _gaits(r: Row) -> str:

@@ -85,7 +85,7 @@ def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
     ``quiet``; returns its JSON summary ({"run", "robust_gait", "trial", "speed_cm_s", "worst",
     "candidates": [...]})."""
-    from sanlab.audit import select_robust
+    from sanlab.audit import rung_name, select_robust
 
     sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top)
     c = sel.chosen
@@ -100,7 +100,7 @@ def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet
         table.add_column(name, no_wrap=True)
     for x in sel.candidates:
         mark = "[green]chosen[/green]" if x is c else ("[red]flagged[/red]" if x.worst > threshold else "robust")
-        table.add_row("start" if x.trial == -1 else str(x.trial), f"{x.chain_score:.2f}", f"{x.nominal_cm_s:.1f}",
+        table.add_row(rung_name(x.trial).removeprefix("trial "), f"{x.chain_score:.2f}", f"{x.nominal_cm_s:.1f}",
                       *[f"{x.speeds[n]:.1f} {100 * x.changes[n]:.0f}%" for n in names], mark)
     console.print(table)
     if c is None:
@@ -108,5 +108,5 @@ def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet
                       "this run has no robust tuned gait")
     else:
         console.print(f"robust tuned gait: {sel.gait_id}, {c.nominal_cm_s:.1f} cm/s "
-                      f"({'the start' if c.trial == -1 else f'trial {c.trial}'}, worst change {100 * c.worst:.0f} %)")
+                      f"({rung_name(c.trial)}, worst change {100 * c.worst:.0f} %)")
     return out

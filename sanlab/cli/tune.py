@@ -126,6 +126,8 @@ def tune(
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
                       f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
+    from sanlab.audit import rung_name
+
     for row, r in zip(rows, results) if select else ():
         sel = row["robust"]
         n = len(sel["candidates"])
@@ -133,9 +135,8 @@ def tune(
             console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within 10 % at dt/2, dt/4 "
                           "and in float64: no robust tuned gait")
         else:
-            where = "its start" if sel["trial"] == -1 else f"trial {sel['trial']}"
             console.print(f"{r.run_id}: robust tuned gait {sel['robust_gait']}, {sel['speed_cm_s']:.1f} cm/s "
-                          f"({where}, worst change {100 * sel['worst']:.0f} % of {n} rungs audited)")
+                          f"({rung_name(sel['trial'])}, worst change {100 * sel['worst']:.0f} % of {n} rungs audited)")
     console.print(f"{len(results)} chain(s) x {trials if not resume else results[0].trials} trials in "
                   f"{results[0].seconds:.0f} s (this session). 'before' is the start re-scored on the chain's own "
                   "ensemble draws, 'after' the tuned gait re-scored on held-out draws: with an ensemble of a chaotic "
