@@ -284,3 +284,9 @@ def test_audit_select_command(selected, tmp_path):
     assert bad.exit_code == 2 and "tuning run id" in bad.stderr
     inf = run_cli("audit", res.run_id, "--select", "--threshold", "inf", "--db", str(db))
     assert inf.exit_code == 2 and "finite" in inf.stderr
+    with Library(db) as lib:  # a tuning run that has not stored its tuned gait yet
+        done = lib.get_run(res.run_id)
+        unfinished = lib.create_run("tune", done.creature, done.creature_text, done.params, done.seed, 1,
+                                    parent_gait=done.parent_gait).run_id
+    early = run_cli("audit", unfinished, "--select", "--db", str(db))
+    assert early.exit_code == 2 and f"sanlab tune --resume {unfinished} --db {db}" in early.stderr

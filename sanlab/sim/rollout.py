@@ -97,7 +97,10 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
 
     cstate0: the controller's state to start from (None: ``controller.init``).
     gate: an unbatched boolean that is true at run time (see dynamics._barrier)."""
-    each = lambda f, *axes: jax.vmap(f, in_axes=(in_model, *axes))  # noqa: E731
+
+    def each(f, *axes):
+        return jax.vmap(f, in_axes=(in_model, *axes))
+
     if cstate0 is None:
         cstate0 = each(lambda m, c: controller.init(c, m), 0)(model, cparams)
     acc0 = each(lambda m, s: observer.init(m, s), 0)(model, state0) if observer is not None else None

@@ -29,7 +29,8 @@ def _count(db) -> int:
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
 def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     db = tmp_path / "gaits.db"
-    args = ["search", "cart", "-n", "640", "--batch", "64", "--seconds", "1", "--seed", "9", "--db", str(db)]
+    # 30 batches: once the first is stored, the signal lands long before the last could be
+    args = ["search", "cart", "-n", "1920", "--batch", "64", "--seconds", "1", "--seed", "9", "--db", str(db)]
     proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 240
@@ -38,7 +39,7 @@ def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
     stored = _count(db)
-    assert 64 <= stored < 640, "the search should have been stopped part-way"
+    assert 64 <= stored < 1920, "the search should have been stopped part-way"
     assert stored % 64 == 0  # at most the batch in flight is lost
     with Library(str(db)) as lib:
         run = lib.runs()[0]
@@ -52,7 +53,7 @@ def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     ref = subprocess.run(SANLAB + args[:-1] + [str(tmp_path / "ref.db"), "--json"],
                          capture_output=True, text=True, check=True)
     expected = json.loads(ref.stdout)
-    assert out["evaluated"] == 640
+    assert out["evaluated"] == 1920
     strip = lambda rows: [(r["encoding"], r["score"], r["speed_cm_s"]) for r in rows]
     assert strip(out["top"]) == strip(expected["top"])
     assert [r["gait"].split("/")[1] for r in out["top"]] == [str(i) for i in range(1, 11)]
