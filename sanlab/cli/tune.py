@@ -4,6 +4,7 @@ trial committed as it is decided; ``--resume`` finishes interrupted ones."""
 from __future__ import annotations
 
 import json
+import math
 from typing import Annotated
 
 import typer
@@ -49,7 +50,9 @@ def tune(
     workers: WorkersOpt = None,
     select: Annotated[bool, typer.Option("--select", help=(
         "Then audit each chain's climb and store its best-scoring gait that keeps its speed within 10 % "
-        "at dt/2, dt/4 and in float64 as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
+        "(--threshold) at dt/2, dt/4 and in float64 as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
+    threshold: Annotated[float | None, typer.Option(min=0.0, help=(
+        "With --select: the largest relative speed change a nudge may cause (default 0.10 = 10 %)."))] = None,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
@@ -63,6 +66,12 @@ def tune(
     from sanlab.search.tune import tune as run_tune
 
     ens = ensemble_or_exit(ensemble)
+    if threshold is not None and not select:
+        raise fail("tune: --threshold applies to --select; add --select, or drop it")
+    if threshold is not None and not math.isfinite(threshold):
+        raise fail(f"tune: --threshold: expected a finite number >= 0, got {threshold}")
+    limit = 0.10 if threshold is None else threshold
+    select_opts = " --select" + ("" if threshold is None else f" --threshold {threshold:g}")
     check_count("--trials", trials)
     check_count("--batch", batch, 1, MAX_BATCH)
     check_seed(seed)
@@ -93,7 +102,7 @@ def tune(
                                terrain=terrain, batch=batch, ensemble=ens, reporter=report, resume=resume or (),
                                backend=engine)
     except KeyboardInterrupt:
-        hint = " ".join(f"--resume {r}" for r in run_ids) + (" --select" if select else "")
+        hint = " ".join(f"--resume {r}" for r in run_ids) + (select_opts if select else "")
         typer.echo(f"interrupted; resume with: sanlab tune {hint} --db {db}" if run_ids else "interrupted", err=True)
         raise typer.Exit(130) from None
     except (ValueError, ConnectionError) as e:
@@ -108,9 +117,9 @@ def tune(
 
         try:
             for row, r in zip(rows, results):
-                row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, quiet=True), r.run_id)
+                row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, limit, quiet=True), r.run_id)
         except KeyboardInterrupt:
-            cmds = "; ".join(f"sanlab audit {r.run_id} --select --db {db}" for r in results)
+            cmds = "; ".join(f"sanlab audit {r.run_id}{select_opts} --db {db}" for r in results)
             typer.echo(f"interrupted during the selection; every tuned gait is stored ({', '.join(r.tuned_gait for r in results)}). "
                        f"To select: {cmds}", err=True)
             raise typer.Exit(130) from None
@@ -132,8 +141,8 @@ def tune(
         sel = row["robust"]
         n = len(sel["candidates"])
         if sel["robust_gait"] is None:
-            console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within 10 % at dt/2, dt/4 "
-                          "and in float64: no robust tuned gait")
+            console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within {100 * limit:g} % at "
+                          "dt/2, dt/4 and in float64: no robust tuned gait")
         else:
             console.print(f"{r.run_id}: robust tuned gait {sel['robust_gait']}, {sel['speed_cm_s']:.1f} cm/s "
                           f"({rung_name(sel['trial'])}, worst change {100 * sel['worst']:.0f} % of {n} rungs audited)")

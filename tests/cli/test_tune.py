@@ -29,6 +29,9 @@ def test_tune_cli_json(bounder_run):
     bad = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "newton", "--db", str(db)],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
+    lone = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--threshold", "0.2", "--db", str(db)],
+                          capture_output=True, text=True)
+    assert lone.returncode == 2 and "--threshold applies to --select" in lone.stderr
 
 
 @pytest.mark.slow  # about a minute: the tuner and four audit evaluators compiled in a fresh process
@@ -39,23 +42,26 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     db = tmp_path / "copy.db"
     shutil.copy(src, db)
     r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "6", "--batch", "8",
-                                 "--ensemble", "2", "--select", "--db", str(db)],
+                                 "--ensemble", "2", "--select", "--threshold", "0.2", "--db", str(db)],
                        capture_output=True, text=True, check=True)
     with Library(str(db)) as lib:
         tuned_run = next(x.run_id for x in lib.runs() if x.kind == "tune")
-    # the selection is stored: asking again answers from the library, as JSON
-    again = subprocess.run(SANLAB + ["audit", tuned_run, "--select", "--db", str(db), "--json"],
+    # the selection is stored with its threshold: asking again with it answers from the library, as JSON
+    again = subprocess.run(SANLAB + ["audit", tuned_run, "--select", "--threshold", "0.2", "--db", str(db), "--json"],
                            capture_output=True, text=True, check=True)
     sel = json.loads(again.stdout)
-    assert sel["run"] == tuned_run and sel["candidates"] and sel["candidates"][0]["trial"] == -1
+    assert sel["run"] == tuned_run and sel["threshold"] == 0.2
+    assert sel["candidates"] and sel["candidates"][0]["trial"] == -1
     with Library(str(db)) as lib:
+        assert lib.selection(tuned_run)["settings"]["threshold"] == 0.2
         if sel["robust_gait"] is None:  # no rung kept its speed: nothing stored, and every rung was flagged
-            assert all(any(v is None or v > 0.10 for v in c["changes"].values()) for c in sel["candidates"])
+            assert all(any(v is None or v > 0.2 for v in c["changes"].values()) for c in sel["candidates"])
             assert 1 not in {e.idx for e in lib.top(tuned_run, None)}
             assert f"{tuned_run}: no rung of its climb" in " ".join(r.stdout.split())
+            assert "within 20 %" in " ".join(r.stdout.split())
         else:
             assert f"{tuned_run}: robust tuned gait {tuned_run}#1" in " ".join(r.stdout.split())
-            assert sel["robust_gait"] == f"{tuned_run}#1" and sel["worst"] <= 0.10
+            assert sel["robust_gait"] == f"{tuned_run}#1" and sel["worst"] <= 0.2
             assert lib.gait(sel["robust_gait"]).speed_cm_s == sel["speed_cm_s"]
             assert not lib.audit(sel["robust_gait"]).flagged
 
