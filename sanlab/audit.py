@@ -281,7 +281,7 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     run, s = _tuning_run(lib, run_id)
     assert run.parent_gait is not None
     if 0 not in lib.done_indices(run.run_id):
-        raise LibraryError(f"run {run.run_id} has not finished: resume it first (sanlab tune --resume {run.run_id})")
+        raise LibraryError(f"run {run.run_id} has not finished: resume its tuning first")
     settings = {"top": top, "threshold": threshold}
     gait_id = f"{run.run_id}#{SELECTED_IDX}"
     reused = _stored_selection(lib, run.run_id, settings, threshold)

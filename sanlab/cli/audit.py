@@ -45,7 +45,7 @@ def audit(
         if "/" in target or "#" in target:
             raise fail("audit --select: give a tuning run id, not a gait")
         run = library_call(lib.get_run, target)
-        if run.kind == "tune" and 0 not in library_call(lib.done_indices, run.run_id):
+        if run.kind == "tune" and 0 not in library_call(lib.done_indices, run.run_id):  # the command to run names --db
             raise fail(f"audit --select: run {run.run_id} has not finished: resume it first "
                        f"(sanlab tune --resume {run.run_id} --db {db})")
         log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))

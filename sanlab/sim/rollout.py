@@ -90,10 +90,10 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
     steps; every argument but ``gate`` carries the batch axis first (``model`` only where
     ``in_model`` says so).
 
-    The loop runs over the batch, not the batch over a loop: ``scan`` of a ``vmap``-ed step
-    traces the step once, batched, where ``vmap`` of a ``scan`` traces it and then batches its
-    trace again (about twice the tracing time, the largest part of a cold start). The program
-    is the same.
+    Time is a ``scan`` over a ``vmap``-ed step, not a ``vmap`` over a scanned one: the step is
+    then traced once, already batched, where batching a scan traces the step and then batches
+    its trace again (about twice the tracing time, the largest part of a cold start). The
+    compiled program is the same.
 
     cstate0: the controller's state to start from (None: ``controller.init``).
     gate: an unbatched boolean that is true at run time (see dynamics._barrier)."""
