@@ -86,11 +86,13 @@ class Result(NamedTuple):
 
 def _batched(model: Model, controller: Controller, observer: Observer | None, n_steps: int, every: int, cparams,
              state0, cstate0, gate, in_model):
-    """Roll a batch of controllers out for n_steps (static), recording a frame every ``every``
-    steps; every argument but ``gate`` carries the batch axis first (``model`` only where
-    ``in_model`` says so).
+    """Roll a batch of controllers out for n_steps, recording a frame every ``every`` steps;
+    every argument but ``gate`` and ``n_steps`` carries the batch axis first (``model`` only where
+    ``in_model`` says so). n_steps: a Python int when recording (the frames' count is a shape), else
+    a traced scalar, so that one compiled program serves every duration.
 
-    Time is a ``scan`` over a ``vmap``-ed step, not a ``vmap`` over a scanned one: the step is
+    Time is a loop (``scan``; ``fori_loop`` without recording) over a ``vmap``-ed step, not a
+    ``vmap`` over a looped one: the step is
     then traced once, already batched, where batching a scan traces the step and then batches
     its trace again (about twice the tracing time, the largest part of a cold start). The
     compiled program is the same.
@@ -125,7 +127,7 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
 
     carry = (state0, cstate0, acc0, deepest0)
     if not every:
-        carry, _ = jax.lax.scan(body, carry, None, length=n_steps)
+        carry = jax.lax.fori_loop(0, n_steps, lambda _, c: body(c, None)[0], carry)
         frames = None
     else:
         n_frames = n_steps // every
@@ -169,7 +171,9 @@ def batch_quantum() -> int:
 def _program(controller: Controller, observer: Observer | None, n_steps: int, every: int, params_batched: bool,
              fence: bool, with_cstate: bool, devs: tuple):
     """The compiled rollout of one configuration over the devices ``devs``: each device rolls out
-    its own contiguous share of the batch, and nothing in the program crosses devices.
+    its own contiguous share of the batch, and nothing in the program crosses devices. Without
+    recording (``every`` 0) the number of steps is an argument of the program, not part of it
+    (``n_steps`` is then 0 here): evaluations of any duration share one compilation.
 
     Why shard_map and host-side results: under ``jit`` with sharded inputs the program itself is
     collective-free, but slicing its sharded output (the padding cut) is a second multi-device
@@ -183,12 +187,12 @@ def _program(controller: Controller, observer: Observer | None, n_steps: int, ev
     mesh = jax.sharding.Mesh(np.array(devs), ("b",))
     B, R = P("b"), P()
 
-    def local(model, cparams, state0, cstate0, one):
+    def local(model, cparams, state0, cstate0, one, steps):
         in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
-        return _batched(model, controller, observer, n_steps, every, cparams, state0, cstate0,
-                        (one > 0) if fence else None, in_model)
+        return _batched(model, controller, observer, n_steps if every else steps, every, cparams, state0,
+                        cstate0, (one > 0) if fence else None, in_model)
 
-    specs = (B if params_batched else R, B, B, B if with_cstate else R, R)
+    specs = (B if params_batched else R, B, B, B if with_cstate else R, R, R)
     return mesh, jax.jit(jax.shard_map(local, mesh=mesh, in_specs=specs, out_specs=B, check_vma=False))
 
 
@@ -224,8 +228,9 @@ def rollout(
     """Roll out a batch of controllers on ``model``.
 
     cparams: controller parameters with a leading batch axis [B, ...].
-    seconds / steps: duration (one of them). record_fps: record frames at this rate (None: no
-    recording, and none of its cost). state0: initial state (default: the creature's pose at
+    seconds / steps: duration (one of them); without recording it is an input of the compiled
+    program, so runs of any duration share one compilation. record_fps: record frames at this
+    rate (None: no recording, and none of its cost; with it, each duration compiles its own). state0: initial state (default: the creature's pose at
     rest), unbatched or [B, ...]. params_batched: model.params leaves carry the batch axis too
     (tuning several parameter sets at once). pad_to: pad the batch to this size (default: the
     next multiple of :func:`batch_quantum`) so that varying batch sizes reuse one compilation.
@@ -264,8 +269,8 @@ def rollout(
     dtype = model.dtype
     if fence is None:
         fence = devices()[0].platform == "cpu"
-    mesh, program = _program(controller, observer, steps, every, params_batched, fence, cstate0 is not None,
-                             tuple(devices()))
+    mesh, program = _program(controller, observer, steps if every else 0, every, params_batched, fence,
+                             cstate0 is not None, tuple(devices()))
     shard = jax.sharding.NamedSharding(mesh, P("b"))
     whole = jax.sharding.NamedSharding(mesh, P())
     batched = lambda x: jax.device_put(_pad(_host(x, dtype), n), shard)
@@ -274,7 +279,8 @@ def rollout(
     cs0 = None if cstate0 is None else jax.tree_util.tree_map(batched, cstate0)
     m = jax.tree_util.tree_map(batched if params_batched else (lambda x: jax.device_put(_host(x, dtype), whole)), model)
     one = jax.device_put(np.ones((), dtype), whole)
-    out = jax.device_get(program(m, cp, s0, cs0, one))  # each device's share, copied to the host
+    n_run = jax.device_put(np.asarray(steps, np.int32), whole)
+    out = jax.device_get(program(m, cp, s0, cs0, one, n_run))  # each device's share, copied to the host
     state, acc, deepest, finite, frames, cstate = jax.tree_util.tree_map(lambda x: x[:B], out)
     if frames is not None:
         qf, qdf, bits, u, cs = frames

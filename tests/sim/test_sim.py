@@ -229,6 +229,35 @@ def test_parameters_are_batched_arrays_and_never_recompile():
     assert np.ptp(np.asarray(batched.state.q[:, 1])) > 1e-4  # the masses matter
 
 
+def test_rollouts_of_any_duration_share_one_compiled_program():
+    """Without recording, the number of steps is an input of the compiled rollout: a second
+    duration traces and compiles nothing (it used to cost a whole compilation, about 12 s for the
+    bounder without a compile cache), and runs exactly as many steps as asked."""
+    import jax.monitoring
+
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 4, seed=2)
+    short = sim.rollout(m, san, p, seconds=0.2)
+    compiles: list[float] = []
+
+    def count(event: str, duration_secs: float, **_) -> None:
+        if event.startswith("/jax/core/compile/"):  # tracing, lowering, compiling (or a cache load)
+            compiles.append(duration_secs)
+
+    jax.monitoring.register_event_duration_secs_listener(count)
+    try:
+        long = sim.rollout(m, san, p, seconds=0.5)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(count)
+    assert compiles == []
+    assert np.allclose(np.asarray(short.state.t), 0.2, atol=1e-6)
+    assert np.allclose(np.asarray(long.state.t), 0.5, atol=1e-6)
+    # the same steps as a run that records frames (a program with the count built in)
+    recorded = sim.rollout(m, san, p, seconds=0.5, record_fps=10)
+    np.testing.assert_array_equal(np.asarray(long.state.q), np.asarray(recorded.state.q))
+
+
 @pytest.mark.parametrize("name", creature.builtin_names())
 def test_no_nan_in_1000_random_closed_loop_runs_of_6_s(name):
     spec = creature.load(name)
