@@ -99,12 +99,15 @@ def test_playback_draws_the_root_link_where_the_recorded_trajectory_puts_it(page
     mid = (a + b) / 2
     c, s = math.cos(root[2]), math.sin(root[2])
     x, y = root[0] + c * mid[0] - s * mid[1], root[1] + s * mid[0] + c * mid[1]
-    w, h = drawn["size"]
-    u = w / 2 + (x - drawn["center"][0]) * drawn["scale"]
-    v = h / 2 - (y - drawn["center"][1]) * drawn["scale"]
-    pixel = page.evaluate("""([u, v]) => {
+    # read in one go with the draw it belongs to: the page may have redrawn the same frame at
+    # another size (a late layout change on a busy machine) since ``drawn`` was read
+    frame, pixel = page.evaluate("""([x, y]) => {
+        const l = studio.view.lastDraw, [w, h] = l.size;
+        const u = w / 2 + (x - l.center[0]) * l.scale, v = h / 2 - (y - l.center[1]) * l.scale;
         const c = document.querySelector('#stage'), d = window.devicePixelRatio || 1;
-        return Array.from(c.getContext('2d').getImageData(Math.round(u * d), Math.round(v * d), 1, 1).data); }""", [u, v])
+        return [l.frame, Array.from(c.getContext('2d').getImageData(Math.round(u * d), Math.round(v * d), 1, 1).data)]; }""",
+        [x, y])
+    assert frame == k
     assert max(abs(p - q) for p, q in zip(pixel[:3], (30, 58, 110))) < 40, pixel
     # a frame later the root has moved on the page as in the recording
     page.click("#step-fwd")
