@@ -92,10 +92,9 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
     a traced scalar, so that one compiled program serves every duration.
 
     Time is a loop (``scan``; ``fori_loop`` without recording) over a ``vmap``-ed step, not a
-    ``vmap`` over a looped one: the step is
-    then traced once, already batched, where batching a scan traces the step and then batches
-    its trace again (about twice the tracing time, the largest part of a cold start). The
-    compiled program is the same.
+    ``vmap`` over a looped one: the step is then traced once, already batched, where batching a
+    loop traces the step and then batches its trace again (about twice the tracing time, the
+    largest part of a cold start). The compiled program is the same.
 
     cstate0: the controller's state to start from (None: ``controller.init``).
     gate: an unbatched boolean that is true at run time (see dynamics._barrier)."""
@@ -230,8 +229,8 @@ def rollout(
     cparams: controller parameters with a leading batch axis [B, ...].
     seconds / steps: duration (one of them); without recording it is an input of the compiled
     program, so runs of any duration share one compilation. record_fps: record frames at this
-    rate (None: no recording, and none of its cost; with it, each duration compiles its own). state0: initial state (default: the creature's pose at
-    rest), unbatched or [B, ...]. params_batched: model.params leaves carry the batch axis too
+    rate (None: no recording, and none of its cost; with it, each duration compiles its own).
+    state0: initial state (default: the creature's pose at rest), unbatched or [B, ...]. params_batched: model.params leaves carry the batch axis too
     (tuning several parameter sets at once). pad_to: pad the batch to this size (default: the
     next multiple of :func:`batch_quantum`) so that varying batch sizes reuse one compilation.
     fence: keep XLA from re-deriving shared intermediates in every kernel (see
