@@ -42,7 +42,7 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     listed = library_call(lib.runs)
     rows = [
         {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
-         "evaluated": r.count, "total": r.total, "created": r.created}
+         "evaluated": r.count, "total": r.total, "trials": r.trials, "progress": r.progress, "created": r.created}
         for r in listed
     ]
     for r in listed:
@@ -50,13 +50,14 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
             warn(f"{db}: run {r.run_id} is damaged ({lib.damage(r.run_id)}); the other runs are intact "
                  "(export what you need with `sanlab export`, or restore the file from a backup)")
     if as_json:
-        typer.echo(dump_json(rows))
+        typer.echo(dump_json([{k: v for k, v in r.items() if k != "progress"} for r in rows]))
         return
-    table = Table("run", "kind", "creature", "status", "evaluated", "created")
+    table = Table("run", "kind", "creature", "status", "progress", "created")
     for r in rows:
         created = r["created"][:19].replace("T", " ")
+        done, planned, unit = r["progress"]
         table.add_row(safe(r["run_id"]), safe(r["kind"]), safe(r["creature"]), safe(r["status"]),
-                      f"{r['evaluated']}/{r['total']}", safe(created))
+                      f"{done}/{'?' if planned is None else planned} {unit}", safe(created))
     console.print(table)
 
 

@@ -117,6 +117,16 @@ class Run:
     parent_gait: str | None  # "RUN#IDX" a tuning run starts from
     total: int  # evaluations planned
     count: int  # evaluations stored
+    trials: int = 0  # tuning trials stored (a tune run's progress; 0 for other kinds)
+
+    @property
+    def progress(self) -> tuple[int, int | None, str]:
+        """(done, planned, unit) for listings: a search's evaluations, a tuning's trials (its
+        stored gaits, the tuned one and a robust selection, are not its progress)."""
+        if self.kind == "tune":
+            planned = self.params.get("trials")
+            return self.trials, planned if isinstance(planned, int) else None, "trials"
+        return self.count, self.total, "evaluated"
 
     @property
     def settings(self) -> RunSettings:

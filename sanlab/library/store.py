@@ -42,8 +42,8 @@ DEFAULT_PATH = "sanlab.db"
 # 0 never fill a top 10 ahead of standing ones); non-finite ones (and NaN scores, stored as NULL,
 # which sort last under DESC) last.
 _RANK_ORDER = "nonfinite ASC, score DESC, fell ASC, idx ASC"
-_RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) "
-               "AS n FROM runs r")
+_RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) AS n, "
+               "(SELECT count(*) FROM trace t WHERE t.run_id = r.run_id) AS n_trials FROM runs r")
 
 _ROW_KEYS = {"idx", "encoding", "params", "score", "speed_cm_s", "fell", "nonfinite", "extra",
              "parent"}
@@ -710,7 +710,8 @@ def _run(row: sqlite3.Row, strict: bool = True) -> Run:
                    creature=lenient(row["creature"]) or "?", creature_text="", creature_hash="",
                    params=params if isinstance(params, dict) else {}, seed=None,
                    sanlab_version=lenient(row["sanlab_version"]), device=None, dtype=None, status="damaged",
-                   parent_gait=None, total=row["total"] if isinstance(row["total"], int) else 0, count=row["n"])
+                   parent_gait=None, total=row["total"] if isinstance(row["total"], int) else 0, count=row["n"],
+                   trials=row["n_trials"])
     status = _cell(row, "status", from_text)
     if status == "running" and "owner" in row.keys() and _stale(row["owner"]):
         status = "interrupted"  # its process is gone: it was killed before it could say so
@@ -721,7 +722,7 @@ def _run(row: sqlite3.Row, strict: bool = True) -> Run:
                seed=_cell(row, "seed", _optional(_int)), sanlab_version=_cell(row, "sanlab_version", from_text),
                device=_cell(row, "device", _optional(from_text)), dtype=_cell(row, "dtype", _optional(from_text)),
                status=status, parent_gait=_cell(row, "parent_gait", _optional(from_text)),
-               total=_cell(row, "total", _int), count=row["n"])
+               total=_cell(row, "total", _int), count=row["n"], trials=row["n_trials"])
 
 
 def _int(v: Any) -> int:

@@ -130,9 +130,9 @@ class Service:
 
     def fingerprint(self) -> list:
         """A cheap summary that changes whenever a run is added or changes status or count:
-        [[run_id, status, count], ...]. Polled to push changes to the pages."""
+        [[run_id, status, count, trials], ...]. Polled to push changes to the pages."""
         with self._lib() as lib:
-            return [[r.run_id, r.status, r.count] for r in lib.runs()]
+            return [[r.run_id, r.status, r.count, r.trials] for r in lib.runs()]
 
     def runs(self) -> list[dict]:
         """Every run, newest first: run_id, kind, creature, seed, status, evaluated, total,
@@ -150,6 +150,7 @@ class Service:
         return {
             "run_id": r.run_id, "kind": r.kind, "creature": r.creature, "seed": r.seed,
             "status": r.status, "evaluated": r.count, "total": r.total,
+            "trials": r.trials, "trials_planned": r.params.get("trials") if r.kind == "tune" else None,
             "best_score": _num(best.score) if best else None,
             "best_speed_cm_s": _num(best.speed_cm_s) if best else None,
             "created": r.created, "parent": r.parent_gait,

@@ -64,6 +64,19 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
             assert sel["robust_gait"] == f"{tuned_run}#1" and sel["worst"] <= 0.2
             assert lib.gait(sel["robust_gait"]).speed_cm_s == sel["speed_cm_s"]
             assert not lib.audit(sel["robust_gait"]).flagged
+    # a tuning's progress is its trials, whatever number of gaits it stored (one, or two with a
+    # robust selection), in `runs` and in the studio's run list
+    listed = subprocess.run(SANLAB + ["runs", "--db", str(db)], capture_output=True, text=True, check=True).stdout
+    row = next(line for line in listed.splitlines() if tuned_run in line)
+    assert "6/6 trials" in row and "/1 " not in row, row
+    assert f"{run_id}" in listed and "evaluated" in next(line for line in listed.splitlines() if run_id in line)
+    rows = json.loads(subprocess.run(SANLAB + ["runs", "--db", str(db), "--json"], capture_output=True, text=True,
+                                     check=True).stdout)
+    assert next(r for r in rows if r["run_id"] == tuned_run)["trials"] == 6
+    from sanlab.studio.service import Service
+
+    studio_row = next(r for r in Service(str(db)).runs() if r["run_id"] == tuned_run)
+    assert (studio_row["trials"], studio_row["trials_planned"]) == (6, 6)
 
 
 def _trace_count(db) -> int:

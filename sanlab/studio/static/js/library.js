@@ -1,6 +1,6 @@
 // The library view: every run, filterable; and a form to start a phase-1 search.
 
-import { attempt, fmt, fmtDate, h, showError } from "./util.js";
+import { attempt, fmt, fmtDate, h, progress, showError } from "./util.js";
 
 export class LibraryView {
   constructor(app) {
@@ -23,7 +23,7 @@ export class LibraryView {
         h("h2", {}, "Library ", this.count),
         h("div", { class: "toolbar" }, text, kind),
         h("table", { id: "runs", class: "grid-table" },
-          h("thead", {}, h("tr", {}, ...["run", "kind", "creature", "seed", "evaluated", "best score", "best speed (cm/s)", "date (UTC)", "parent", "status"].map((c) => h("th", {}, c)))),
+          h("thead", {}, h("tr", {}, ...["run", "kind", "creature", "seed", "progress", "best score", "best speed (cm/s)", "date (UTC)", "parent", "status"].map((c) => h("th", {}, c)))),
           this.table)),
       this.searchForm());
     await this.refresh();
@@ -51,7 +51,7 @@ export class LibraryView {
       h("td", {}, r.kind + (r.method ? ` (${r.method})` : "")),
       h("td", {}, r.creature),
       h("td", {}, r.seed ?? "–"),
-      h("td", {}, `${r.evaluated}/${r.total}`),
+      h("td", {}, progress(r)),
       h("td", {}, fmt(r.best_score)),
       h("td", {}, fmt(r.best_speed_cm_s)),
       h("td", {}, fmtDate(r.created)),

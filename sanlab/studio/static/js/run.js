@@ -3,7 +3,7 @@
 
 import { View, cameraFor, drawFrame, fitCanvas, frameOf, linkColors, scaleFor, smoothTrack } from "./draw.js";
 import { drawScores, drawTrace } from "./plots.js";
-import { attempt, flags, fmt, fmtDate, gaitHref, h } from "./util.js";
+import { attempt, flags, fmt, fmtDate, gaitHref, h, progress } from "./util.js";
 
 // One gait's looping animation in a small canvas.
 export class Tile {
@@ -97,7 +97,7 @@ export class RunView {
     this.head.replaceChildren(
       h("h2", {}, `Run ${run.run_id}: ${run.creature} `, h("span", { class: `status-${run.status}` }, run.status)),
       h("p", { class: "meta" },
-        `${run.kind}${run.method ? ` (${run.method})` : ""} · seed ${run.seed ?? "–"} · ${run.evaluated}/${run.total} evaluated · metric ${run.metric ?? "–"} · ${fmt(run.seconds)} s each · best ${fmt(run.best_score)} (${fmt(run.best_speed_cm_s)} cm/s) · ${fmtDate(run.created)} UTC`,
+        `${run.kind}${run.method ? ` (${run.method})` : ""} · seed ${run.seed ?? "–"} · ${progress(run)} · metric ${run.metric ?? "–"} · ${fmt(run.seconds)} s each · best ${fmt(run.best_score)} (${fmt(run.best_speed_cm_s)} cm/s) · ${fmtDate(run.created)} UTC`,
         run.parent ? [" · from ", h("a", { href: gaitHref(run.parent) }, run.parent)] : null,
         p.source ? ` · ${p.source}` : null));
     drawScores(this.scores, run.scores, this.n);
@@ -132,7 +132,7 @@ export class RunView {
 
   onLibrary(msg) {
     const mine = msg.runs.find((r) => r[0] === this.run?.run_id);
-    if (mine && this.run && (mine[2] !== this.run.evaluated || mine[1] !== this.run.status)) this.refresh();
+    if (mine && this.run && (mine[2] !== this.run.evaluated || mine[3] !== this.run.trials || mine[1] !== this.run.status)) this.refresh();
   }
 
   tick(now) {

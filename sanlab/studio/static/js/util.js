@@ -24,6 +24,13 @@ export function fmt(x, digits = 3) {
   return Math.abs(x) >= 1000 ? x.toFixed(0) : x.toPrecision(digits);
 }
 
+// A run's progress: a search's controllers evaluated, a tuning's trials (its stored gaits, the
+// tuned one and a robust selection, are not its progress).
+export function progress(run) {
+  if (run.kind === "tune") return `${run.trials}/${run.trials_planned ?? "?"} trials`;
+  return `${run.evaluated}/${run.total} evaluated`;
+}
+
 export function fmtDate(iso) {
   return iso ? iso.slice(0, 19).replace("T", " ") : "–";
 }
