@@ -108,8 +108,8 @@ def main() -> None:
         with jax.profiler.trace(trace):
             run(a.steps)
         data = jax.profiler.ProfileData.from_file(glob.glob(f"{trace}/**/*.xplane.pb", recursive=True)[0])
-    spent: collections.Counter = collections.Counter()
-    calls: collections.Counter = collections.Counter()
+    spent: dict[str, float] = collections.defaultdict(float)  # per step and device, below
+    calls: dict[str, float] = collections.defaultdict(float)
     for plane in data.planes:
         for line in plane.lines:
             if not line.name.startswith("tf_XLAEigen"):
@@ -124,10 +124,10 @@ def main() -> None:
     n = sum(calls.values()) / a.steps
     print(f"{n:.0f} kernels per step and device ({len(spent)} distinct), {total / 1e3 / a.steps:.0f} us of them per "
           f"step and device traced; by source line (innermost {a.depth} of sanlab's step):")
-    by_line: collections.Counter = collections.Counter()
-    by_phase: collections.Counter = collections.Counter()
-    line_calls: collections.Counter = collections.Counter()
-    phase_calls: collections.Counter = collections.Counter()
+    by_line: dict[str, float] = collections.defaultdict(float)
+    by_phase: dict[str, float] = collections.defaultdict(float)
+    line_calls: dict[str, float] = collections.defaultdict(float)
+    phase_calls: dict[str, float] = collections.defaultdict(float)
     for name, ns in spent.items():
         ours = [f for f in stacks.get(name, []) if Path(f[0]).name in OURS and f[1] != "_barrier"]
         where = " < ".join(f"{Path(f[0]).stem}.{f[1]}:{f[2]}" for f in ours[:a.depth]) or "(loop, copies, conditionals)"
@@ -139,10 +139,10 @@ def main() -> None:
         by_phase[phase] += ns
         phase_calls[phase] += calls[name]
     print(f"{'share':>6} {'kernels/step':>13}  source")
-    for where, ns in by_line.most_common(a.top):
+    for where, ns in sorted(by_line.items(), key=lambda kv: -kv[1])[:a.top]:
         print(f"{100 * ns / total:5.1f}% {line_calls[where] / a.steps:13.1f}  {where}")
     print("by phase of the step:")
-    for phase, ns in by_phase.most_common():
+    for phase, ns in sorted(by_phase.items(), key=lambda kv: -kv[1]):
         print(f"{100 * ns / total:5.1f}% {phase_calls[phase] / a.steps:13.1f}  {phase}")
 
 
