@@ -45,6 +45,8 @@ _RANK_ORDER = "nonfinite ASC, score DESC, fell ASC, idx ASC"
 _RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) AS n, "
                "(SELECT count(*) FROM trace t WHERE t.run_id = r.run_id) AS n_trials FROM runs r")
 
+_SQL_INT_MAX = 2**63 - 1  # SQLite's largest INTEGER
+
 _ROW_KEYS = {"idx", "encoding", "params", "score", "speed_cm_s", "fell", "nonfinite", "extra",
              "parent"}
 _ROW_REQUIRED = {"idx", "encoding", "score"}
@@ -494,9 +496,10 @@ class Library:
         run_id = self._resolve(run_ref)
         with self._sql() as conn:
             if rank is not None:
+                # past SQLite's integers (2^63 - 1) no gait can be: not found, not an OverflowError
                 row = conn.execute(f"SELECT * FROM evaluations WHERE run_id = ? "
                                    f"ORDER BY {_RANK_ORDER} LIMIT 1 OFFSET ?",
-                                   (run_id, rank - 1)).fetchone()
+                                   (run_id, rank - 1)).fetchone() if rank <= _SQL_INT_MAX else None
                 if row is None:
                     n = self.count(run_id)
                     raise LibraryError(f"no gait {gait_id!r}: run {run_id} has {n} "
@@ -504,7 +507,8 @@ class Library:
                 return self._evaluation(row, rank)
             row = conn.execute(
                 f"SELECT * FROM (SELECT *, row_number() OVER (ORDER BY {_RANK_ORDER}) AS rank "
-                "FROM evaluations WHERE run_id = ?) WHERE idx = ?", (run_id, idx)).fetchone()
+                "FROM evaluations WHERE run_id = ?) WHERE idx = ?", (run_id, idx)).fetchone() \
+                if idx is not None and idx <= _SQL_INT_MAX else None
         if row is None:
             raise LibraryError(f"no gait {gait_id!r}: run {run_id} has no evaluation #{idx}")
         return self._evaluation(row, row["rank"])

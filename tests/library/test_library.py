@@ -239,6 +239,12 @@ def test_gait_ids(tmp_path):
         with pytest.raises(LibraryError) as err:
             lib.gait(f"{rid}#3")
         assert_one_line(err, "no evaluation #3")
+        # past SQLite's integers (2^63 - 1): not found, like any other, never an OverflowError
+        for huge, what in ((f"{rid}/{2**63}", "has 3 evaluations"), (f"{rid}/{10**23}", "has 3 evaluations"),
+                           (f"{rid}#{2**63}", f"no evaluation #{2**63}"), (f"{rid}#{2**63 - 1}", "no evaluation #")):
+            with pytest.raises(LibraryError) as err:
+                lib.gait(huge)
+            assert_one_line(err, what)
         with pytest.raises(LibraryError) as err:
             lib.gait("ffffffff/1" if not rid.startswith("f") else "00000000/1")
         assert_one_line(err, "no run")
