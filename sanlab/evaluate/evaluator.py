@@ -227,17 +227,20 @@ def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
     """Evaluations' scores from their rows' (``metrics.scores`` arrays shaped [B, T terrains,
     K members]): a member's score, speed and distance are its means over the terrains (it fell,
     or went non-finite, if it did on any); an evaluation's are the medians over its members, it
-    fell if more than half of its members fell, and it is non-finite if any member was (that
-    member scored 0)."""
+    fell if more than half of its members fell, and it is non-finite if any member was: then it
+    scores 0 (score, speed and distance), like a single rollout that blew up. A controller that
+    blows up on some perturbed copies is an artefact of the simulation however well its other
+    copies move, and the median of those would rank it. The members' own values are kept."""
     member_score = rows["score"].mean(1)
     member_speed = rows["speed_cm_s"].mean(1)
     member_dist = rows["distance_m"].mean(1)
     fell = np.any(rows["fell"], axis=1)
-    nonfinite = np.any(rows["nonfinite"], axis=1)
+    nonfinite = np.any(np.any(rows["nonfinite"], axis=1), axis=1)
     K = member_score.shape[1]
-    return ScoreBatch(np.median(member_score, 1), np.median(member_speed, 1), np.median(member_dist, 1),
-                      np.sum(fell, axis=1) > K / 2, np.any(nonfinite, axis=1), member_score, member_speed,
-                      np.median(rows["dx_m"].mean(1), 1) if "dx_m" in rows else None)
+    med = lambda x: np.where(nonfinite, 0.0, np.median(x, 1))
+    return ScoreBatch(med(member_score), med(member_speed), med(member_dist),
+                      np.sum(fell, axis=1) > K / 2, nonfinite, member_score, member_speed,
+                      med(rows["dx_m"].mean(1)) if "dx_m" in rows else None)
 
 
 def _tree(fn, model: Model) -> Model:

@@ -79,7 +79,8 @@ class Scores:
 
     With an ensemble of K perturbed copies (``sanlab.evaluate.ensemble``) ``score``, ``speed_cm_s``
     and ``distance_m`` are the medians of the members' values, ``fell`` says that more than half
-    of the members fell, ``nonfinite`` that any member went non-finite (that member scored 0);
+    of the members fell, ``nonfinite`` that any member went non-finite (the evaluation then scores
+    0: score, speed and distance);
     ``member_scores`` and ``member_speeds`` [K] are the members' own values (the spread). One
     member (K = 1) is the single unperturbed rollout.
     """

@@ -86,19 +86,24 @@ def test_ensemble_scores_are_member_medians_and_do_not_depend_on_the_batch():
 
 
 def test_robust_statistics_follow_the_majority_and_flag_any_blow_up():
-    B, T, K = 2, 1, 5
-    score = np.array([[1.0, 2.0, 3.0, 4.0, 0.0], [1.0, 1.0, 1.0, 1.0, 1.0]]).reshape(B, T, K)
-    fell = np.array([[1, 1, 1, 0, 0], [1, 1, 0, 0, 0]], bool).reshape(B, T, K)
-    nonfinite = np.array([[0, 0, 0, 0, 1], [0, 0, 0, 0, 0]], bool).reshape(B, T, K)
-    out = robust({"score": score, "speed_cm_s": 100 * score, "distance_m": score, "fell": fell, "nonfinite": nonfinite})
-    assert list(out.score) == [2.0, 1.0] and list(out.speed_cm_s) == [200.0, 100.0]
-    assert list(out.fell) == [True, False]  # 3 of 5 fell; 2 of 5 did not make it a fall
-    assert list(out.nonfinite) == [True, False]  # one blown-up member (scored 0) flags the evaluation
-    # over several terrains a member's score is its mean, and it fell if it fell on any
+    B, T, K = 3, 1, 5
+    score = np.array([[1.0, 2.0, 3.0, 4.0, 0.0], [1.0, 1.0, 1.0, 1.0, 1.0], [5.0, 1.0, 4.0, 2.0, 3.0]]).reshape(B, T, K)
+    fell = np.array([[1, 1, 1, 0, 0], [1, 1, 0, 0, 0], [0, 0, 0, 0, 0]], bool).reshape(B, T, K)
+    nonfinite = np.array([[0, 0, 0, 0, 1], [0, 0, 0, 0, 0], [0, 0, 0, 0, 0]], bool).reshape(B, T, K)
+    out = robust({"score": score, "speed_cm_s": 100 * score, "distance_m": score, "fell": fell, "nonfinite": nonfinite,
+                  "dx_m": -score})
+    # one blown-up member flags the evaluation and scores it 0, whatever its other members did (a
+    # median of 2.0 here); the members' own values are kept
+    assert list(out.nonfinite) == [True, False, False]
+    assert list(out.score) == [0.0, 1.0, 3.0] and list(out.speed_cm_s) == [0.0, 100.0, 300.0]
+    assert list(out.distance_m) == [0.0, 1.0, 3.0] and list(out.dx_m) == [0.0, -1.0, -3.0]
+    assert list(out.member_score[0]) == [1.0, 2.0, 3.0, 4.0, 0.0]
+    assert list(out.fell) == [True, False, False]  # 3 of 5 fell; 2 of 5 did not make it a fall
+    # over several terrains a member's score is its mean, and it fell (or blew up) if it did on any
     two = robust({k: np.concatenate([v, v if k != "score" else 3 * v], axis=1)
                   for k, v in {"score": score, "speed_cm_s": score, "distance_m": score, "fell": fell,
                                "nonfinite": nonfinite}.items()})
-    assert list(two.score) == [4.0, 2.0]
+    assert list(two.score) == [0.0, 2.0, 6.0] and list(two.nonfinite) == [True, False, False]
 
 
 def test_records_round_trip_through_json():
