@@ -110,7 +110,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
           threshold: float = THRESHOLD, log=None) -> Audit:
     """Audit the gait ``gait_id`` ("RUN/RANK" or "RUN#IDX") of ``lib`` (see the module
     docstring); store nothing. Raises LibraryError for an unknown gait."""
-    g = Gait.from_library(lib, gait_id)
+    g = _stored_gait(lib, gait_id)
     run = lib.get_run(g.gait_id.split("#")[0])
     s = run.settings
     terrain = s.terrain if isinstance(s, TuneSettings) else "flat"
@@ -193,6 +193,15 @@ class Selection:
     threshold: float
 
 
+def _stored_gait(lib: Library, gait_id: str) -> Gait:
+    """``Gait.from_library``, with a stored gait that does not decode (a damaged row, or one this
+    sanlab cannot read) as a one-line LibraryError naming it."""
+    try:
+        return Gait.from_library(lib, gait_id)
+    except ValueError as e:
+        raise LibraryError(f"{lib.path}: gait {lib.gait(gait_id).gait_id} cannot be decoded ({e})") from None
+
+
 def rung_name(trial: int) -> str:
     """How a rung is named in reports: "the start" (trial -1) or "trial N"."""
     return "the start" if trial == -1 else f"trial {trial}"
@@ -222,7 +231,7 @@ def visited(lib: Library, run_id: str) -> list[tuple[int, float, np.ndarray]]:
     assert run.parent_gait is not None
     spec = loads(run.creature_text, source=s.source or run.creature)
     space = Space(spec, morphology=s.morphology)
-    parent = Gait.from_library(lib, run.parent_gait)
+    parent = _stored_gait(lib, run.parent_gait)
     theta = space.nominal(parent.params)
     chain = registry.make(s.method, Problem(run.run_id, space.san, s.trials, s.seed, s.chain, space,
                                             Start(parent.weights, theta, parent.gait_id), dtype=run.dtype or "float32"))
@@ -289,7 +298,7 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
         return reused
 
     ranked = ladder(visited(lib, run.run_id), top)
-    parent = Gait.from_library(lib, run.parent_gait)
+    parent = _stored_gait(lib, run.parent_gait)
     spec0 = parent.spec
     thetas = np.stack([v[2] for v in ranked])
     weights = np.repeat(parent.weights[None], len(ranked), axis=0)
@@ -352,7 +361,7 @@ def _stored_selection(lib: Library, run_id: str, settings: dict, threshold: floa
     gait_id = stored.gait_id
     audit_rec = lib.audit(gait_id)
     if audit_rec is None or audit_rec.result.get("threshold") != threshold:
-        g = Gait.from_library(lib, gait_id)
+        g = _stored_gait(lib, gait_id)
         a = Audit(gait_id, stored.speed_cm_s, chosen.nominal_cm_s, chosen.speeds, chosen.changes, fell, threshold,
                   g.spec.dt, g.ensemble.members)
         lib.add_audit(gait_id, a.to_json(), flagged=a.flagged, worst=a.worst)

@@ -621,9 +621,16 @@ class Library:
     # -- exchange --------------------------------------------------------------------------------
 
     def export_gait(self, gait_id: str) -> dict:
-        """A self-contained description of one gait (``sanlab.library.exchange``): strict JSON."""
+        """A self-contained description of one gait (``sanlab.library.exchange``): strict JSON.
+        Raises LibraryError for a gait that does not read as one (a damaged row, or a creature or
+        encoding this sanlab cannot read): what :meth:`import_gait` would refuse is not written."""
         ev = self.gait(gait_id)
         record = export_record(self.get_run(ev.run_id), ev)
+        try:
+            validate_gait(record)  # never write a file that an import would refuse
+        except LibraryError as e:
+            raise LibraryError(f"{self.path}: gait {ev.gait_id} cannot be exported: its stored row does not read "
+                               f"as a gait ({str(e).removeprefix('bad sanlab gait: ')})") from None
         audit = self.audits(ev.run_id).get(ev.idx)
         if audit is not None:  # informative: an import stores the gait, not its audit
             worst = audit.worst if math.isfinite(audit.worst) else None

@@ -164,6 +164,28 @@ def test_a_damaged_gait_is_refused_by_name(tmp_path, column, value, why):
         assert lib.gait(f"{good}/1").score == 2.0
 
 
+def test_a_gait_whose_cells_read_but_do_not_decode_is_neither_exported_nor_audited(tmp_path):
+    """Valid text that is not an encoding of its creature's network: every cell reads, so only
+    decoding finds it; an export would write a file that import refuses, an audit would end in a
+    traceback."""
+    from sanlab.audit import audit_and_store
+
+    path, bad, good = damaged(tmp_path)
+    con = sqlite3.connect(path)
+    con.execute("UPDATE evaluations SET encoding = 'san1-zzz' WHERE run_id = ?", (bad,))
+    con.commit()
+    con.close()
+    with Library(path) as lib:
+        with pytest.raises(LibraryError) as err:
+            lib.export_gait(f"{bad}/1")
+        assert_one_line(err, path, f"gait {bad}#0 cannot be exported", "encoding")
+        with pytest.raises(LibraryError) as err:
+            audit_and_store(lib, f"{bad}/1")
+        assert_one_line(err, path, f"gait {bad}#0 cannot be decoded", "san1-zzz")
+        assert lib.audit(f"{bad}#0") is None  # nothing stored
+        assert lib.export_gait(f"{good}/1")["score"] == 2.0  # the rest is intact
+
+
 # -- reading without writing -----------------------------------------------------------------------
 
 
