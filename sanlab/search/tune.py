@@ -125,7 +125,7 @@ def _fresh(library: Library, gait_ids: list[str], method: str, trials: int, seed
 
 
 def _resumed(library: Library, run_refs: Sequence[str]) -> tuple[Evaluator, list[tuple[str, Strategy]]]:
-    runs = [library.get_run(r) for r in run_refs]
+    runs = list({r.run_id: r for r in (library.get_run(ref) for ref in run_refs)}.values())  # each chain once
     first = None
     chains = []
     ev = None
