@@ -56,3 +56,14 @@ def test_import_starts_a_library_where_there_was_none(tmp_path):
     assert r.exit_code == 0, r.output
     with Library(db) as lib:
         assert lib.gait(r.stdout.strip()).encoding == exported["encoding"]
+
+
+def test_a_bad_export_starts_no_library(tmp_path):
+    exported = cart_export(tmp_path)
+    exported["encoding"] = exported["encoding"][:-8]  # checked against the creature: refused
+    gait = tmp_path / "gait.json"
+    gait.write_text(json.dumps(exported))
+    db = tmp_path / "new.db"
+    r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
+    assert r.exit_code == 2 and "bad sanlab gait: encoding" in r.output, r.output
+    assert not db.exists()  # "a bad file leaves the library as it was": here, no library at all
