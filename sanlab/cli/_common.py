@@ -154,6 +154,22 @@ MAX_MEMBERS = 256  # ensemble members: each evaluation is this many rollouts
 SEED_RANGE = (0, 2**63 - 1)  # what the library stores (an SQLite INTEGER) and NumPy seeds take
 
 
+def check_render_dir(out_dir: str | None) -> None:
+    """``--render DIR`` of search and tune, checked before the run starts (not after hours of it):
+    an existing folder, or a new one whose parent exists (no chain of folders is made)."""
+    if out_dir is None:
+        return
+    if not out_dir.strip():
+        raise fail("--render: expected a folder, got an empty path")
+    if os.path.exists(out_dir):
+        if not os.path.isdir(out_dir):
+            raise fail(f"--render {out_dir}: expected a folder, got an existing file")
+        return
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    if not os.path.isdir(parent):
+        raise fail(f"--render {out_dir}: directory {parent} does not exist")
+
+
 def check_count(option: str, value: int, lo: int = 1, hi: int = MAX_COUNT) -> int:
     """Exit 2 unless ``lo <= value <= hi`` (an option like ``--controllers``)."""
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:

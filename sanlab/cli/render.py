@@ -112,7 +112,7 @@ def render_into(lib: Library, run_ids: list[str], out_dir: str, top: int, quiet:
     """``--render DIR`` of search and tune: :func:`render_top` of each run, then one summary line
     (unless ``quiet``)."""
     try:
-        os.makedirs(out_dir, exist_ok=True)
+        os.makedirs(out_dir, exist_ok=True)  # its parent exists (check_render_dir)
         paths = [p for rid in run_ids for p in render_top(lib, rid, out_dir, top=top)]
     except OSError as e:  # a full disk, a read-only folder: the run itself is stored already
         raise fail(f"--render {out_dir}: cannot write ({e.strerror or e}); the run is stored, render it "

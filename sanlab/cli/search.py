@@ -20,6 +20,7 @@ from sanlab.cli._common import (
     WorkersOpt,
     backend_or_exit,
     check_dtype,
+    check_render_dir,
     check_run_args,
     console,
     ensemble_or_exit,
@@ -73,6 +74,7 @@ def search(
         check_run_args(spec, controllers=controllers, seconds=seconds, metric=metric, seed=seed, batch=batch, top=top)
         text, where = read_source(creature)
         _print_warnings(spec, creature)
+    check_render_dir(render_dir)
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
     bar = ProgressBar(console.is_terminal and not as_json)

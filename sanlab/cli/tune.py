@@ -22,6 +22,7 @@ from sanlab.cli._common import (
     WorkersOpt,
     backend_or_exit,
     check_count,
+    check_render_dir,
     check_seed,
     console,
     ensemble_or_exit,
@@ -79,6 +80,7 @@ def tune(
         raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
     if resume:
         refuse_with_resume(ctx, "tune", ("method", "trials", "seed", "top", "morphology", "terrain", "batch", "ensemble"))
+    check_render_dir(render_dir)
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db)  # the gaits to tune are in it: a missing file is a mistyped --db
     gaits: list[str] = []

@@ -118,6 +118,25 @@ def test_bad_render_and_show_arguments(tmp_path, args, words):
     assert r.exit_code == 2 and words in r.stderr, r.output
 
 
+def test_render_folders_are_checked_before_a_run_starts(tmp_path):
+    """``--render DIR`` is checked before the search or tuning runs (not after it), and no chain
+    of folders is made up."""
+    path, gait = library(tmp_path)
+    afile = tmp_path / "a-file"
+    afile.write_text("")
+    deep = tmp_path / "no" / "such" / "folder"
+    fresh = tmp_path / "new.db"
+    for render, words in ((afile, "expected a folder, got an existing file"), (deep, f"directory {deep.parent} does not exist")):
+        r = runner.invoke(app, ["search", "twolink", "-n", "8", "--seconds", "0.5", "--render", str(render), "--db", str(fresh)])
+        assert r.exit_code == 2 and words in r.stderr, r.output
+        assert not fresh.exists()  # nothing ran, nothing was stored
+        r = runner.invoke(app, ["tune", f"{gait}/1", "--trials", "2", "--render", str(render), "--db", path])
+        assert r.exit_code == 2 and words in r.stderr, r.output
+    assert not (tmp_path / "no").exists()
+    with Library(path) as lib:
+        assert [x.kind for x in lib.runs()] == ["import"]
+
+
 # -- JSON ------------------------------------------------------------------------------------------
 
 
