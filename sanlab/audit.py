@@ -272,7 +272,8 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     with the best held-out score among those whose speed no nudge moves by more than
     ``threshold`` is stored as the run's evaluation #1 with its audit (the start itself, when no
     tuned rung survives). A chain's best is often a vector that only works at its step (issue
-    10: annealing learns the integrator); its best *robust* vector is the result to report.
+    10: annealing learns the integrator); its best *robust* vector is the result to report. The
+    chain's best itself (#0) is audited and its audit stored too, unless it has one already.
 
     The selection's record (every rung's speeds) is stored in the library whatever its outcome,
     and one made with the same ``top`` and ``threshold`` is reused; made again with others, a
@@ -324,6 +325,9 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
             log(f"{rung_name(trial)}: {v0:.1f} cm/s held out, worst change {100 * cands[-1].worst:.0f} %")
     robust = [k for k, c in enumerate(cands) if c.worst <= threshold and np.isfinite(c.score)]
     record = {"settings": settings, "candidates": [c.to_json() for c in cands], "trial": None, "fell": {}}
+    tuned = f"{run.run_id}#0"  # the chain's best: audited too, so that show and exports flag it
+    if lib.audit(tuned) is None:
+        audit_and_store(lib, tuned, threshold=threshold)
     if not robust:
         lib.put_selection(run.run_id, SELECTED_IDX, record)
         return Selection(run.run_id, None, None, cands, threshold)

@@ -54,6 +54,10 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     assert sel["candidates"] and sel["candidates"][0]["trial"] == -1
     with Library(str(db)) as lib:
         assert lib.selection(tuned_run)["settings"]["threshold"] == 0.2
+        # the chain's best (#0) is audited with the selection, so that show and exports flag it
+        best = lib.audit(f"{tuned_run}#0")
+        assert best is not None and best.result["threshold"] == 0.2
+        assert best.flagged == (best.worst > 0.2)
         if sel["robust_gait"] is None:  # no rung kept its speed: nothing stored, and every rung was flagged
             assert all(any(v is None or v > 0.2 for v in c["changes"].values()) for c in sel["candidates"])
             assert 1 not in {e.idx for e in lib.top(tuned_run, None)}
