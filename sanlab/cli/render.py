@@ -203,10 +203,18 @@ def _render_gait(lib: Library, target: str, out: str | None, seconds: float | No
                          f"({MAX_STEPS:,} steps of {spec.dt:g} s), got {seconds:g}")
     _, gait, sc = gait_scene(lib, ev.gait_id, seconds, fps)
     t1 = time.perf_counter()
-    about = f"gait {ev.gait_id} (rank {ev.rank}{_speed(gait.speed_cm_s)}{_moved(sc)})"
+    # The stored speed is the score's statistic (the median over the ensemble's perturbed copies);
+    # the picture is one replay (the unperturbed start, member 0): say which number is which.
+    K = gait.ensemble.members
+    scored = "" if not math.isfinite(gait.speed_cm_s) else (
+        f", scored {gait.speed_cm_s:.1f} cm/s" + (f" (median of {K} perturbed copies)" if K > 1 else ""))
+    replay = f"; this replay{' (unperturbed)' if K > 1 else ''}{_moved(sc).removeprefix(',')}" if _moved(sc) else ""
+    about = f"gait {ev.gait_id} (rank {ev.rank}{scored}{replay})"
     arrow, words = motion(sc)
+    stored_dx = (ev.extra or {}).get("dx_m")
     base = {"path": path, "gait": ev.gait_id, "rank": ev.rank, "speed_cm_s": gait.speed_cm_s,
-            "dx_m": sc.dx, "direction": words.split(" ")[0] if arrow else None}
+            "dx_m": stored_dx if isinstance(stored_dx, (int, float)) and math.isfinite(stored_dx) else None,
+            "replay_dx_m": sc.dx, "direction": words.split(" ")[0] if arrow else None}
     if ext == ".png":
         with output_file(path) as tmp:
             info = write_strobe(sc, tmp, width or DEFAULT_WIDTH["strobe"], nodes=nodes)

@@ -227,8 +227,11 @@ def cut_frames(fr, n: int):
 
 
 def gait_title(gait, rank: int | None = None) -> str:
-    """E.g. "3fa1c2d0#17 (rank 1)  cart  7.3 cm/s"."""
-    speed = "" if not np.isfinite(gait.speed_cm_s) else f"  {gait.speed_cm_s:.1f} cm/s"
+    """E.g. "3fa1c2d0#17 (rank 1)  cart  7.3 cm/s (median of 8)": the stored speed, the
+    ensemble's median when it has several members (the picture is one replay of them)."""
+    K = gait.ensemble.members
+    speed = "" if not np.isfinite(gait.speed_cm_s) else \
+        f"  {gait.speed_cm_s:.1f} cm/s" + (f" (median of {K})" if K > 1 else "")
     ranked = f" (rank {rank})" if rank else ""
     return f"{gait.gait_id}{ranked}  {gait.spec.name}{speed}"
 

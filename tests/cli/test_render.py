@@ -161,6 +161,10 @@ def test_the_distance_moved_does_not_depend_on_the_frame_rate(lib_run, tmp_path)
         r = cli(f"{run_id}/1", "--db", db, "--width", "160", "--fps", str(fps), "--seconds", "4", "-o", str(tmp_path / f"a{fps}.png"),
                 "--json")
         assert r.exit_code == 0, r.output
-        dx[fps] = json.loads(r.stdout)["dx_m"]
+        dx[fps] = json.loads(r.stdout)["replay_dx_m"]  # this replay's; "dx_m" is the stored score's, as in show
     assert abs(dx[7]) > 1e-3  # it moved, so a frame-rate dependence would show
     assert dx[7] == pytest.approx(dx[30], rel=1e-5, abs=1e-7)
+    # the line says which number is the score's and which this replay's
+    r = cli(f"{run_id}/1", "--db", db, "--width", "160", "--fps", "7", "--seconds", "4", "-o", str(tmp_path / "b.png"))
+    words = " ".join(r.output.split())
+    assert r.exit_code == 0 and "scored" in words and "this replay" in words and "moved" in words, r.output
