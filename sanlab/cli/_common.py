@@ -38,7 +38,7 @@ DtypeOpt = Annotated[str, typer.Option(help="float32 or float64.")]
 METRIC_HELP = " | ".join(METRICS)
 EnsembleOpt = Annotated[int, typer.Option(
     "--ensemble", help="Score each controller as the median over K perturbed copies (start pose jittered by "
-                       "1 mm and 0.5 deg); 1: a single unperturbed rollout.")]
+                       "1 mm and 0.5 deg), K from 1 to 256; 1: a single unperturbed rollout.")]
 BackendOpt = Annotated[str, typer.Option(
     "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
                       "pip install 'sanlab\\[cluster]').")]

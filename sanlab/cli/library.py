@@ -91,7 +91,8 @@ def show(
         typer.echo(dump_json(out))
         return
     print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {metric}", SCORE_UNITS.get(metric, ""))
-    print_distribution(library_call(lib.scores, run.run_id))
+    if run.kind == "search":  # a tuning's stored gaits (its result, a selection) are no distribution
+        print_distribution(library_call(lib.scores, run.run_id))
 
 
 def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None:
@@ -134,13 +135,16 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
 def _print_values(values: dict) -> None:
     """The parameters table: each in the creature file's units, the file's value beside it."""
     table = Table("part", "parameter", "this gait", "creature file", "unit", title="parameters (creature file units)")
+    tuned = 0
     for row in values["rows"]:
         same = row["value"] == row["file"] or (row["file"] is not None and abs(row["value"] - row["file"]) <= 1e-9 * max(1.0, abs(row["file"])))
         style = "" if same else "bold"
+        tuned += not same
         shown = f"[{style}]{row['value']:.6g}[/{style}]" if style else f"{row['value']:.6g}"
         table.add_row(safe(row["part"]), safe(row["name"]), shown, "-" if row["file"] is None else f"{row['file']:.6g}", row["unit"])
     console.print(table)
-    console.print("[dim]bold: tuned away from the creature file[/dim]")
+    if tuned:  # the legend only where there is something bold
+        console.print("[dim]bold: tuned away from the creature file[/dim]")
 
 
 def _print_network(net: dict) -> None:

@@ -33,6 +33,8 @@ def read_source(name_or_path: str | Path) -> tuple[str, str]:
     FIFO or device (never read: it could wait for ever), a file over spec.MAX_FILE_BYTES, or
     bytes that are not UTF-8 (a UTF-8 byte-order mark is allowed)."""
     s = str(name_or_path)
+    if not s.strip():  # Path("") is the current folder: say what was given
+        raise CreatureError(f"expected a creature file or a built-in creature's name {builtin_names()}, got an empty name")
     if isinstance(name_or_path, str) and s in builtin_names():
         return _builtin_dir().joinpath(f"{s}.toml").read_text(encoding="utf-8"), f"builtin:{s}"
     path = Path(name_or_path)

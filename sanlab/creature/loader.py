@@ -208,8 +208,9 @@ def _check_inertia(t: _Table, creature: Creature) -> None:
     name = owner[int(np.argmax(np.abs(v[:, 0])))]
     i = [link.name for link in creature.links].index(name)
     link = creature.links[i]
-    raise t.error(f"links[{i}].inertia", "inertia about the link's own degree of freedom (inertia > 0, or the "
-                  "centre of mass away from the joint; without it the mass matrix is singular)", link.inertia)
+    raise t.error(f"links[{i}].inertia", "an inertia about the link's own degree of freedom that is not "
+                  "negligible beside the rest of the creature (the mass matrix's smallest eigenvalue above "
+                  f"{DEGENERATE:g} x its largest), or its centre of mass away from the joint", link.inertia)
 
 
 def _san(t: _Table | None) -> SanConfig:

@@ -791,8 +791,19 @@ def _alive(owner: dict) -> bool:
         return False
     except (PermissionError, OverflowError, ValueError):
         return True  # someone else's process, or a pid we cannot ask about: assume it lives
+    if _zombie(pid):
+        return False  # it has exited; only its parent has not reaped it yet
     start = owner.get("start")
     return start is None or _process_start(pid) in (None, start)
+
+
+def _zombie(pid: int) -> bool:
+    """Whether process ``pid`` has exited but is not yet reaped (Linux: state Z in /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[0] in (b"Z", b"X")
+    except (OSError, IndexError):
+        return False
 
 
 def _stale(owner: Any) -> bool:

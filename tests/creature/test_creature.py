@@ -294,6 +294,9 @@ def test_error_names_the_file(tmp_path):
         load_file(bad)
     with pytest.raises(CreatureError, match="no such file"):
         load(tmp_path / "missing.toml")
+    for empty in ("", "  "):  # not "a directory" (Path("") is the current folder)
+        with pytest.raises(CreatureError, match=r"got an empty name$"):
+            load(empty)
     good = tmp_path / "walker2.toml"
     good.write_text(BASE)
     assert load(str(good)).name == "walker2"  # name defaults to the file stem

@@ -319,6 +319,31 @@ def test_only_a_live_owner_writes_a_running_run(tmp_path):
         assert json.loads(lib._conn.execute("SELECT owner FROM runs").fetchone()[0])["pid"] == os.getpid()
 
 
+def test_a_run_whose_process_exited_but_is_not_yet_reaped_reads_interrupted(tmp_path):
+    """A killed process stays a zombie until its parent reaps it (for a while, under a container's
+    init): it no longer runs, so its run is not "running"."""
+    import socket
+    import time
+
+    from sanlab.library.store import _process_start
+
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        owner = {"host": socket.gethostname(), "pid": child.pid, "start": _process_start(child.pid)}
+        with Library(tmp_path / "g.db") as lib:
+            run = new_run(lib)
+            lib._conn.execute("UPDATE runs SET owner = ?", (json.dumps(owner),))
+            assert lib.get_run(run.run_id).status == "running"  # alive: its run is running
+            child.kill()
+            deadline = time.time() + 10
+            while open(f"/proc/{child.pid}/stat").read().rsplit(")", 1)[1].split()[0] != "Z" and time.time() < deadline:
+                time.sleep(0.01)
+            assert lib.get_run(run.run_id).status == "interrupted"  # exited, not yet reaped
+    finally:
+        child.kill()
+        child.wait()
+
+
 def test_discard_run_removes_only_a_run_without_evaluations(tmp_path):
     with Library(tmp_path / "g.db") as lib:
         empty, full = new_run(lib), new_run(lib)
