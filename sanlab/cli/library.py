@@ -6,6 +6,7 @@ write lock); a damaged run is listed as "damaged" and reading it is a one-line e
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import TYPE_CHECKING, Annotated
 
@@ -40,13 +41,25 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     """List the runs in the gait library, newest first."""
     lib = open_library(db, readonly=True)
     listed = library_call(lib.runs)
+    from sanlab.library import LibraryError
+
+    bad_gaits = library_call(lib.damaged_gaits)
+    listed = [dataclasses.replace(r, status="damaged") if r.run_id in bad_gaits else r for r in listed]
     rows = [
         {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
          "evaluated": r.count, "total": r.total, "trials": r.trials, "progress": r.progress, "created": r.created}
         for r in listed
     ]
     for r in listed:
-        if r.status == "damaged":
+        if r.run_id in bad_gaits:
+            try:
+                lib.gait(bad_gaits[r.run_id])
+                why = f"gait {bad_gaits[r.run_id]} is damaged"
+            except LibraryError as e:
+                why = str(e).split(": ", 1)[-1].split("; the rest")[0]
+            warn(f"{db}: run {r.run_id} is damaged ({why}); the other runs are intact "
+                 "(export what you need with `sanlab export`, or restore the file from a backup)")
+        elif r.status == "damaged":
             warn(f"{db}: run {r.run_id} is damaged ({lib.damage(r.run_id)}); the other runs are intact "
                  "(export what you need with `sanlab export`, or restore the file from a backup)")
     if as_json:

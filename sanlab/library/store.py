@@ -337,6 +337,20 @@ class Library:
             return str(e)
         return None
 
+    def damaged_gaits(self) -> dict[str, str]:
+        """Per run with damaged evaluation cells, the first such gait ("RUN#IDX"): a score or
+        speed that is not a number, an encoding that is not text, params or extra that are not
+        JSON. One pass of SQL over the evaluations (what a listing can afford; a cell of bad UTF-8
+        is found when its gait is read)."""
+        with self._sql() as conn:
+            rows = conn.execute(
+                "SELECT run_id, min(idx) FROM evaluations WHERE "
+                "typeof(score) NOT IN ('real', 'integer', 'null') OR typeof(speed_cm_s) NOT IN ('real', 'integer', 'null') "
+                "OR typeof(encoding) != 'text' OR typeof(params) != 'text' OR NOT json_valid(params) "
+                "OR (extra IS NOT NULL AND (typeof(extra) != 'text' OR NOT json_valid(extra))) "
+                "GROUP BY run_id").fetchall()
+        return {r[0]: f"{r[0]}#{r[1]}" for r in rows}
+
     def mark_stale_runs(self) -> list[str]:
         """Store "interrupted" for every run whose status says "running" but whose owner process
         on this host is gone (killed outright); returns their ids. Runs owned on other hosts

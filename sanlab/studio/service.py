@@ -140,8 +140,14 @@ class Service:
         metric, seconds (evaluation time, s)."""
         out = []
         with self._lib() as lib:
+            bad = lib.damaged_gaits()
             for r in lib.runs():
-                best = lib.top(r.run_id, 1)
+                try:
+                    best = lib.top(r.run_id, 1)
+                except LibraryError:  # its best row is damaged: listed as such, the rest still reads
+                    best, bad[r.run_id] = [], bad.get(r.run_id, "")
+                if r.run_id in bad:
+                    r = dataclasses.replace(r, status="damaged")
                 out.append(self._run_row(r, best[0] if best else None))
         return out
 

@@ -188,6 +188,31 @@ def test_a_damaged_run_is_listed_and_refused_in_one_line(tmp_path):
     assert r.exit_code == 0 and json.loads(r.stdout)["creature"] == "cart"
 
 
+@pytest.mark.parametrize("column, value, why", [
+    ("score", "'abc'", "its score: a number was expected"),
+    ("params", "'{broken'", "its params"),
+    ("extra", "'[1,'", "its extra"),
+])  # fmt: skip
+def test_a_run_with_a_damaged_gait_is_listed_as_damaged(tmp_path, column, value, why):
+    """Damage in one evaluation's cell: the run is listed as damaged (in `runs` and the studio), the
+    others read as before."""
+    from sanlab.studio.service import Service
+
+    path, bad = library(tmp_path)
+    with Library(path) as lib:
+        other = lib.import_gait(lib.export_gait(f"{bad}/1")).split("/")[0]
+    with sqlite3.connect(path) as con:
+        con.execute(f"UPDATE evaluations SET {column} = {value} WHERE run_id = ?", (bad,))
+    r = runner.invoke(app, ["runs", "--db", path])
+    rows = {line.split()[1]: line for line in r.stdout.splitlines() if bad in line or other in line}
+    assert r.exit_code == 0 and "damaged" in rows[bad] and "damaged" not in rows[other], r.stdout
+    assert r.stderr.count("\n") == 1 and f"run {bad} is damaged" in r.stderr and why in r.stderr, r.stderr
+    studio = {x["run_id"]: x["status"] for x in Service(path).runs()}
+    assert studio == {bad: "damaged", other: "done"}
+    r = runner.invoke(app, ["export", f"{other}/1", "--db", path])
+    assert r.exit_code == 0 and json.loads(r.stdout)["creature"] == "cart"
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_fifos_are_refused_without_waiting(tmp_path):
     fifo = str(tmp_path / "pipe")
