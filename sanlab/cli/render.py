@@ -165,6 +165,9 @@ def render(
         folder = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(folder):
             raise fail(f"--out {out}: directory {folder} does not exist")
+        if os.path.exists(out) and not os.path.isfile(out):  # before the replay, not after it
+            raise fail(f"--out {out}: expected a file to write, got an existing "
+                       f"{'folder' if os.path.isdir(out) else 'FIFO, device or socket'}")
     lib = open_library(db, readonly=True)
     if plot is None:
         configure()  # before the replay's first JAX call

@@ -464,7 +464,7 @@ class LiveSession:
             raise StudioError("this creature has no follow point (it has no eyes)")
         for v in (x, y):
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) or abs(v) > 1e4:
-                raise StudioError(f"follow point: expected two finite numbers (m), got {x!r}, {y!r}")
+                raise StudioError(f"follow point: expected two numbers within 10 km of the origin (m), got {x!r}, {y!r}")
         self.follow = (float(x), float(y))
 
     def _stepped_model(self):

@@ -222,6 +222,10 @@ def test_fifos_are_refused_without_waiting(tmp_path):
         one_line_error(runner.invoke(app, ["import", fifo, "--db", str(tmp_path / "g.db")]),
                        "expected an exported gait (a JSON file), got a FIFO")
         one_line_error(runner.invoke(app, ["check", fifo]), "expected a creature file, got a FIFO")
+        # refused before the replay (a render would otherwise simulate, then fail to write)
+        os.mkfifo(fifo + ".png")
+        one_line_error(runner.invoke(app, ["render", "abc/1", "-o", fifo + ".png", "--db", str(tmp_path / "g.db")]),
+                       "expected a file to write, got an existing FIFO")
     assert not (tmp_path / "g.db").exists()
 
 
