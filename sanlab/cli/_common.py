@@ -416,3 +416,20 @@ class ProgressBar:
 
     def __exit__(self, *exc: Any) -> None:
         self.progress.__exit__(*exc)
+
+
+def print_static_warnings(spec, creature: str) -> None:
+    """The warnings of `sanlab check` that need no simulation (angle ranges that look like
+    radians, actuators too weak or too strong for their load), once, on stderr; the simulated
+    ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
+    `sanlab check --simulate`."""
+    from rich.console import Console
+
+    from sanlab.check import radian_ranges, strength
+
+    err = Console(stderr=True)  # stdout stays the table, or the JSON
+    found = [f.message for f in (*radian_ranges(spec), *strength(spec)) if f.warning]
+    for message in found:
+        err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
+    if found:
+        err.print(f"(sanlab check {safe(creature)} --simulate says more)", soft_wrap=True, highlight=False)

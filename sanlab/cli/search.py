@@ -30,9 +30,9 @@ from sanlab.cli._common import (
     next_steps,
     open_library,
     print_distribution,
+    print_static_warnings,
     print_top,
     refuse_with_resume,
-    safe,
     top_rows,
 )
 from sanlab.creature import read_source
@@ -73,7 +73,7 @@ def search(
         spec = load_or_exit(creature)[0]
         check_run_args(spec, controllers=controllers, seconds=seconds, metric=metric, seed=seed, batch=batch, top=top)
         text, where = read_source(creature)
-        _print_warnings(spec, creature)
+        print_static_warnings(spec, creature)
     check_render_dir(render_dir)
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
@@ -116,19 +116,3 @@ def search(
     earlier = [r.run_id for r in lib.same_runs("search", run.creature_text, run.params, run.seed) if r.run_id != run_id]
     next_steps(db, run_id, rows, lib.tally(run_id), earlier)
 
-
-def _print_warnings(spec, creature: str) -> None:
-    """The warnings of `sanlab check` that need no simulation (angle ranges that look like
-    radians, actuators too weak or too strong for their load), once, on stderr; the simulated
-    ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
-    `sanlab check --simulate`."""
-    from rich.console import Console
-
-    from sanlab.check import radian_ranges, strength
-
-    err = Console(stderr=True)  # stdout stays the table, or the JSON
-    found = [f.message for f in (*radian_ranges(spec), *strength(spec)) if f.warning]
-    for message in found:
-        err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
-    if found:
-        err.print(f"(sanlab check {safe(creature)} --simulate says more)", soft_wrap=True, highlight=False)

@@ -10,7 +10,17 @@ from rich.markup import escape
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import CreatureArg, DtypeOpt, EnsembleOpt, check_dtype, check_run_args, console, ensemble_or_exit, load_or_exit
+from sanlab.cli._common import (
+    CreatureArg,
+    DtypeOpt,
+    EnsembleOpt,
+    check_dtype,
+    check_run_args,
+    console,
+    ensemble_or_exit,
+    load_or_exit,
+    print_static_warnings,
+)
 
 
 def simulate(
@@ -20,7 +30,7 @@ def simulate(
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     ensemble: EnsembleOpt = 8,
     dtype: DtypeOpt = "float32",
-    top: Annotated[int, typer.Option(min=0, help="Rows in the table.")] = 10,
+    top: Annotated[int, typer.Option(min=0, help="Best controllers shown (rows of the table, entries of --json's top).")] = 10,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")] = False,
 ) -> None:
     """Score random sensor-actuator networks on a creature as `sanlab search` does (same seed, same
@@ -30,16 +40,18 @@ def simulate(
     check_run_args(c, controllers=controllers, seconds=seconds, seed=seed)
     seconds = seconds if seconds is not None else c.evaluation.seconds
     ens = ensemble_or_exit(ensemble)
+    print_static_warnings(c, creature)  # as search does: the same file, the same warnings
     configure()
     from sanlab.engine_report import simulate_random
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:
         rep = simulate_random(c, controllers, seconds, seed, dtype, ens)
+    rep["top"] = rep["top"][:top]
     if as_json:
         typer.echo(json.dumps(rep, indent=2))
         return
     table = Table("rank", "controller", "score", "distance (m)", "speed (cm/s)", "flags")
-    for r, row in enumerate(rep["top"][:top], 1):
+    for r, row in enumerate(rep["top"], 1):
         flags = ", ".join(f for f, on in (("fell", row["fell"]), ("non-finite", not row["finite"])) if on)
         table.add_row(str(r), str(row["controller"]), f"{row['score']:.3f}", f"{row['distance_m']:.3f}",
                       f"{row['speed_cm_s']:.1f}", flags or "-")
@@ -47,6 +59,6 @@ def simulate(
     console.print(
         f"{rep['controllers']} random SANs x {rep['seconds']:g} s on [bold]{escape(c.name)}[/bold], "
         f"metric {rep['metric']}, ensemble of {rep['ensemble']}: "
-        f"{rep['steps_per_s'] / 1e6:.2f} M creature-steps/s on {rep['devices']} "
+        f"{rep['steps_per_s'] / 1e6:.3g} M creature-steps/s on {rep['devices']} "
         f"({rep['wall_s']:.1f} s incl. compile), {rep['non_finite']} non-finite"
     )

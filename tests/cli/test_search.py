@@ -144,6 +144,12 @@ def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
     quiet = subprocess.run(SANLAB + ["search", "cart", "-n", "8", "--seconds", "0.2", "--db", db, "--json"],
                            capture_output=True, text=True, check=True)
     assert "warning:" not in quiet.stderr
+    # simulate scores the same file as search does, with the same warnings; --top bounds its JSON
+    # as it bounds its table
+    sim = subprocess.run(SANLAB + ["simulate", str(DATA / "radians.toml"), "-n", "8", "--seconds", "0.2", "--top", "3",
+                                   "--json"], capture_output=True, text=True, check=True)
+    assert len(json.loads(sim.stdout)["top"]) == 3
+    assert [line for line in sim.stderr.splitlines() if line.startswith("warning:")] == warnings
 
 
 @pytest.mark.parametrize("args", [
