@@ -140,7 +140,7 @@ def apply_to_file(gait: Gait) -> str:
         sens[i]["max" + suffix] = _num(t["sens_max"][i] * k)
     on, off = _delays(gait)
     note = ""
-    if np.allclose(on, on[0]) and np.allclose(off, off[0]):
+    if not per_node_delays(gait):
         if "san" not in doc:
             doc["san"] = tomlkit.table()
         doc["san"]["delay_on"] = _num(on[0])
@@ -148,15 +148,25 @@ def apply_to_file(gait: Gait) -> str:
     else:
         _, nodes = node_names(s)
         note = ("\n# The gait's node delays differ between nodes, which [san] cannot say (one delay_on and one\n"
-                "# delay_off for all); they were, as T_on/T_off in s:\n# " +
+                "# delay_off for all): [san] keeps the file's, so this file is not exactly the gait. They were,\n"
+                "# as T_on/T_off in s:\n# " +
                 ", ".join(f"{n} {a:.4g}/{b:.4g}" for n, a, b in zip(nodes, on, off)) + "\n")
     if gait.params.to_json().get("scale"):
         _apply_morphology(doc, s, np.asarray(gait.params.to_json()["scale"], float), t)
     head = (f"# Written by `sanlab export {gait.gait_id} --toml` (sanlab {__version__}): {s.name} with the\n"
-            "# parameters of that gait applied (actuator and sensor ranges and gains, delays, link sizes).\n")
+            "# parameters of that gait applied (actuator and sensor ranges and gains, link sizes, and its\n"
+            "# node delays where every node has the same).\n")
     text = head + note + tomlkit.dumps(doc)
     loads(text, f"the creature file of gait {gait.gait_id}")  # a CreatureError is a ValueError
     return text
+
+
+def per_node_delays(gait: Gait) -> bool:
+    """Whether the gait's node delays differ between nodes, which a creature file cannot say
+    ([san] holds one delay_on and one delay_off): its file from :func:`apply_to_file` then keeps
+    the file's delays and is not exactly the gait."""
+    on, off = _delays(gait)
+    return not (np.allclose(on, on[0]) and np.allclose(off, off[0]))
 
 
 def _apply_morphology(doc: Any, s: Creature, scale: np.ndarray, t: dict[str, np.ndarray]) -> None:

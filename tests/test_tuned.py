@@ -17,7 +17,7 @@ from sanlab.gait import Gait
 from sanlab.library import Library
 from sanlab.san import San
 from sanlab.search.space import Space
-from sanlab.tuned import apply_to_file, file_values, network_table, node_names
+from sanlab.tuned import apply_to_file, file_values, network_table, node_names, per_node_delays
 
 runner = CliRunner()
 
@@ -70,7 +70,10 @@ def test_parameters_in_file_units(tmp_path):
 
 @pytest.mark.parametrize("name, morphology", [("bounder", True), ("cart", False)])
 def test_export_toml_compiles_to_the_gaits_own_numbers(tmp_path, name, morphology):
-    g = gait(*tuned(tmp_path, name, morphology))
+    path, gid = tuned(tmp_path, name, morphology)
+    g = gait(path, gid)
+    r = runner.invoke(app, ["export", gid, "--toml", "--db", path])
+    assert r.exit_code == 0 and "is not exactly the gait" in r.stderr, r.output  # said, not only in a comment
     text = apply_to_file(g)
     assert text.startswith(f"# Written by `sanlab export {g.gait_id} --toml`")
     assert "# The cart" in text or "# The bouncer" in text  # the file's own comments are kept
@@ -82,6 +85,7 @@ def test_export_toml_compiles_to_the_gaits_own_numbers(tmp_path, name, morpholog
     for key in keys:
         assert np.allclose(np.asarray(getattr(mine, key)), np.asarray(getattr(theirs, key)), rtol=1e-6, atol=1e-7), key
     assert "node delays differ between nodes" in text  # tuned per node: written as a comment
+    assert "so this file is not exactly the gait" in text and per_node_delays(g)
 
 
 def test_export_toml_of_a_phase_1_gait_sets_the_san_delays(lib_run, tmp_path):
@@ -89,6 +93,7 @@ def test_export_toml_of_a_phase_1_gait_sets_the_san_delays(lib_run, tmp_path):
     out = tmp_path / "cart_tuned.toml"
     r = runner.invoke(app, ["export", f"{run_id}/1", "--toml", "-o", str(out), "--db", db])
     assert r.exit_code == 0, r.output
+    assert "warning" not in r.output  # one delay pair for every node: the file is the gait
     c = loads(out.read_text())
     assert (c.san.delay_on, c.san.delay_off) == (load("cart").san.delay_on, load("cart").san.delay_off)
     r = runner.invoke(app, ["check", str(out)])

@@ -201,7 +201,9 @@ def _print_network(net: dict) -> None:
 def export_(
     gait: Annotated[str, typer.Argument(help="RUN_ID/RANK, e.g. 3fa1c2d0/1 (or RUN#IDX).")],
     out: Annotated[str | None, typer.Option("--out", "-o", help="Write to this file instead of stdout (whole or not at all).")] = None,
-    toml: Annotated[bool, typer.Option("--toml", help="Write the creature file with this gait's tuned parameters applied, instead of the gait.")] = False,
+    toml: Annotated[bool, typer.Option("--toml", help=(
+        "Write the creature file with this gait's tuned parameters applied, instead of the gait (node "
+        "delays only where every node has the same; else a warning)."))] = False,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Export a gait as JSON, or --toml its creature file with the gait applied.
@@ -211,13 +213,17 @@ def export_(
     lib = open_library(db, readonly=True)
     if toml:
         from sanlab.gait import Gait
-        from sanlab.tuned import apply_to_file
+        from sanlab.tuned import apply_to_file, per_node_delays
 
         ev = library_call(lib.gait, gait)
         try:
-            data = apply_to_file(Gait.from_library(lib, ev.gait_id))
+            stored = Gait.from_library(lib, ev.gait_id)
+            data = apply_to_file(stored)
         except ValueError as e:
             raise fail(f"{lib.path}: gait {ev.gait_id} cannot be written as a creature file ({e})") from None
+        if per_node_delays(stored):
+            warn(f"gait {ev.gait_id}'s node delays differ between nodes, which a creature file cannot say: "
+                 "the file keeps its [san] delays (the gait's are in a comment), so it is not exactly the gait")
     else:
         data = json.dumps(library_call(lib.export_gait, gait), indent=2, allow_nan=False) + "\n"
     if out:
