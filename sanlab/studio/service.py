@@ -347,11 +347,13 @@ class Service:
 
     def tune(self, args: dict, reporter: Callable[[dict], None]) -> str:
         """Tune one gait (``args`` from :meth:`prepare_tune`) as `sanlab tune` does; ``reporter``
-        gets {done, total, best, rate} after each round. Returns the tuned gait's id RUN#0."""
+        gets {run_id, done, total, best, rate} after each round (run_id: the tuning run's, as a
+        search job reports its run). Returns the tuned gait's id RUN#0."""
         from sanlab.search.tune import tune
 
         def report(p) -> None:
-            reporter({"done": p.trials, "total": p.total, "best": _num(p.best), "rate": _num(p.rate)})
+            reporter({"run_id": p.run_ids[0] if p.run_ids else None, "done": p.trials, "total": p.total,
+                      "best": _num(p.best), "rate": _num(p.rate)})
 
         with self._lib() as lib:
             try:

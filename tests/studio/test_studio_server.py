@@ -154,3 +154,20 @@ def test_studio_command(tmp_path, monkeypatch):
     r = CliRunner().invoke(app, ["studio", "--db", str(bad), "--no-open", "--port", "0"])
     assert r.exit_code == 2
     assert r.output.strip() == f"{bad}: not a database file (it is a text file)"
+
+
+def test_a_tune_job_reports_the_run_it_writes(library, tmp_path):
+    """A tune job, like a search job, says which run it writes, so a page can link to it."""
+    import shutil
+
+    from sanlab.studio.service import Service
+
+    db = str(tmp_path / "copy.db")
+    shutil.copy(library["db"], db)  # the shared library stays as the other tests expect it
+    svc = Service(db)
+    args = svc.prepare_tune(gait=f"{library['cart']}/1", trials=2)
+    seen: list[dict] = []
+    tuned = svc.tune(args, seen.append)
+    assert seen and {p["run_id"] for p in seen} == {tuned.split("#")[0]}
+    with Library(db) as lib:
+        assert lib.get_run(tuned.split("#")[0]).kind == "tune"
