@@ -6,7 +6,6 @@ write lock); a damaged run is listed as "damaged" and reading it is a one-line e
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from typing import TYPE_CHECKING, Annotated
 
@@ -39,12 +38,11 @@ MAX_IMPORT_BYTES = 64 << 20  # an exported gait is a few kB; a larger file is no
 
 def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     """List the runs in the gait library, newest first."""
-    lib = open_library(db, readonly=True)
-    listed = library_call(lib.runs)
     from sanlab.library import LibraryError
 
-    bad_gaits = library_call(lib.damaged_gaits)
-    listed = [dataclasses.replace(r, status="damaged") if r.run_id in bad_gaits else r for r in listed]
+    lib = open_library(db, readonly=True)
+    listed = library_call(lambda: lib.runs(check_evaluations=True))
+    bad_gaits = library_call(lib.damaged_gaits)  # which gait of each, for the warning
     rows = [
         {"run_id": r.run_id, "kind": r.kind, "creature": r.creature, "status": r.status,
          "evaluated": r.count, "total": r.total, "trials": r.trials, "progress": r.progress, "created": r.created}

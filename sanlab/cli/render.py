@@ -55,10 +55,6 @@ def _is_gait(target: str) -> bool:
     return "/" in target or "#" in target
 
 
-def _speed(x: float) -> str:
-    return "" if not math.isfinite(x) else f", {x:.1f} cm/s"
-
-
 def _moved(sc: Scene) -> str:
     from sanlab.render.strobe import motion
 
@@ -211,7 +207,8 @@ def _render_gait(lib: Library, target: str, out: str | None, seconds: float | No
     K = gait.ensemble.members
     scored = "" if not math.isfinite(gait.speed_cm_s) else (
         f", scored {gait.speed_cm_s:.1f} cm/s" + (f" (median of {K} perturbed copies)" if K > 1 else ""))
-    replay = f"; this replay{' (unperturbed)' if K > 1 else ''}{_moved(sc).removeprefix(',')}" if _moved(sc) else ""
+    moved = _moved(sc)
+    replay = f"; this replay{' (unperturbed)' if K > 1 else ''}{moved.removeprefix(',')}" if moved else ""
     about = f"gait {ev.gait_id} (rank {ev.rank}{scored}{replay})"
     arrow, words = motion(sc)
     stored_dx = (ev.extra or {}).get("dx_m")

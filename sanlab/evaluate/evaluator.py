@@ -235,7 +235,7 @@ def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
     member_speed = rows["speed_cm_s"].mean(1)
     member_dist = rows["distance_m"].mean(1)
     fell = np.any(rows["fell"], axis=1)
-    nonfinite = np.any(np.any(rows["nonfinite"], axis=1), axis=1)
+    nonfinite = np.any(rows["nonfinite"], axis=(1, 2))
     K = member_score.shape[1]
     med = lambda x: np.where(nonfinite, 0.0, np.median(x, 1))
     return ScoreBatch(med(member_score), med(member_speed), med(member_dist),

@@ -3,6 +3,7 @@ file (see :class:`Library` for what it guarantees)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -313,17 +314,22 @@ class Library:
         except Damaged as e:
             raise self._damaged(f"run {run_id}", e) from None
 
-    def runs(self) -> list[Run]:
+    def runs(self, *, check_evaluations: bool = False) -> list[Run]:
         """All runs, newest first; a damaged one with status "damaged" (and whatever of it
-        could be read: text with U+FFFD for bad bytes, params {} when they do not parse)."""
+        could be read: text with U+FFFD for bad bytes, params {} when they do not parse).
+        ``check_evaluations``: also "damaged" when one of the run's evaluation cells is
+        (:meth:`damaged_gaits`; a pass over every evaluation, for listings people read, not for
+        polling)."""
         with self._sql() as conn:
             rows = conn.execute(_RUNS_QUERY + " ORDER BY r.created DESC, r.rowid DESC").fetchall()
+        bad = self.damaged_gaits() if check_evaluations else {}
         out = []
         for r in rows:
             try:
-                out.append(_run(r))
+                run = _run(r)
             except Damaged:
-                out.append(_run(r, strict=False))
+                run = _run(r, strict=False)
+            out.append(dataclasses.replace(run, status="damaged") if run.run_id in bad else run)
         return out
 
     def damage(self, run_id: str) -> str | None:
@@ -768,14 +774,21 @@ def _evaluation(row: sqlite3.Row, rank: int | None) -> Evaluation:
 # -- owners of running runs ----------------------------------------------------------------------
 
 
+def _proc_stat(pid: int) -> list[bytes]:
+    """Process ``pid``'s /proc stat fields after its name (state first); [] where there are none
+    (not Linux, or no such process)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()
+    except (OSError, IndexError):
+        return []
+
+
 def _process_start(pid: int) -> str | None:
     """When process ``pid`` started (Linux: clock ticks since boot, /proc), so that a reused pid
     is not taken for the owner; None where that cannot be known."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            return f.read().rsplit(b")", 1)[1].split()[19].decode()
-    except (OSError, IndexError):
-        return None
+    fields = _proc_stat(pid)
+    return fields[19].decode() if len(fields) > 19 else None
 
 
 def _me() -> dict:
@@ -805,19 +818,11 @@ def _alive(owner: dict) -> bool:
         return False
     except (PermissionError, OverflowError, ValueError):
         return True  # someone else's process, or a pid we cannot ask about: assume it lives
-    if _zombie(pid):
+    fields = _proc_stat(pid)
+    if fields[:1] in ([b"Z"], [b"X"]):
         return False  # it has exited; only its parent has not reaped it yet
     start = owner.get("start")
-    return start is None or _process_start(pid) in (None, start)
-
-
-def _zombie(pid: int) -> bool:
-    """Whether process ``pid`` has exited but is not yet reaped (Linux: state Z in /proc)."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            return f.read().rsplit(b")", 1)[1].split()[0] in (b"Z", b"X")
-    except (OSError, IndexError):
-        return False
+    return start is None or (fields[19].decode() if len(fields) > 19 else None) in (None, start)
 
 
 def _stale(owner: Any) -> bool:

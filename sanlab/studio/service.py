@@ -140,14 +140,11 @@ class Service:
         metric, seconds (evaluation time, s)."""
         out = []
         with self._lib() as lib:
-            bad = lib.damaged_gaits()
-            for r in lib.runs():
+            for r in lib.runs(check_evaluations=True):
                 try:
                     best = lib.top(r.run_id, 1)
                 except LibraryError:  # its best row is damaged: listed as such, the rest still reads
-                    best, bad[r.run_id] = [], bad.get(r.run_id, "")
-                if r.run_id in bad:
-                    r = dataclasses.replace(r, status="damaged")
+                    best, r = [], dataclasses.replace(r, status="damaged")
                 out.append(self._run_row(r, best[0] if best else None))
         return out
 
@@ -156,7 +153,7 @@ class Service:
         return {
             "run_id": r.run_id, "kind": r.kind, "creature": r.creature, "seed": r.seed,
             "status": r.status, "evaluated": r.count, "total": r.total,
-            "trials": r.trials, "trials_planned": r.params.get("trials") if r.kind == "tune" else None,
+            "trials": r.trials, "progress": dict(zip(("done", "planned", "unit"), r.progress)),
             "best_score": _num(best.score) if best else None,
             "best_speed_cm_s": _num(best.speed_cm_s) if best else None,
             "created": r.created, "parent": r.parent_gait,

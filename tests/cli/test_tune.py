@@ -80,7 +80,7 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     from sanlab.studio.service import Service
 
     studio_row = next(r for r in Service(str(db)).runs() if r["run_id"] == tuned_run)
-    assert (studio_row["trials"], studio_row["trials_planned"]) == (6, 6)
+    assert studio_row["trials"] == 6 and studio_row["progress"] == {"done": 6, "planned": 6, "unit": "trials"}
 
 
 def _trace_count(db) -> int:

@@ -24,11 +24,10 @@ export function fmt(x, digits = 3) {
   return Math.abs(x) >= 1000 ? x.toFixed(0) : x.toPrecision(digits);
 }
 
-// A run's progress: a search's controllers evaluated, a tuning's trials (its stored gaits, the
-// tuned one and a robust selection, are not its progress).
+// A run's progress as the library counts it (Run.progress): "32/32 evaluated", "16/16 trials".
 export function progress(run) {
-  if (run.kind === "tune") return `${run.trials}/${run.trials_planned ?? "?"} trials`;
-  return `${run.evaluated}/${run.total} evaluated`;
+  const p = run.progress;
+  return `${p.done}/${p.planned ?? "?"} ${p.unit}`;
 }
 
 export function fmtDate(iso) {
