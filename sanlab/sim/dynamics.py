@@ -400,9 +400,14 @@ def prepare(model: Model, state: State, gate=None) -> Frame:
     fr = _positions(model, state.q, gate)
     M = _mass_matrix(st, model.params, fr)
     pt = _force_to_tree(st, fr, [state.p[d] for d in range(st.ndof)])
-    v = M.solve(dict(enumerate(pt)))
+    v = M.solve(dict(enumerate(pt)), _fence(gate, 'v-forward'))
     u = _barrier([v[d] for d in range(st.ndof)], gate, 'u')
     return _velocities(model, fr._replace(M=M), u)
+
+
+def _fence(gate, name):
+    """:func:`_barrier` as a one-argument callable (for the sparse solver), or None without a gate."""
+    return None if gate is None else (lambda tree: _barrier(tree, gate, name))
 
 
 def _barrier(tree, gate, name=""):
@@ -773,7 +778,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 mu = jnp.where(fwd, mu_f, mu_b)
             else:
                 mu = mu_f
-            ft, kt, ct, held = _stick(stretch, vt, mu * N, p)
+            ft, kt, ct, held = _stick(stretch, vt, mu * N, p, fr.gate)
             laws.append(([(_project(J, n), N, onf * p.ground_k, onf * p.ground_c, vn), (_project(J, t), ft, kt, ct, vt)],
                          (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
         else:
@@ -789,8 +794,8 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
                 s1 = d[0] * e1[0] + d[1] * e1[1]
                 s2 = d[0] * e2[0] + d[1] * e2[1]
                 mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
-                f1, k1, c1, h1 = _stick(s1, va, mu * N, p)
-                f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p)
+                f1, k1, c1, h1 = _stick(s1, va, mu * N, p, fr.gate)
+                f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p, fr.gate)
                 laws.append(([(_project(J, e1), f1, k1, c1, va), (_project(J, e2), f2, k2, c2, vl)],
                              (pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1])))
             else:
@@ -840,7 +845,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
         A, Q = T.assemble(_elimination_order(st), fr.gate, base=fr.M)
         rhs = {d: mul(h, v) for d, v in Q.items()}
         A.a, rhs = _barrier((A.a, rhs), fr.gate, 'A')
-        du = _barrier(A.solve(rhs), fr.gate, 'du')
+        du = _barrier(A.solve(rhs, _fence(fr.gate, 'du-forward')), fr.gate, 'du')
     ustar = [add(qd[d], du[d]) for d in range(st.ndof)]
     # p_{n+1} = M v* in state coordinates = S^T (M_tree u*) = p_n + S^T M_tree du
     Mdu = fr.M.matvec(du)
@@ -859,7 +864,7 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     return State(q_new, qd_new, state.t + h, p_new, anchor), deepest
 
 
-def _stick(stretch, v, limit, p: Params) -> tuple:
+def _stick(stretch, v, limit, p: Params, gate=None) -> tuple:
     """Friction along one tangent direction (slip velocity v, anchor ``stretch`` m behind the
     contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor (the
     ground's stiffness k, and a damper mu N / slip_speed) needs at most the limit, else slides
@@ -868,13 +873,16 @@ def _stick(stretch, v, limit, p: Params) -> tuple:
 
     Returns the element's (force, stiffness, damping) and how far behind the contact its anchor
     stays (0 when sliding or free: the anchor restarts at the contact, so a contact that stops
-    sliding holds from where it stopped)."""
+    sliding holds from where it stopped). gate: as for :func:`prepare`."""
     k = p.ground_k
     c = limit / p.slip  # as stiff as Coulomb friction at the slip speed: springs back at most that fast
     s = jnp.clip(stretch, -limit / k, limit / k)
     trial = -k * s - c * v
     stick = (limit > 0) & (jnp.abs(trial) <= limit)
     slide = limit / jnp.maximum(jnp.abs(v), p.slip)  # Coulomb as an implicit damper
+    if gate is not None:  # the decision once: each of the four results below would re-derive it
+        s, c, trial, on, slide = _barrier((s, c, trial, jnp.where(stick, 1.0, 0.0).astype(s.dtype), slide), gate, "stick")
+        stick = on > 0
     return (jnp.where(stick, trial, -slide * v), jnp.where(stick, k, 0.0), jnp.where(stick, c, slide),
             jnp.where(stick, s, 0.0))
 

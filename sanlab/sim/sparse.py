@@ -112,9 +112,13 @@ class SymMatrix:
                 out[j] = add(out.get(j, 0.0), mul(v, x[i]))
         return out
 
-    def solve(self, b: dict) -> dict:
+    def solve(self, b: dict, fence=None) -> dict:
         """Solve self x = b (self symmetric positive definite) by L D L^T with the given
-        elimination order; fill-in is tracked symbolically. Returns x as a dense dict."""
+        elimination order; fill-in is tracked symbolically. Returns x as a dense dict.
+
+        fence: optional callable that materialises a pytree (``dynamics._barrier``); it is applied
+        to the forward substitution's result, which every entry of the back substitution reads,
+        so that a compiler does not re-derive it inside each of them. Same arithmetic either way."""
         a = dict(self.a)
         cols: dict[int, dict[int, Scalar]] = {}
         inv: dict[int, Scalar] = {}
@@ -133,6 +137,8 @@ class SymMatrix:
         for k in self.order:
             for i, l in cols[k].items():
                 y[i] = sub(y[i], mul(l, y[k]))
+        if fence is not None:
+            y = fence(y)
         for k in self.order:
             y[k] = mul(y[k], inv[k])
         for k in reversed(self.order):
