@@ -69,6 +69,48 @@ def kernel_stacks(hlo: str) -> dict[str, list[tuple[str, str, int]]]:
     return kernels
 
 
+def loop_body_cost(hlo: str) -> dict[str, int]:
+    """Static size of the step's compiled loop body, from XLA's optimised HLO text: its fusions
+    (kernels), the operands they read and the operations inside them (parameters, constants,
+    broadcasts, slices and other data movement not counted). Every kernel is a loop over the
+    batch, so ``fusions + operands + ops`` counts the vector instructions of one creature-step;
+    unlike a timing it does not vary with the load on a shared machine."""
+    comps: dict[str, list[str]] = {}
+    cur = None
+    for line in hlo.splitlines():
+        head = re.match(r"^(?:ENTRY )?%?([\w.\-]+) .*\{\s*$", line)
+        if head:
+            cur = head.group(1)
+            comps[cur] = []
+        elif line.startswith("}"):
+            cur = None
+        elif cur is not None and "=" in line:
+            comps[cur].append(line.strip())
+    callees = {c: {n.strip().lstrip("%") for l in lines
+                   for m in re.finditer(r"(?:body|calls|branch_computations|to_apply)=\{?([%\w.\-, ]+)\}?", l)
+                   for n in m.group(1).split(",")} for c, lines in comps.items()}
+
+    def reach(c: str, seen: set) -> set:
+        if c not in seen:
+            seen.add(c)
+            for d in callees.get(c, ()):
+                reach(d, seen)
+        return seen
+
+    bodies = [m.group(1) for lines in comps.values() for l in lines for m in [re.search(r" while\(.*body=%?([\w.\-]+)", l)] if m]
+    inside = max((reach(b, set()) for b in bodies), key=len, default=set())
+    out = {"fusions": 0, "operands": 0, "ops": 0}
+    moves = re.compile(r" (parameter|constant|broadcast|bitcast|slice|reshape|tuple|get-tuple-element)\(")
+    for c in inside:
+        for l in comps.get(c, []):
+            f = re.search(r"= [^=]+ fusion\((.*?)\), kind=\w+, calls=%?([\w.\-]+)", l)
+            if f:
+                out["fusions"] += 1
+                out["operands"] += len([o for o in f.group(1).split(", ") if o])
+                out["ops"] += sum(1 for b in comps.get(f.group(2), []) if not moves.search(b))
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--creature", default="bounder")
@@ -119,7 +161,11 @@ def main() -> None:
                     spent[ev.name] += ev.duration_ns / devices
                     calls[ev.name] += 1 / devices
     hlo_files = sorted(glob.glob(f"{dump}/*jit_local*after_optimizations.txt"))
-    stacks = kernel_stacks(Path(hlo_files[-1]).read_text()) if hlo_files else {}
+    hlo = Path(hlo_files[-1]).read_text() if hlo_files else ""
+    stacks = kernel_stacks(hlo)
+    size = loop_body_cost(hlo)
+    print(f"compiled loop body (static): {size['fusions']} fusions reading {size['operands']} operands, {size['ops']} "
+          f"operations in them; sum {sum(size.values())}")
     total = sum(spent.values())
     n = sum(calls.values()) / a.steps
     print(f"{n:.0f} kernels per step and device ({len(spent)} distinct), {total / 1e3 / a.steps:.0f} us of them per "
