@@ -7,6 +7,8 @@ folder, then times both trees alternately, each in a fresh process that imports 
 SANs (``engine_report.random_san_params``, seed 0), ``sim.rollout`` for ``--steps`` steps, the
 best of ``--repeats`` calls after the compiling one. Each tree's figure is its best over
 ``--rounds`` processes, so a burst of load on a shared machine costs a round, not the result.
+It also says whether the two engines' final states are bit-identical (a SHA-256 of the final
+coordinates): a change meant only to make the step faster should leave them so.
 
     python benchmarks/compare.py [REV] [--creature bounder] [--batch 2048] [--steps 1000]
                                  [--repeats 5] [--rounds 3]
@@ -46,13 +48,14 @@ spec = creature.load(name)
 model = sim.compile_creature(spec)
 san, params = random_san_params(spec, batch, 0)
 run = lambda: jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-run()
+import hashlib, numpy as np
+digest = hashlib.sha256(np.ascontiguousarray(run()).tobytes()).hexdigest()
 best = float("inf")
 for _ in range(repeats):
     t0 = time.perf_counter()
     run()
     best = min(best, time.perf_counter() - t0)
-print(json.dumps({"rate": batch * steps / best, "where": sanlab.__file__}))
+print(json.dumps({"rate": batch * steps / best, "where": sanlab.__file__, "digest": digest}))
 """
 
 
@@ -66,14 +69,15 @@ def extract(rev: str, into: Path) -> Path:
     return into / "tree"
 
 
-def rate(tree: Path, a: argparse.Namespace) -> float:
+def rate(tree: Path, a: argparse.Namespace) -> tuple[float, str]:
+    """(creature-steps/s, SHA-256 of the final coordinates) of one fresh process on ``tree``."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     out = subprocess.run([sys.executable, "-c", WORKER, a.creature, str(a.batch), str(a.steps), str(a.repeats)],
                          env=env, cwd=tree, capture_output=True, text=True, check=True)
     res = json.loads(out.stdout.strip().splitlines()[-1])
     if not res["where"].startswith(str(tree)):
         raise SystemExit(f"the worker imported {res['where']}, not the tree under {tree}")
-    return res["rate"]
+    return res["rate"], res["digest"]
 
 
 def main() -> None:
@@ -88,11 +92,15 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="sanlab-compare-") as tmp:
         other = extract(a.rev, Path(tmp))
         best = {"this tree": 0.0, a.rev: 0.0}
+        digests: dict[str, set] = {"this tree": set(), a.rev: set()}
         for r in range(a.rounds):
             for label, tree in (("this tree", ROOT), (a.rev, other)):
-                x = rate(tree, a)
+                x, digest = rate(tree, a)
                 best[label] = max(best[label], x)
+                digests[label].add(digest)
                 print(f"round {r + 1}: {label:>10}: {x / 1e6:6.2f} M creature-steps/s", flush=True)
+    same = digests["this tree"] == digests[a.rev] and len(digests[a.rev]) == 1
+    print("final states of the two engines: " + ("bit-identical" if same else "different (the arithmetic changed)"))
     ratio = best["this tree"] / best[a.rev]
     print(f"{a.creature}, batch {a.batch} x {a.steps} steps, best of {a.rounds} rounds: this tree "
           f"{best['this tree'] / 1e6:.2f} M/s, {a.rev} {best[a.rev] / 1e6:.2f} M/s")
