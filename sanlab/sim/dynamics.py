@@ -198,10 +198,11 @@ def sincos(a) -> Vec:
     r2 = r * r
     s = r + r * r2 * (-1.6666654611e-1 + r2 * (8.3321608736e-3 + r2 * -1.9515295891e-4))
     c = 1.0 - 0.5 * r2 + r2 * r2 * (4.166664568298827e-2 + r2 * (-1.388731625493765e-3 + r2 * 2.443315711809948e-5))
-    ki = k.astype(jnp.int32) & 3
-    sin = jnp.where(ki == 0, s, jnp.where(ki == 1, c, jnp.where(ki == 2, -s, -c)))
-    cos = jnp.where(ki == 0, c, jnp.where(ki == 1, -s, jnp.where(ki == 2, -c, s)))
-    return cos, sin
+    ki = k.astype(jnp.int32)
+    swap, flip = (ki & 1) == 1, (ki & 2) == 2  # quadrants 1 and 3 swap sin and cos; 2 and 3 negate
+    sin = jnp.where(swap, c, s)
+    cos = jnp.where(swap, -s, c)
+    return jnp.where(flip, -cos, cos), jnp.where(flip, -sin, sin)
 
 
 def _positions(model: Model, q, gate) -> Frame:
@@ -751,61 +752,16 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
 
     # ground contact and friction: first every contact's force laws (fenced, so that the
     # stick-slip decisions are computed once), then their elements
-    deepest = None
-    laws = []  # per contact: [(row, force, stiffness, damping, rate)], anchor
-    for c, i in enumerate(st.contacts):
-        pt, v = fr.cp[c], fr.cv[c]
-        J = jacobian(st, fr, i, pt)
-        mu_f, mu_b, mu_l = p.mu[i, 0], p.mu[i, 1], p.mu[i, 2]
-        aniso, frm, to = st.aniso[i]
-        anchor = (state.anchor[c, 0], state.anchor[c, 1])
-        if st.plane == "vertical":
-            n, t = _ground_frame(fr.terrain[c])
-            depth = fr.depth[c]
-            deepest = depth if deepest is None else jnp.maximum(deepest, depth)
-            vn = add(mul(v[0], n[0]), mul(v[1], n[1]))
-            vt = add(mul(v[0], t[0]), mul(v[1], t[1]))
-            fn = p.ground_k * depth - p.ground_c * vn
-            on = (depth > 0) & (fn > 0)
-            N = jnp.where(on, fn, 0.0)
-            onf = jnp.where(on, 1.0, 0.0)
-            stretch = add(mul(sub(pt[0], anchor[0]), t[0]), mul(sub(pt[1], anchor[1]), t[1]))
-            if aniso:
-                # the limit depends on the way the contact is pushed to slip
-                ax = _axis(fr, i, frm, to)
-                along = add(mul(ax[0], t[0]), mul(ax[1], t[1]))
-                fwd = along * (p.ground_k * stretch + vt) > 0
-                mu = jnp.where(fwd, mu_f, mu_b)
-            else:
-                mu = mu_f
-            ft, kt, ct, held = _stick(stretch, vt, mu * N, p, fr.gate)
-            laws.append(([(_project(J, n), N, onf * p.ground_k, onf * p.ground_c, vn), (_project(J, t), ft, kt, ct, vt)],
-                         (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
-        else:
-            N = p.contact_load[c]
-            d = (sub(pt[0], anchor[0]), sub(pt[1], anchor[1]))
-            if aniso:
-                ax = _axis(fr, i, frm, to)
-                inv = jax.lax.rsqrt(ax[0] * ax[0] + ax[1] * ax[1] + 1e-12)
-                e1 = (ax[0] * inv, ax[1] * inv)
-                e2 = _perp(e1)
-                va = v[0] * e1[0] + v[1] * e1[1]
-                vl = v[0] * e2[0] + v[1] * e2[1]
-                s1 = d[0] * e1[0] + d[1] * e1[1]
-                s2 = d[0] * e2[0] + d[1] * e2[1]
-                mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
-                f1, k1, c1, h1 = _stick(s1, va, mu * N, p, fr.gate)
-                f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p, fr.gate)
-                laws.append(([(_project(J, e1), f1, k1, c1, va), (_project(J, e2), f2, k2, c2, vl)],
-                             (pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1])))
-            else:
-                rows, held = _stick_disc(J, d, v, mu_f * N, p)
-                laws.append((rows, (sub(pt[0], held[0]), sub(pt[1], held[1]))))
+    laws, deepest = (_ground_laws if st.plane == "vertical" else _plane_laws)(st, p, fr, state)
     laws = _barrier(laws, fr.gate, "contacts")
     anchors = [a for _, a in laws]
     for rows, _ in laws:
-        for g, force, k, c, rate in rows:
-            element(g, force, k, c, rate)
+        for row in rows:
+            if len(row) == 3:  # (row, matrix coefficient, force): already an element
+                T.outer(row[1], row[0])
+                T.force(row[2], row[0])
+            else:
+                element(*row)
 
     # water drag on each edge, exact for a rigid edge: normal -k ∫ (v.N) N ds, tangential
     # (skin) -k_t ∫ (v.T) T ds (uniform along the edge, along its own line: no moment)
@@ -864,6 +820,93 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     return State(q_new, qd_new, state.t + h, p_new, anchor), deepest
 
 
+def _plane_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[list, None]:
+    """Horizontal plane: every contact's friction against the ground under its constant load,
+    per contact [(row, force, stiffness, damping, rate)] and its next anchor (see ``advance``);
+    nothing penetrates (None)."""
+    laws = []
+    for c, i in enumerate(st.contacts):
+        pt, v = fr.cp[c], fr.cv[c]
+        J = jacobian(st, fr, i, pt)
+        mu_f, mu_b, mu_l = p.mu[i, 0], p.mu[i, 1], p.mu[i, 2]
+        aniso, frm, to = st.aniso[i]
+        anchor = (state.anchor[c, 0], state.anchor[c, 1])
+        N = p.contact_load[c]
+        d = (sub(pt[0], anchor[0]), sub(pt[1], anchor[1]))
+        if aniso:
+            ax = _axis(fr, i, frm, to)
+            inv = jax.lax.rsqrt(ax[0] * ax[0] + ax[1] * ax[1] + 1e-12)
+            e1 = (ax[0] * inv, ax[1] * inv)
+            e2 = _perp(e1)
+            va = v[0] * e1[0] + v[1] * e1[1]
+            vl = v[0] * e2[0] + v[1] * e2[1]
+            s1 = d[0] * e1[0] + d[1] * e1[1]
+            s2 = d[0] * e2[0] + d[1] * e2[1]
+            mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
+            f1, k1, c1, h1 = _stick(s1, va, mu * N, p, fr.gate)
+            f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p, fr.gate)
+            laws.append(([(_project(J, e1), f1, k1, c1, va), (_project(J, e2), f2, k2, c2, vl)],
+                         (pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1])))
+        else:
+            rows, held = _stick_disc(J, d, v, mu_f * N, p)
+            laws.append((rows, (sub(pt[0], held[0]), sub(pt[1], held[1]))))
+    return laws, None
+
+
+def _ground_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[list, Any]:
+    """Vertical plane: every contact's normal force and stick-slip friction against the ground,
+    as elements of the step (see ``advance``): per contact [(normal row, matrix coefficient,
+    force), (tangent row, coefficient, force)] and its next anchor; and the deepest penetration.
+
+    In three passes, each fenced once for all contacts: the normal laws (and the friction limit
+    mu N), the stick-slip decisions, then the elements. The elements are those of ``advance``'s
+    ``element`` for (force, stiffness, damping) = (N, k, c) or 0 in the normal direction and
+    :func:`_stick`'s in the tangent one, written out on each branch of the contact's state: the
+    same arithmetic (bit for bit: a factor 1.0 or 0.0 is exact), two values per row kept instead
+    of five."""
+    h, k, c = p.dt, p.ground_k, p.ground_c
+    pre = []
+    deepest = None
+    for ci, i in enumerate(st.contacts):
+        pt, v = fr.cp[ci], fr.cv[ci]
+        n, t = _ground_frame(fr.terrain[ci])
+        depth = fr.depth[ci]
+        deepest = depth if deepest is None else jnp.maximum(deepest, depth)
+        vn = add(mul(v[0], n[0]), mul(v[1], n[1]))
+        vt = add(mul(v[0], t[0]), mul(v[1], t[1]))
+        fn = k * depth - c * vn
+        on = (depth > 0) & (fn > 0)
+        N = jnp.where(on, fn, 0.0)
+        anchor = (state.anchor[ci, 0], state.anchor[ci, 1])
+        stretch = add(mul(sub(pt[0], anchor[0]), t[0]), mul(sub(pt[1], anchor[1]), t[1]))
+        aniso, frm, to = st.aniso[i]
+        if aniso:
+            # the limit depends on the way the contact is pushed to slip
+            ax = _axis(fr, i, frm, to)
+            along = add(mul(ax[0], t[0]), mul(ax[1], t[1]))
+            fwd = along * (k * stretch + vt) > 0
+            mu = jnp.where(fwd, p.mu[i, 0], p.mu[i, 1])
+        else:
+            mu = p.mu[i, 0]
+        normal = (jnp.where(on, h * c + (h * h) * k, 0.0), jnp.where(on, fn - (h * k) * vn, 0.0))
+        pre.append((normal, vt, stretch, mu * N))
+    pre = _barrier(pre, fr.gate, "normal")
+    decisions = _barrier([_stick_law(stretch, vt, limit, p) for _, vt, stretch, limit in pre], fr.gate, "stick")
+    laws = []
+    for ci, i in enumerate(st.contacts):
+        normal, vt, _, _ = pre[ci]
+        stick, s, ct, trial, slide = decisions[ci]
+        stick = stick > 0
+        pt = fr.cp[ci]
+        n, t = _ground_frame(fr.terrain[ci])
+        J = jacobian(st, fr, i, pt)
+        tangent = (jnp.where(stick, h * ct + (h * h) * k, h * slide), jnp.where(stick, trial - (h * k) * vt, -slide * vt))
+        held = jnp.where(stick, s, 0.0)
+        laws.append(([(_project(J, n), *normal), (_project(J, t), *tangent)],
+                     (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
+    return laws, deepest
+
+
 def _stick(stretch, v, limit, p: Params, gate=None) -> tuple:
     """Friction along one tangent direction (slip velocity v, anchor ``stretch`` m behind the
     contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor (the
@@ -874,17 +917,26 @@ def _stick(stretch, v, limit, p: Params, gate=None) -> tuple:
     Returns the element's (force, stiffness, damping) and how far behind the contact its anchor
     stays (0 when sliding or free: the anchor restarts at the contact, so a contact that stops
     sliding holds from where it stopped). gate: as for :func:`prepare`."""
+    on, s, c, trial, slide = _stick_law(stretch, v, limit, p, gate)
+    stick = on > 0
+    return (jnp.where(stick, trial, -slide * v), jnp.where(stick, p.ground_k, 0.0), jnp.where(stick, c, slide),
+            jnp.where(stick, s, 0.0))
+
+
+def _stick_law(stretch, v, limit, p: Params, gate=None) -> tuple:
+    """The decision of :func:`_stick`: (1.0 where it sticks else 0.0, the anchor's stretch s kept,
+    the sticking damping c, the sticking force -k s - c v, the sliding damping mu N / max(|v|,
+    slip speed)); fenced together when ``gate`` is given."""
     k = p.ground_k
     c = limit / p.slip  # as stiff as Coulomb friction at the slip speed: springs back at most that fast
     s = jnp.clip(stretch, -limit / k, limit / k)
     trial = -k * s - c * v
     stick = (limit > 0) & (jnp.abs(trial) <= limit)
     slide = limit / jnp.maximum(jnp.abs(v), p.slip)  # Coulomb as an implicit damper
-    if gate is not None:  # the decision once: each of the four results below would re-derive it
-        s, c, trial, on, slide = _barrier((s, c, trial, jnp.where(stick, 1.0, 0.0).astype(s.dtype), slide), gate, "stick")
-        stick = on > 0
-    return (jnp.where(stick, trial, -slide * v), jnp.where(stick, k, 0.0), jnp.where(stick, c, slide),
-            jnp.where(stick, s, 0.0))
+    on = jnp.where(stick, 1.0, 0.0).astype(s.dtype)
+    if gate is not None:  # the decision once: each result of it would otherwise re-derive it
+        on, s, c, trial, slide = _barrier((on, s, c, trial, slide), gate, "stick")
+    return on, s, c, trial, slide
 
 
 def _stick_disc(J: dict, d: Vec, v: Vec, limit, p: Params) -> tuple:
