@@ -401,7 +401,7 @@ def prepare(model: Model, state: State, gate=None) -> Frame:
     fr = _positions(model, state.q, gate)
     M = _mass_matrix(st, model.params, fr)
     pt = _force_to_tree(st, fr, [state.p[d] for d in range(st.ndof)])
-    v = M.solve(dict(enumerate(pt)), _fence(gate, 'v-forward'))
+    v = M.solve(dict(enumerate(pt))) if st.articulated else M.solve(dict(enumerate(pt)), _fence(gate, 'v-forward'))
     u = _barrier([v[d] for d in range(st.ndof)], gate, 'u')
     return _velocities(model, fr._replace(M=M), u)
 
