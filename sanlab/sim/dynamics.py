@@ -807,8 +807,9 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     Mdu = fr.M.matvec(du)
     dp = _force_from_tree(st, fr, [Mdu.get(d, 0.0) for d in range(st.ndof)])
     vstar = _from_tree(st, fr, ustar)
-    # fenced before stacking: a fused stack would re-derive every entry for every element
-    vstar, dp, anchors = _barrier((vstar, dp, anchors), fr.gate, "update")
+    # fenced before stacking: a fused stack would re-derive every entry for every element (q'*
+    # is not: each of its entries is a few operations on du, which is fenced)
+    dp, anchors = _barrier((dp, anchors), fr.gate, "update")
     dtype = state.q.dtype
     qd_new = _dense(vstar, dtype)
     p_new = state.p + _dense(dp, dtype)
