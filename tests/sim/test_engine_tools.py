@@ -1,6 +1,7 @@
 """The engine's measuring tools (benchmarks/profile.py, benchmarks/compare.py) read what they claim."""
 
 import importlib.util
+import re
 import subprocess
 from pathlib import Path
 
@@ -44,11 +45,18 @@ def test_loop_body_cost_counts_the_kernels_of_the_loop():
     assert cost("no loop here") == {"fusions": 0, "operands": 0, "ops": 0}
 
 
-def test_compare_extracts_the_other_commits_package(tmp_path):
+def test_compare_extracts_the_other_commits_package_under_another_name(tmp_path):
     head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
     if head.returncode != 0:
         pytest.skip("not a git checkout: no other commit to extract")
-    tree = _load("compare").extract(head.stdout.strip(), tmp_path)
-    assert (tree / "sanlab" / "sim" / "dynamics.py").read_text() == \
-        subprocess.run(["git", "-C", str(ROOT), "show", "HEAD:sanlab/sim/dynamics.py"], capture_output=True,
-                       text=True, check=True).stdout
+    compare = _load("compare")
+    tree = compare.extract(head.stdout.strip(), tmp_path)
+    pkg = tree / compare.ALIAS
+    original = subprocess.run(["git", "-C", str(ROOT), "show", "HEAD:sanlab/sim/dynamics.py"], capture_output=True,
+                              text=True, check=True).stdout
+    copied = (pkg / "sim" / "dynamics.py").read_text()
+    assert "from sanlab.sim import articulated" in original
+    assert copied == original.replace("from sanlab.", f"from {compare.ALIAS}.")
+    # nothing in the copy imports this tree's package
+    for path in pkg.rglob("*.py"):
+        assert not re.search(r"^\s*(from|import) sanlab\b", path.read_text(), re.M), path
