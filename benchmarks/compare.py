@@ -88,7 +88,10 @@ def main() -> None:
     import numpy as np
 
     with tempfile.TemporaryDirectory(prefix="sanlab-compare-") as tmp:
-        sys.path.insert(0, str(extract(a.rev, Path(tmp))))
+        try:
+            sys.path.insert(0, str(extract(a.rev, Path(tmp))))
+        except subprocess.CalledProcessError:
+            raise SystemExit(f"compare.py: no sanlab package at {a.rev!r} in {ROOT} (git archive failed)") from None
         runs = {"this tree": _setup("sanlab", a.creature, a.batch, a.steps),
                 a.rev: _setup(ALIAS, a.creature, a.batch, a.steps)}
         digest = {k: hashlib.sha256(np.ascontiguousarray(run()).tobytes()).hexdigest() for k, run in runs.items()}
