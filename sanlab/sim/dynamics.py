@@ -844,9 +844,9 @@ def _plane_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[list
             s1 = d[0] * e1[0] + d[1] * e1[1]
             s2 = d[0] * e2[0] + d[1] * e2[1]
             mu = jnp.where(p.ground_k * s1 + va > 0, mu_f, mu_b)
-            f1, k1, c1, h1 = _stick(s1, va, mu * N, p, fr.gate)
-            f2, k2, c2, h2 = _stick(s2, vl, mu_l * N, p, fr.gate)
-            laws.append(([(_project(J, e1), f1, k1, c1, va), (_project(J, e2), f2, k2, c2, vl)],
+            r1, h1 = _stick_element(_stick_law(s1, va, mu * N, p, fr.gate), va, p)
+            r2, h2 = _stick_element(_stick_law(s2, vl, mu_l * N, p, fr.gate), vl, p)
+            laws.append(([(_project(J, e1), *r1), (_project(J, e2), *r2)],
                          (pt[0] - h1 * e1[0] - h2 * e2[0], pt[1] - h1 * e1[1] - h2 * e2[1])))
         else:
             rows, held = _stick_disc(J, d, v, mu_f * N, p)
@@ -860,11 +860,11 @@ def _ground_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[lis
     force), (tangent row, coefficient, force)] and its next anchor; and the deepest penetration.
 
     In three passes, each fenced once for all contacts: the normal laws (and the friction limit
-    mu N), the stick-slip decisions, then the elements. The elements are those of ``advance``'s
-    ``element`` for (force, stiffness, damping) = (N, k, c) or 0 in the normal direction and
-    :func:`_stick`'s in the tangent one, written out on each branch of the contact's state: the
-    same arithmetic (bit for bit: a factor 1.0 or 0.0 is exact), two values per row kept instead
-    of five."""
+    mu N), the stick-slip decisions (:func:`_stick_law`), then the elements. A normal row's is the
+    one ``advance``'s ``element`` gives (force, stiffness, damping) = (N, k, c), or nothing off the
+    ground, written out on each branch of the contact's state; a tangent row's comes from
+    :func:`_stick_element`. The same arithmetic (bit for bit: a factor 1.0 or 0.0 is exact), two
+    values kept per row instead of five."""
     h, k, c = p.dt, p.ground_k, p.ground_c
     pre = []
     deepest = None
@@ -896,38 +896,26 @@ def _ground_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[lis
     laws = []
     for ci, i in enumerate(st.contacts):
         normal, vt, _, _ = pre[ci]
-        stick, s, ct, trial, slide = decisions[ci]
-        stick = stick > 0
+        tangent, held = _stick_element(decisions[ci], vt, p)
         pt = fr.cp[ci]
         n, t = _ground_frame(fr.terrain[ci])
         J = jacobian(st, fr, i, pt)
-        tangent = (jnp.where(stick, h * ct + (h * h) * k, h * slide), jnp.where(stick, trial - (h * k) * vt, -slide * vt))
-        held = jnp.where(stick, s, 0.0)
         laws.append(([(_project(J, n), *normal), (_project(J, t), *tangent)],
                      (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
     return laws, deepest
 
 
-def _stick(stretch, v, limit, p: Params, gate=None) -> tuple:
+def _stick_law(stretch, v, limit, p: Params, gate=None) -> tuple:
     """Friction along one tangent direction (slip velocity v, anchor ``stretch`` m behind the
     contact, force limit ``limit`` = mu N): sticks while the spring-damper to the anchor (the
     ground's stiffness k, and a damper mu N / slip_speed) needs at most the limit, else slides
     with Coulomb friction. The damper bounds how fast the spring can push the contact back (by
     k s <= mu N: at most the slip speed), so a stopped slip does not rebound.
 
-    Returns the element's (force, stiffness, damping) and how far behind the contact its anchor
-    stays (0 when sliding or free: the anchor restarts at the contact, so a contact that stops
-    sliding holds from where it stopped). gate: as for :func:`prepare`."""
-    on, s, c, trial, slide = _stick_law(stretch, v, limit, p, gate)
-    stick = on > 0
-    return (jnp.where(stick, trial, -slide * v), jnp.where(stick, p.ground_k, 0.0), jnp.where(stick, c, slide),
-            jnp.where(stick, s, 0.0))
-
-
-def _stick_law(stretch, v, limit, p: Params, gate=None) -> tuple:
-    """The decision of :func:`_stick`: (1.0 where it sticks else 0.0, the anchor's stretch s kept,
-    the sticking damping c, the sticking force -k s - c v, the sliding damping mu N / max(|v|,
-    slip speed)); fenced together when ``gate`` is given."""
+    Returns the decision: (1.0 where it sticks else 0.0, the anchor's stretch s kept, the
+    sticking damping c, the sticking force -k s - c v, the sliding damping mu N / max(|v|, slip
+    speed)), fenced together when ``gate`` is given (as for :func:`prepare`); see
+    :func:`_stick_element`."""
     k = p.ground_k
     c = limit / p.slip  # as stiff as Coulomb friction at the slip speed: springs back at most that fast
     s = jnp.clip(stretch, -limit / k, limit / k)
@@ -940,8 +928,24 @@ def _stick_law(stretch, v, limit, p: Params, gate=None) -> tuple:
     return on, s, c, trial, slide
 
 
+def _stick_element(law: tuple, v, p: Params) -> tuple:
+    """The step's element of a :func:`_stick_law` decision ``law`` at slip velocity v: when it
+    sticks the spring-damper to the anchor (force -k s - c v, stiffness k, damping c), when it
+    slides the Coulomb damper (force -slide v, damping slide), written out on each branch as
+    ``advance``'s ``element`` would compute it (the same arithmetic, bit for bit).
+
+    Returns ((matrix coefficient h c + h^2 k, force F - h k v), how far behind the contact its
+    anchor stays: 0 when sliding or free, so that a contact that stops sliding holds from where
+    it stopped)."""
+    h, k = p.dt, p.ground_k
+    on, s, c, trial, slide = law
+    stick = on > 0
+    return ((jnp.where(stick, h * c + (h * h) * k, h * slide), jnp.where(stick, trial - (h * k) * v, -slide * v)),
+            jnp.where(stick, s, 0.0))
+
+
 def _stick_disc(J: dict, d: Vec, v: Vec, limit, p: Params) -> tuple:
-    """Isotropic friction in the horizontal plane: as :func:`_stick`, with the force limited to a
+    """Isotropic friction in the horizontal plane: as :func:`_stick_law`, with the force limited to a
     disc (the spring to the anchor ``d`` m behind the contact, 2-D). Returns the two elements'
     (row, force, stiffness, damping, rate) and the anchor's offset behind the contact."""
     k = p.ground_k
