@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import importlib
+import os
 import re
 import subprocess
 import sys
@@ -82,8 +83,6 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--rounds", type=int, default=15)
     a = ap.parse_args()
-    import os
-
     os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # both compile here, neither reads the other's cache
     import numpy as np
 

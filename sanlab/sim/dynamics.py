@@ -691,9 +691,10 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     qd = fr.u  # element rates are taken in tree coordinates, like their rows
 
     def element(g: dict, force, k, c, rate):
-        """Spring-damper-like element along row g: force F, stiffness k, damping c, rate g.q'."""
-        T.outer(add(mul(h, c), mul(h * h, k)), g)
-        T.force(sub(force, mul(mul(h, k), rate)), g)
+        """Spring-damper-like element along row g (see :func:`_element`)."""
+        coef, f = _element(h, force, k, c, rate)
+        T.outer(coef, g)
+        T.force(f, g)
 
     (_inertial_force_linear if st.articulated else _inertial_force)(st, p, fr, T)
 
@@ -756,12 +757,9 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     laws = _barrier(laws, fr.gate, "contacts")
     anchors = [a for _, a in laws]
     for rows, _ in laws:
-        for row in rows:
-            if len(row) == 3:  # (row, matrix coefficient, force): already an element
-                T.outer(row[1], row[0])
-                T.force(row[2], row[0])
-            else:
-                element(*row)
+        for g, coef, force in rows:
+            T.outer(coef, g)
+            T.force(force, g)
 
     # water drag on each edge, exact for a rigid edge: normal -k ∫ (v.N) N ds, tangential
     # (skin) -k_t ∫ (v.T) T ds (uniform along the edge, along its own line: no moment)
@@ -821,10 +819,17 @@ def advance(model: Model, fr: Frame, state: State, u) -> tuple[State, Any]:
     return State(q_new, qd_new, state.t + h, p_new, anchor), deepest
 
 
+def _element(h, force, k, c, rate) -> tuple:
+    """A spring-damper-like element of the step (force F, stiffness k, damping c along a row g,
+    rate g.q'; see the module docstring): its matrix coefficient h c + h^2 k and its predicted
+    force F - h k rate."""
+    return add(mul(h, c), mul(h * h, k)), sub(force, mul(mul(h, k), rate))
+
+
 def _plane_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[list, None]:
     """Horizontal plane: every contact's friction against the ground under its constant load,
-    per contact [(row, force, stiffness, damping, rate)] and its next anchor (see ``advance``);
-    nothing penetrates (None)."""
+    as elements of the step: per contact [(row, matrix coefficient, force)] and its next anchor
+    (see ``advance``); nothing penetrates (None)."""
     laws = []
     for c, i in enumerate(st.contacts):
         pt, v = fr.cp[c], fr.cv[c]
@@ -861,16 +866,17 @@ def _ground_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[lis
 
     In three passes, each fenced once for all contacts: the normal laws (and the friction limit
     mu N), the stick-slip decisions (:func:`_stick_law`), then the elements. A normal row's is the
-    one ``advance``'s ``element`` gives (force, stiffness, damping) = (N, k, c), or nothing off the
+    one :func:`_element` gives (force, stiffness, damping) = (N, k, c), or nothing off the
     ground, written out on each branch of the contact's state; a tangent row's comes from
     :func:`_stick_element`. The same arithmetic (bit for bit: a factor 1.0 or 0.0 is exact), two
     values kept per row instead of five."""
     h, k, c = p.dt, p.ground_k, p.ground_c
-    pre = []
+    pre, ground = [], []
     deepest = None
     for ci, i in enumerate(st.contacts):
         pt, v = fr.cp[ci], fr.cv[ci]
         n, t = _ground_frame(fr.terrain[ci])
+        ground.append((n, t))
         depth = fr.depth[ci]
         deepest = depth if deepest is None else jnp.maximum(deepest, depth)
         vn = add(mul(v[0], n[0]), mul(v[1], n[1]))
@@ -897,8 +903,7 @@ def _ground_laws(st: Structure, p: Params, fr: Frame, state: State) -> tuple[lis
     for ci, i in enumerate(st.contacts):
         normal, vt, _, _ = pre[ci]
         tangent, held = _stick_element(decisions[ci], vt, p)
-        pt = fr.cp[ci]
-        n, t = _ground_frame(fr.terrain[ci])
+        pt, (n, t) = fr.cp[ci], ground[ci]
         J = jacobian(st, fr, i, pt)
         laws.append(([(_project(J, n), *normal), (_project(J, t), *tangent)],
                      (sub(pt[0], mul(held, t[0])), sub(pt[1], mul(held, t[1])))))
@@ -932,7 +937,7 @@ def _stick_element(law: tuple, v, p: Params) -> tuple:
     """The step's element of a :func:`_stick_law` decision ``law`` at slip velocity v: when it
     sticks the spring-damper to the anchor (force -k s - c v, stiffness k, damping c), when it
     slides the Coulomb damper (force -slide v, damping slide), written out on each branch as
-    ``advance``'s ``element`` would compute it (the same arithmetic, bit for bit).
+    :func:`_element` would compute it (the same arithmetic, bit for bit).
 
     Returns ((matrix coefficient h c + h^2 k, force F - h k v), how far behind the contact its
     anchor stays: 0 when sliding or free, so that a contact that stops sliding holds from where
@@ -946,8 +951,8 @@ def _stick_element(law: tuple, v, p: Params) -> tuple:
 
 def _stick_disc(J: dict, d: Vec, v: Vec, limit, p: Params) -> tuple:
     """Isotropic friction in the horizontal plane: as :func:`_stick_law`, with the force limited to a
-    disc (the spring to the anchor ``d`` m behind the contact, 2-D). Returns the two elements'
-    (row, force, stiffness, damping, rate) and the anchor's offset behind the contact."""
+    disc (the spring to the anchor ``d`` m behind the contact, 2-D). Returns the two elements
+    (row, matrix coefficient, force) and the anchor's offset behind the contact."""
     k = p.ground_k
     c = limit / p.slip
     r = jnp.sqrt(d[0] * d[0] + d[1] * d[1])
@@ -959,7 +964,7 @@ def _stick_disc(J: dict, d: Vec, v: Vec, limit, p: Params) -> tuple:
     slide = limit / jnp.maximum(speed, p.slip)
     ks = jnp.where(stick, k, 0.0)
     damp = jnp.where(stick, c, slide)
-    rows = [(_project(J, e), jnp.where(stick, trial[a], -slide * ve), ks, damp, ve)
+    rows = [(_project(J, e), *_element(p.dt, jnp.where(stick, trial[a], -slide * ve), ks, damp, ve))
             for a, (e, ve) in enumerate((((1.0, 0.0), v[0]), ((0.0, 1.0), v[1])))]
     return rows, (jnp.where(stick, s[0], 0.0), jnp.where(stick, s[1], 0.0))
 
