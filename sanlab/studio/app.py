@@ -15,6 +15,10 @@ server also pushes:
 
     {"type": "library", "runs": [[run_id, status, count], ...]}    the library changed
     {"type": "job", "job": {...}}                                   a search or tuning progressed
+
+A job's status is queued, running, done, failed, or (after ``{"op": "job.cancel", "job": ID}``)
+cancelling, then cancelled: the batch in flight is committed and the run left interrupted; the
+job's ``resume`` is then the command that carries it on.
     {"type": "live.frames", ...} / {"type": "live.stats", ...} / {"type": "live.reset", ...}
 
 A failed request changes nothing and the connection stays open.
@@ -33,8 +37,9 @@ import os
 import secrets
 import shutil
 import tempfile
+import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import asynccontextmanager
 from importlib import resources
 from typing import Any, Callable
@@ -74,6 +79,7 @@ OPS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
     "tune": {"gait": ((str,), True), "method": ((str,), False), "trials": ((int,), False),
              "seed": ((int,), False), "terrain": ((str,), False)},
     "jobs": {},
+    "job.cancel": {"job": ((str,), True)},
     "live.start": {"gait": ((str,), True), "terrain": ((str,), False)},
     "live.follow": {"x": ((int, float), True), "y": ((int, float), True)},
     "live.terrain": {"terrain": ((str,), True)},
@@ -219,18 +225,36 @@ class Jobs:
         self.pool = ThreadPoolExecutor(1, thread_name_prefix="studio-job")
         self.jobs: dict[str, dict] = {}
         self._n = 0
+        self._cancel: dict[str, threading.Event] = {}
+        self._futures: dict[str, Future] = {}
+        self._push: dict[str, Callable[..., None]] = {}
 
     def list(self) -> list[dict]:
         return list(self.jobs.values())
+
+    def cancel(self, job_id: str) -> dict:
+        """Stop a job: a queued one never starts; a running one stops after the batch (a search)
+        or round (a tuning) in flight, which is committed, and its run is left "interrupted", so
+        that ``sanlab search --resume RUN`` / ``sanlab tune --resume RUN`` carries it on. A job
+        that has already ended is returned as it is (cancelling twice is no error)."""
+        job = self.jobs.get(job_id)
+        if job is None:
+            raise StudioError(f"job.cancel: no job {job_id!r}" + (f" (jobs: {', '.join(self.jobs)})" if self.jobs else ""))
+        if job["status"] in ("queued", "running"):
+            self._cancel[job_id].set()
+            job["status"] = "cancelled" if self._futures[job_id].cancel() else "cancelling"
+            self._push[job_id](True)
+        return dict(job)
 
     def submit(self, kind: str, label: str, fn: Callable[[Callable[[dict], None]], Any]) -> dict:
         self._n += 1
         job = {"id": f"job{self._n}", "kind": kind, "label": label, "status": "queued", "done": 0,
                "total": None, "best": None, "rate": None, "run_id": None, "result": None, "error": None,
-               "started": time.time()}
+               "resume": None, "started": time.time()}
         self.jobs[job["id"]] = job
         loop = asyncio.get_running_loop()
         last = [0.0]
+        cancel = self._cancel[job["id"]] = threading.Event()
 
         def push(force: bool = False) -> None:
             now = time.monotonic()
@@ -242,15 +266,27 @@ class Jobs:
 
         def report(p: dict) -> None:
             job.update({k: v for k, v in p.items() if k in ("run_id", "done", "total", "best", "rate")})
-            job["status"] = "running"
+            if cancel.is_set():
+                if not p.get("finished"):
+                    raise JobCancelled  # the driver marks the run interrupted and re-raises it
+            else:
+                job["status"] = "running"
             push(force=p.get("done") == p.get("total"))
 
         def work() -> None:
+            if cancel.is_set():  # cancelled as it was about to start
+                job["status"] = "cancelled"
+                push(True)
+                return
             job["status"] = "running"
             push(True)
             try:
                 job["result"] = fn(report)
                 job["status"] = "done"
+            except JobCancelled:
+                job["status"] = "cancelled"
+                if job["run_id"]:
+                    job["resume"] = f"sanlab {kind} --resume {job['run_id']}"
             except StudioError as e:
                 job["status"], job["error"] = "failed", str(e)
             except Exception as e:  # the server must keep serving
@@ -258,8 +294,14 @@ class Jobs:
                 job["status"], job["error"] = "failed", f"{type(e).__name__}: {e}"
             push(True)
 
-        self.pool.submit(work)
+        self._push[job["id"]] = push
+        self._futures[job["id"]] = self.pool.submit(work)
         return dict(job)
+
+
+class JobCancelled(Exception):
+    """Raised by a cancelled job's progress callback, which the search driver calls after each
+    committed batch: the driver then marks the job's run interrupted and re-raises it."""
 
 
 class Studio:
@@ -356,6 +398,8 @@ class Studio:
             return self.jobs.submit("tune", label, lambda report: {"gait": svc.tune(args, report)})
         if op == "jobs":
             return self.jobs.list()
+        if op == "job.cancel":
+            return self.jobs.cancel(a["job"])
         if op == "live.start":
             terrain = a.get("terrain") or None
             session = await loop.run_in_executor(self.live_pool, lambda: svc.live(a["gait"], terrain))

@@ -310,13 +310,14 @@ class Service:
 
     def search(self, args: dict, reporter: Callable[[dict], None]) -> str:
         """Run a phase-1 search (``args`` from :meth:`prepare_search`) as `sanlab search` does,
-        committing each batch; ``reporter`` gets {run_id, done, total, best, rate} after each
-        batch. Returns the run id."""
+        committing each batch; ``reporter`` gets {run_id, done, total, best, rate, finished} after
+        each batch (``finished``: the run has ended); an exception it raises stops the search,
+        which leaves the run interrupted (resumable) and re-raises it. Returns the run id."""
         from sanlab.search import run_search
 
         def report(p) -> None:
             reporter({"run_id": p.run_id, "done": p.evaluated, "total": p.total,
-                      "best": _num(p.best), "rate": _num(p.rate)})
+                      "best": _num(p.best), "rate": _num(p.rate), "finished": p.done})
 
         with self._lib() as lib:
             try:
@@ -344,13 +345,14 @@ class Service:
 
     def tune(self, args: dict, reporter: Callable[[dict], None]) -> str:
         """Tune one gait (``args`` from :meth:`prepare_tune`) as `sanlab tune` does; ``reporter``
-        gets {run_id, done, total, best, rate} after each round (run_id: the tuning run's, as a
-        search job reports its run). Returns the tuned gait's id RUN#0."""
+        gets {run_id, done, total, best, rate, finished} after each round (run_id: the tuning
+        run's, as a search job reports its run; an exception it raises stops the tuning as for
+        :meth:`search`). Returns the tuned gait's id RUN#0."""
         from sanlab.search.tune import tune
 
         def report(p) -> None:
             reporter({"run_id": p.run_ids[0] if p.run_ids else None, "done": p.trials, "total": p.total,
-                      "best": _num(p.best), "rate": _num(p.rate)})
+                      "best": _num(p.best), "rate": _num(p.rate), "finished": p.done})
 
         with self._lib() as lib:
             try:

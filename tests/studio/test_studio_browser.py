@@ -188,6 +188,25 @@ def test_a_search_from_the_page_equals_the_cli_search(page, studio, library, tmp
     assert got == want
 
 
+def test_a_job_cancelled_from_the_page_says_how_to_resume_it(page, studio, library):
+    wait_view(page, "library")
+    page.select_option("#search-creature", "cart")
+    page.fill("#search-n", str(12 * 256))
+    page.fill("#search-seconds", "1")
+    page.fill("#search-seed", "11")
+    page.click("#search-start")
+    job = page.locator(".job").first
+    page.wait_for_function("(() => { const j = document.querySelector('.job');"
+                           " return j && j.dataset.status === 'running' && j.querySelector('a'); })()")
+    job.locator("button.job-cancel").click()
+    page.wait_for_function("document.querySelector('.job').dataset.status === 'cancelled'")
+    assert job.locator("button.job-cancel").count() == 0  # an ended job has no button
+    run_id = job.locator("a").first.inner_text().split()[-1]
+    assert job.locator("code.job-resume").inner_text() == f"sanlab search --resume {run_id}"
+    with Library(library["db"]) as lib:
+        assert lib.get_run(run_id).status == "interrupted" and 0 < lib.count(run_id) < 12 * 256
+
+
 def test_bad_input_is_shown_in_the_page_and_changes_nothing(page, studio, library, tmp_path):
     wait_view(page, "library")
     with Library(library["db"]) as lib:

@@ -171,3 +171,93 @@ def test_a_tune_job_reports_the_run_it_writes(library, tmp_path):
     assert seen and {p["run_id"] for p in seen} == {tuned.split("#")[0]}
     with Library(db) as lib:
         assert lib.get_run(tuned.split("#")[0]).kind == "tune"
+
+
+def _job_push(ws, job_id: str, statuses: set, timeout: float = 300.0) -> dict:
+    """The next pushed state of job ``job_id`` whose status is one of ``statuses``."""
+    while True:
+        msg = json.loads(ws.recv(timeout=timeout))
+        if msg["type"] == "job" and msg["job"]["id"] == job_id and msg["job"]["status"] in statuses:
+            return msg["job"]
+
+
+def test_a_cancelled_job_stops_after_its_batch_and_its_run_resumes(library, tmp_path):
+    """A running search stops after the batch in flight, which is kept, and leaves its run
+    interrupted with the command that carries it on; a queued job never starts; cancelling an
+    ended job is no error, an unknown one is; `sanlab search --resume` then finishes the run."""
+    import shutil
+
+    from sanlab.cli import app
+    from sanlab.studio.server import StudioServer
+
+    db = str(tmp_path / "copy.db")
+    shutil.copy(library["db"], db)
+    before = {r[0] for r in fingerprint(db)}
+    with StudioServer(db, port=0, poll=0.25) as server, connect(ws_url(server)) as ws:
+        big = {"op": "search", "creature": "cart", "controllers": 12 * 256, "seconds": 1.0, "seed": 3}
+        ws.send(json.dumps({"id": 1, **big}))
+        first = reply(ws)["data"]
+        ws.send(json.dumps({"id": 2, **big, "seed": 4}))
+        queued = reply(ws)["data"]
+        assert queued["status"] == "queued"
+        # the queued one first: it never runs
+        ws.send(json.dumps({"id": 3, "op": "job.cancel", "job": queued["id"]}))
+        assert reply(ws)["data"]["status"] == "cancelled"
+        while True:  # the first has committed a batch
+            job = _job_push(ws, first["id"], {"running"})
+            if job["done"]:
+                break
+        ws.send(json.dumps({"id": 4, "op": "job.cancel", "job": first["id"]}))
+        assert reply(ws)["data"]["status"] in ("cancelling", "cancelled")
+        job = _job_push(ws, first["id"], {"cancelled", "done", "failed"})
+        assert job["status"] == "cancelled" and job["error"] is None
+        run_id = job["run_id"]
+        assert job["resume"] == f"sanlab search --resume {run_id}"
+        ws.send(json.dumps({"id": 5, "op": "job.cancel", "job": first["id"]}))  # again: no error
+        r = reply(ws)
+        assert r["ok"] and r["data"]["status"] == "cancelled"
+        ws.send(json.dumps({"id": 6, "op": "job.cancel", "job": "job99"}))
+        r = reply(ws)
+        assert not r["ok"] and r["error"].startswith("job.cancel: no job 'job99'")
+        ws.send(json.dumps({"id": 7, "op": "jobs"}))
+        assert [j["status"] for j in reply(ws)["data"]] == ["cancelled", "cancelled"]
+    with Library(db) as lib:
+        runs = {r.run_id: r for r in lib.runs()}
+        assert set(runs) - before == {run_id}  # the queued job made no run
+        kept = lib.count(run_id)
+        assert runs[run_id].status == "interrupted" and 0 < kept < 12 * 256 and kept % 256 == 0
+    r = CliRunner().invoke(app, ["search", "--resume", run_id, "--db", db])
+    assert r.exit_code == 0, r.output
+    with Library(db) as lib:
+        assert lib.get_run(run_id).status == "done" and lib.count(run_id) == 12 * 256
+
+
+def test_a_tuning_stopped_by_its_reporter_is_left_interrupted_and_resumes(library, tmp_path):
+    """How a tune job is cancelled: its progress callback raises after a round, the tuning run is
+    left interrupted, and `sanlab tune --resume` finishes it."""
+    import shutil
+
+    from sanlab.cli import app
+    from sanlab.studio.app import JobCancelled
+    from sanlab.studio.service import Service
+
+    db = str(tmp_path / "copy.db")
+    shutil.copy(library["db"], db)
+    svc = Service(db)
+    args = svc.prepare_tune(gait=f"{library['cart']}/1", trials=24)
+    seen: list[dict] = []
+
+    def report(p: dict) -> None:
+        seen.append(p)
+        if p["done"]:
+            raise JobCancelled
+
+    with pytest.raises(JobCancelled):
+        svc.tune(args, report)
+    run_id = seen[-1]["run_id"]
+    with Library(db) as lib:
+        assert lib.get_run(run_id).status == "interrupted"
+    r = CliRunner().invoke(app, ["tune", "--resume", run_id, "--db", db])
+    assert r.exit_code == 0, r.output
+    with Library(db) as lib:
+        assert lib.get_run(run_id).status == "done"

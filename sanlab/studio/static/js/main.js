@@ -27,13 +27,18 @@ class JobsPanel {
         ? (j.result.run_id ? h("a", { href: `#/run/${j.result.run_id}`, class: "job-result" }, `run ${j.result.run_id}`)
           : h("a", { href: gaitHref(j.result.gait), class: "job-result" }, `gait ${j.result.gait}`))
         : j.run_id ? h("a", { href: `#/run/${j.run_id}` }, `run ${j.run_id}`) : null;
+      const cancel = j.status === "queued" || j.status === "running"
+        ? h("button", { class: "job-cancel", title: "stop after the batch in flight (resumable)",
+          onclick: () => this.app.api.request("job.cancel", { job: j.id }).catch((e) => showError(e.message)) }, "Cancel")
+        : null;
       return h("div", { class: `job job-${j.status}`, dataset: { job: j.id, status: j.status } },
         h("div", { class: "job-label" }, j.label, " · ", h("b", {}, j.status), " ", link,
-          j.error ? h("span", { class: "job-error" }, ` ${j.error}`) : null),
+          j.error ? h("span", { class: "job-error" }, ` ${j.error}`) : null,
+          j.resume ? h("span", { class: "muted" }, " · continue with ", h("code", { class: "job-resume" }, j.resume)) : null),
         h("progress", { max: 1, value: frac }),
         h("span", { class: "muted mono" }, `${j.done ?? 0}/${j.total ?? "?"}` +
           (j.best !== null && j.best !== undefined ? ` · best ${j.best.toPrecision(3)}` : "") +
-          (j.rate ? ` · ${j.rate.toFixed(0)}/s` : "")));
+          (j.rate ? ` · ${j.rate.toFixed(0)}/s` : "")), cancel);
     });
     this.el.replaceChildren(...items);
     this.el.hidden = items.length === 0;
