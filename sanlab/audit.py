@@ -8,7 +8,9 @@ ensemble draws) under each *nudge* of :data:`NUDGES`: the step halved and quarte
 arithmetic in float64. It is flagged *resolution-dependent* when a nudge changes its robust
 speed by more than ``threshold`` (default 10 %) of the speed re-scored without a nudge; speeds
 are compared relative to at least :data:`FLOOR_CM_S`, so a gait that stands still is not flagged
-for moving 0.02 instead of 0.01 cm/s.
+for moving 0.02 instead of 0.01 cm/s. It is flagged *not reproduced* when the speed re-scored
+without a nudge is that far from the stored one: a score stored by another engine, or edited in
+an imported file, is not vouched for however well it survives the nudges.
 
 Every nudged evaluation replays the same compiled step (``sanlab.evaluate.Evaluator``), only
 with another ``dt`` or dtype: there is no second physics.
@@ -60,20 +62,42 @@ class Audit:
         return max(self.changes.values(), default=0.0)
 
     @property
-    def flagged(self) -> bool:
-        """Resolution-dependent: some nudge changed the speed by more than the threshold."""
+    def resolution_dependent(self) -> bool:
+        """Some nudge changed the speed by more than the threshold."""
         return self.worst > self.threshold
+
+    @property
+    def stored_change(self) -> float:
+        """How far the stored speed is from the one re-scored without a nudge (relative, as
+        ``changes``)."""
+        a, b = self.stored_cm_s, self.nominal_cm_s
+        if not (math.isfinite(a) and math.isfinite(b)):
+            return 0.0 if (math.isnan(a) and math.isnan(b)) or a == b else math.inf
+        return abs(a - b) / max(abs(b), FLOOR_CM_S)
+
+    @property
+    def reproduced(self) -> bool:
+        """The stored speed is what this sanlab re-scores, within the threshold."""
+        return self.stored_change <= self.threshold
+
+    @property
+    def flagged(self) -> bool:
+        """The audit does not vouch for the stored speed: resolution-dependent or not reproduced."""
+        return self.resolution_dependent or not self.reproduced
 
     def summary(self) -> str:
         """One line, e.g. "robust: worst change 3 % (dt/4)"."""
         if not self.changes:
             return "not audited"
+        if not self.reproduced:
+            return f"NOT REPRODUCED: stored {self.stored_cm_s:.1f} cm/s, re-scored {self.nominal_cm_s:.1f}"
         name = max(self.changes, key=lambda k: self.changes[k])
         what = "RESOLUTION-DEPENDENT" if self.flagged else "robust"
         return f"{what}: worst change {100 * self.worst:.0f} % ({name})"
 
     def to_json(self) -> dict[str, Any]:
         return {"stored_cm_s": _finite(self.stored_cm_s), "nominal_cm_s": _finite(self.nominal_cm_s),
+                "reproduced": self.reproduced,
                 "speeds": {k: _finite(v) for k, v in self.speeds.items()},
                 "changes": {k: _finite(v) for k, v in self.changes.items()}, "fell": dict(self.fell),
                 "threshold": self.threshold, "dt": self.dt, "members": self.members}
@@ -129,7 +153,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
 
     nominal, _ = speed(1.0, run.dtype or "float32")  # as it was scored
     if log:
-        log(f"{g.gait_id}: {nominal:.1f} cm/s as stored (stored {g.speed_cm_s:.1f})")
+        log(f"{g.gait_id}: {nominal:.1f} cm/s re-scored as it was scored (stored {g.speed_cm_s:.1f})")
     speeds, changes, fell = {}, {}, {}
     for name, factor, dtype in nudges:
         v, f = speed(factor, dtype)

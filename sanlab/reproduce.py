@@ -252,6 +252,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
 def _verdict(audit: dict | None) -> str:
     if not audit:
         return "not audited"
+    if audit.get("reproduced") is False:
+        return f"not reproduced: stored {audit.get('stored_cm_s')} cm/s, re-scored {audit.get('nominal_cm_s')}"
     changes = {k: (float("inf") if v is None else v) for k, v in (audit.get("changes") or {}).items()}
     what = "flagged" if audit.get("flagged") else "robust"
     if not changes:

@@ -129,6 +129,32 @@ def test_the_verdict_is_stored_shown_and_exported(audited):
     assert "audited: robust" in run_cli("show", f"{sled}/1", "--db", str(path)).stdout
 
 
+def test_a_stored_speed_the_audit_does_not_reproduce_is_flagged(audited, tmp_path):
+    """A robust gait imported with an edited speed: every nudge agrees with the re-scored speed,
+    but that is not the stored one, so the audit vouches for nothing (it said "robust")."""
+    path, out, sled, _ = audited
+    db = tmp_path / "forged.db"
+    with Library(path) as lib:
+        record = lib.export_gait(f"{sled}/1")
+    record.pop("audit", None)
+    record["score"], record["speed_cm_s"] = record["score"] * 50, record["speed_cm_s"] * 50
+    with Library(db) as lib:
+        forged = lib.import_gait(record)
+        a = audit_and_store(lib, forged)
+    assert a.nominal_cm_s == pytest.approx(out["sled"].nominal_cm_s, rel=0.02)  # the motion re-scored (another ensemble draw)
+    assert not a.resolution_dependent and not a.reproduced and a.flagged
+    assert a.summary().startswith("NOT REPRODUCED")
+    r = run_cli("audit", forged, "--db", str(db))
+    verdicts = [line.split()[-1] for line in r.stdout.splitlines() if line.startswith(forged.split("/")[0])]
+    assert r.exit_code == 0 and "not reproduced:" in r.stdout and verdicts and "robust" not in verdicts
+    [row] = json.loads(run_cli("audit", forged, "--json", "--db", str(db)).stdout)
+    assert row["flagged"] is True and row["reproduced"] is False
+    shown = run_cli("show", forged, "--db", str(db)).stdout
+    assert "not reproduced" in shown and "audited: robust" not in shown and "resolution-dependent" not in shown
+    top = json.loads(run_cli("show", forged.split("/")[0], "--json", "--db", str(db)).stdout)["top"]
+    assert (top[0]["reproduced"], top[0]["resolution_dependent"]) == (False, False)
+
+
 def test_audit_command_prints_and_stores(audited):
     path, _, sled, _ = audited
     r = run_cli("audit", f"{sled}/1", "--json", "--db", str(path))

@@ -324,8 +324,8 @@ ARROWS = {"+x": "→", "-x": "←", None: " "}
 def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
     """The run's ``n`` best gaits as the rows ``--json`` prints: gait id, score, speed (cm/s),
     the signed displacement along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the
-    run did not store it), flags (``resolution_dependent``: the verdict of the gait's stored audit,
-    null when it was never audited; see ``sanlab audit``), encoding."""
+    run did not store it), flags (``resolution_dependent`` and ``reproduced``: the verdicts of the
+    gait's stored audit, null when it was never audited; see ``sanlab audit``), encoding."""
     audits = lib.audits(run_id)
     rows = []
     for rank, e in enumerate(lib.top(run_id, n), 1):
@@ -334,7 +334,8 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
         rows.append({
             "gait": f"{run_id}/{rank}", "score": e.score, "speed_cm_s": e.speed_cm_s, "dx_m": dx,
             "direction": direction(dx), "fell": e.fell, "nonfinite": e.nonfinite,
-            "resolution_dependent": audits[e.idx].flagged if e.idx in audits else None, "encoding": e.encoding,
+            "resolution_dependent": audits[e.idx].resolution_dependent if e.idx in audits else None,
+            "reproduced": audits[e.idx].reproduced if e.idx in audits else None, "encoding": e.encoding,
         })
     return rows
 
@@ -346,8 +347,10 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
     table = Table("rank", "gait", score, "speed (cm/s)", "flags", title=safe(title))
     for rank, r in enumerate(rows, 1):
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
+                                          ("not reproduced", r.get("reproduced") is False),
                                           ("resolution-dependent", r.get("resolution_dependent")),
-                                          ("audited: robust", r.get("resolution_dependent") is False)) if on)
+                                          ("audited: robust", r.get("resolution_dependent") is False
+                                           and r.get("reproduced") is not False)) if on)
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)

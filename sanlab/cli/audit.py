@@ -8,6 +8,7 @@ import math
 from typing import Annotated
 
 import typer
+from rich import box
 from rich.table import Table
 
 from sanlab import configure
@@ -29,7 +30,8 @@ def audit(
 
     Each gait is re-scored exactly as it was scored (same ensemble and draws), once per nudge; a
     gait whose robust speed changes by more than the threshold is flagged resolution-dependent,
-    here, in `sanlab show` and in exports. The audit is stored in the library.
+    and one whose stored speed is that far from the re-scored one is flagged not reproduced
+    (here, in `sanlab show` and in exports). The audit is stored in the library.
 
     With --select and a tuning run: up to 16 rungs of its chain's climb (its start, its best and
     the vectors that first reached the scores between) are audited, and the best-scoring one that
@@ -70,16 +72,23 @@ def audit(
                                 **a.to_json()} for a in results], indent=2))
         return
     names = list(results[0].speeds) if results else []
-    table = Table(title="audit: robust speed (cm/s) under nudges, change against the re-scored speed")
+    # borderless and wrapping: seven columns fit 80 characters, a narrower terminal wraps cells
+    # rather than cutting off the verdict
+    table = Table(title="audit: robust speed (cm/s) under nudges, change against the re-scored speed",
+                  box=box.SIMPLE_HEAD, collapse_padding=True, pad_edge=False)
     table.add_column("gait", no_wrap=True)
     for name in ("stored", "re-scored", *names, "verdict"):
-        table.add_column(name, no_wrap=True)
+        table.add_column(name)
     for a in results:
         cells = [f"{a.speeds[n]:.1f} {100 * a.changes[n]:.0f}%" for n in names]
-        verdict = "[red]flagged[/red]" if a.flagged else "[green]robust[/green]"
+        verdict = ("[red]not reproduced[/red]" if not a.reproduced else "[red]flagged[/red]" if a.flagged
+                   else "[green]robust[/green]")
         table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}", *cells, verdict)
     console.print(table)
-    if any(a.flagged for a in results):
+    if any(not a.reproduced for a in results):
+        console.print(f"not reproduced: the stored speed is more than {100 * threshold:.0f} % from what this sanlab "
+                      "re-scores (a score from another engine, or edited): quote the re-scored speed, or search again")
+    if any(a.resolution_dependent for a in results):
         console.print(f"flagged: resolution-dependent (a nudge moved the speed more than {100 * threshold:.0f} %); "
                       "`sanlab show` and exports say so")
 

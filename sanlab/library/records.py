@@ -180,9 +180,23 @@ class AuditRecord:
 
     gait_id: str  # "RUN#IDX"
     created: str  # ISO 8601 UTC
-    flagged: bool  # resolution-dependent: a nudge changed its speed by more than the threshold
+    flagged: bool  # the audit does not vouch for the stored speed (resolution-dependent or not reproduced)
     worst: float  # the largest relative change of the speed over the nudges (NaN: unknown)
     result: dict  # every nudge's scores, as ``sanlab.audit.Audit.to_json`` wrote them
+
+    @property
+    def reproduced(self) -> bool:
+        """The speed re-scored without a nudge matched the stored one (audits stored before this
+        check was made did not record it: taken as matched)."""
+        return self.result.get("reproduced", True) is not False
+
+    @property
+    def resolution_dependent(self) -> bool:
+        """A nudge changed the speed by more than the audit's threshold."""
+        if self.reproduced:
+            return self.flagged
+        t = self.result.get("threshold")
+        return not (isinstance(t, (int, float)) and self.worst <= t)
 
 
 @dataclass(frozen=True)

@@ -184,12 +184,13 @@ class Service:
 
     @staticmethod
     def _gait_row(e, run_id: str, audit=None) -> dict:
-        """resolution_dependent: the verdict of the gait's stored audit (`sanlab audit`), None
-        when it was never audited."""
+        """resolution_dependent, reproduced: the verdicts of the gait's stored audit (`sanlab
+        audit`), None when it was never audited."""
         return {"gait": f"{run_id}/{e.rank}", "id": e.gait_id, "run_id": run_id, "rank": e.rank,
                 "score": _num(e.score), "speed_cm_s": _num(e.speed_cm_s), "fell": e.fell,
                 "nonfinite": e.nonfinite, "parent": e.parent,
-                "resolution_dependent": None if audit is None else audit.flagged}
+                "resolution_dependent": None if audit is None else audit.resolution_dependent,
+                "reproduced": None if audit is None else audit.reproduced}
 
     def export(self, gait_id: str) -> dict:
         """The gait as `sanlab export` writes it."""

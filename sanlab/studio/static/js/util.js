@@ -38,6 +38,7 @@ export function flags(g) {
   const out = [];
   if (g.fell) out.push("fell");
   if (g.nonfinite) out.push("non-finite");
+  if (g.reproduced === false) out.push("not reproduced");
   if (g.resolution_dependent) out.push("resolution-dependent");
   return out.join(", ") || "–";
 }
