@@ -92,6 +92,15 @@ def run() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         code = 130
+    if code == 130 and "jax" in sys.modules:
+        # Interrupted: what was done is committed and the resume hint printed. End here, not in
+        # the interpreter's shutdown, which can crash (SIGSEGV, exit 139) in JAX's native threads
+        # when the interrupt cut a first compile short.
+        import os
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
     sys.exit(code if isinstance(code, int) else 0)
 
 

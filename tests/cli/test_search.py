@@ -59,6 +59,35 @@ def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     assert [r["gait"].split("/")[1] for r in out["top"]] == [str(i) for i in range(1, 11)]
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("after", [1.0, 3.0, 5.0])
+def test_ctrl_c_during_the_first_compile_exits_130_not_a_crash(tmp_path, after):
+    """Interrupted while its program compiles (an empty compile cache): the run is left
+    interrupted with the resume hint, exit status 130. The interpreter's shutdown used to crash in
+    JAX's native threads when the interrupt came late in the compile (SIGSEGV, exit 139)."""
+    db = tmp_path / "gaits.db"
+    env = dict(os.environ, SANLAB_CACHE=str(tmp_path / "cache"))
+    args = ["search", "bounder", "-n", "300", "--batch", "8", "--seconds", "2", "--db", str(db)]
+    proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=interruptible, env=env)
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:  # the run exists: its first compile has begun
+        try:
+            with sqlite3.connect(db, timeout=5) as c:
+                if c.execute("select count(*) from runs").fetchone()[0]:
+                    break
+        except sqlite3.Error:
+            pass
+        time.sleep(0.05)
+    time.sleep(after)  # somewhere in the cold compile (about 10 s on a 2-core machine)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err[-2000:]
+    assert "--resume" in err and "Traceback" not in err
+    with Library(str(db)) as lib:
+        assert lib.runs()[0].status == "interrupted"
+
+
 def test_search_json_has_the_documented_shape(tmp_path):
     db = str(tmp_path / "g.db")
     r = subprocess.run(SANLAB + ["search", "cart", "-n", "20", "--seconds", "0.5", "--db", db, "--json"],
