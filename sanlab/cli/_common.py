@@ -99,7 +99,7 @@ def ensemble_or_exit(members: int) -> Any:
     try:
         return Ensemble(members=members)
     except ValueError as e:
-        raise fail(f"--ensemble: {e}") from None
+        raise fail(option_error("--ensemble", e)) from None
 
 
 def backend_or_exit(name: str, address: str | None, workers: int | None) -> Any:
@@ -112,7 +112,7 @@ def backend_or_exit(name: str, address: str | None, workers: int | None) -> Any:
     except ImportError as e:
         raise fail(str(e)) from None
     except ValueError as e:
-        raise fail(f"--backend: {e}") from None
+        raise fail(option_error("--backend", e)) from None
 
 
 def load_or_exit(name_or_path: str) -> tuple[Creature, str]:
@@ -197,6 +197,13 @@ def check_seconds(value: float | None, spec: Creature | None = None, option: str
     return float(value)
 
 
+def option_error(option: str, e: Exception) -> str:
+    """``option: message`` for an error about an option's value, without the option's bare name
+    twice when the message already starts with it ("--metric: metric: ...")."""
+    msg, bare = str(e), option.lstrip("-") + ": "
+    return f"{option}: {msg[len(bare):] if msg.startswith(bare) else msg}"
+
+
 def check_metric(value: str | None, spec: Creature, option: str = "--metric") -> str | None:
     """Exit 2 unless ``value`` is None or a metric ``spec`` can be scored by."""
     if value is None:
@@ -206,7 +213,7 @@ def check_metric(value: str | None, spec: Creature, option: str = "--metric") ->
     try:
         Metric.for_creature(spec, value)
     except ValueError as e:
-        raise fail(f"{option}: {e}") from None
+        raise fail(option_error(option, e)) from None
     return value
 
 
@@ -217,7 +224,7 @@ def check_gait(value: str, option: str = "GAIT") -> str:
     try:
         parse_gait_id(value)
     except LibraryError as e:
-        raise fail(f"{option}: {e}") from None
+        raise fail(option_error(option, e)) from None
     return value
 
 

@@ -262,8 +262,12 @@ def import_(
         raise fail(f"{file}: expected JSON, got a syntax error at line {e.lineno}, column {e.colno} ({e.msg})") from None
     except RecursionError:
         raise fail(f"{file}: expected an exported gait, got JSON nested too deep to read") from None
+    from sanlab.library import LibraryError
     from sanlab.library.exchange import validate_gait
 
-    library_call(validate_gait, data)  # before the library is opened: a bad file creates no library either
+    try:  # before the library is opened: a bad file creates no library either
+        validate_gait(data)
+    except LibraryError as e:
+        raise fail(f"{file}: {e}") from None
     lib = open_library(db, create=True)  # an import starts a run: it may start the library too
     typer.echo(library_call(lib.import_gait, data))

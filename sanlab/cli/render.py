@@ -124,7 +124,9 @@ def _sheet_title(library: Library, run: Run, n: int) -> str:
 
 def render(
     target: Annotated[str, typer.Argument(help="A gait (RUN/RANK, e.g. 3fa1c2d0/1, or RUN#IDX) or a run id.")],
-    out: Annotated[str | None, typer.Option("--out", "-o", help="Output file: .gif or .mp4 (animation), .png (strobe picture, contact sheet or plot).")] = None,
+    out: Annotated[str | None, typer.Option("--out", "-o", help=(
+        "Output file: .gif or .mp4 (animation), .png (strobe picture, contact sheet or plot); default, in the "
+        "current folder: RUN_RANK.gif (a gait), RUN_topN.png (a sheet), RUN_PLOT.png."))] = None,
     seconds: Annotated[float | None, typer.Option(min=0.001, help="Replay this long (s); default: the run's evaluation time.")] = None,
     fps: Annotated[float, typer.Option(min=1.0, max=100.0, help="Frames recorded (and played) per second.")] = 30.0,
     width: Annotated[int | None, typer.Option(min=64, max=4096, help="Picture width in pixels; default 640 (animation), 1000 (strobe), 1200 (sheet).")] = None,
@@ -157,6 +159,8 @@ def render(
         if ext not in allowed:
             what = "an animation (.gif, .mp4) or a strobe picture (.png)" if len(allowed) > 1 else (
                 "a plot" if plot else "a contact sheet") + " (.png)"
+            if ext in allowed or ext in (*ANIMATIONS, ".png"):  # a kind sanlab writes, but not of this target
+                raise fail(f"--out {out}: {'a run' if not gait else 'a plot'} is drawn as {what}, not {ext}")
             raise fail(f"--out {out}: unknown kind {ext or '(no extension)'!r}; expected {what}")
         folder = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(folder):

@@ -85,7 +85,7 @@ def _exit(fn, *args, **kw) -> str:
     (dict(seconds=float("nan")), "--seconds"),
     (dict(seconds=1e30), "--seconds"),
     (dict(seconds=1e-6), "--seconds: expected at least one step of dt = 0.001 s"),
-    (dict(metric="speed"), "--metric: metric: expected one of"),
+    (dict(metric="speed"), "--metric: expected one of"),
     (dict(metric="distance_upright"), "needs a way to fall"),
 ])  # fmt: skip
 def test_run_arguments_are_checked_before_a_run(capsys, kw, words):

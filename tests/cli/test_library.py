@@ -65,5 +65,5 @@ def test_a_bad_export_starts_no_library(tmp_path):
     gait.write_text(json.dumps(exported))
     db = tmp_path / "new.db"
     r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
-    assert r.exit_code == 2 and "bad sanlab gait: encoding" in r.output, r.output
+    assert r.exit_code == 2 and r.output.startswith(f"{gait}: bad sanlab gait: encoding"), r.output
     assert not db.exists()  # "a bad file leaves the library as it was": here, no library at all

@@ -116,7 +116,7 @@ def test_default_output_name_and_summary(lib_run, tmp_path, monkeypatch):
         (["{run}#999"], "no evaluation #999"),
         (["nothex/1"], "malformed gait id"),
         (["{run}/1", "--out", "x.jpg"], "unknown kind '.jpg'"),
-        (["{run}", "--out", "x.gif"], "contact sheet (.png)"),
+        (["{run}", "--out", "x.gif"], "a run is drawn as a contact sheet (.png), not .gif"),
         (["{run}", "--plot", "nope"], "--plot: expected scores or trace"),
         (["{run}/1", "--plot", "scores"], "--plot takes a run id"),
         (["{run}", "--plot", "trace"], "no tuning trace"),
