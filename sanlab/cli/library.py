@@ -154,11 +154,11 @@ def _print_values(values: dict) -> None:
         same = row["value"] == row["file"] or (row["file"] is not None and abs(row["value"] - row["file"]) <= 1e-9 * max(1.0, abs(row["file"])))
         style = "" if same else "bold"
         tuned += not same
-        shown = f"[{style}]{row['value']:.6g}[/{style}]" if style else f"{row['value']:.6g}"
+        shown = f"[{style}]{row['value']:.6g} *[/{style}]" if style else f"{row['value']:.6g}"  # '*': seen without bold too
         table.add_row(safe(row["part"]), safe(row["name"]), shown, "-" if row["file"] is None else f"{row['file']:.6g}", row["unit"])
     console.print(table)
     if tuned:  # the legend only where there is something bold
-        console.print("[dim]bold: tuned away from the creature file[/dim]")
+        console.print("[dim]*: tuned away from the creature file[/dim]")
 
 
 def _print_network(net: dict) -> None:

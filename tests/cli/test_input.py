@@ -401,3 +401,18 @@ def test_a_network_wider_than_the_terminal_is_split_into_tables_that_fit(lib_run
     cells = sum(len(re.findall(r"(?<=│ )([+-][12]|0)(?= +│)", line)) for line in text.splitlines()
                 if re.match(r"│ (H\d|A\d)", line))
     assert cells == 6 * 12
+
+
+def test_tuned_parameters_are_marked_without_colour_too():
+    """Piped output has no bold: a parameter tuned away from the creature file carries a '*'."""
+    from sanlab.cli._common import console
+    from sanlab.cli.library import _print_values
+
+    rows = [{"part": "actuator A1", "name": "ks", "value": 0.003, "file": 0.002, "unit": "N m/deg"},
+            {"part": "actuator A1", "name": "kd", "value": 0.001, "file": 0.001, "unit": "N m s/deg"}]
+    with console.capture() as cap:
+        _print_values({"rows": rows})
+    lines = cap.get().splitlines()
+    assert any("ks" in line and "0.003 *" in line for line in lines)
+    assert not any("kd" in line and "*" in line for line in lines)
+    assert "*: tuned away from the creature file" in lines[-1]
