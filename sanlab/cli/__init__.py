@@ -11,7 +11,10 @@ runs (search, import, reproduce, studio) may create it.
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
+import threading
 from typing import Annotated, Any
 
 import typer
@@ -33,8 +36,33 @@ def _version(value: bool) -> None:
         raise typer.Exit()
 
 
-def _terminate(signum, frame) -> None:
-    raise KeyboardInterrupt  # SIGTERM ends a command as Ctrl-C does: stored work kept, a resume hint
+_REDELIVER_S = 0.1
+_last_signal = [signal.SIGINT]
+_pending: list[threading.Timer] = []
+
+
+def _interrupt(signum, frame) -> None:
+    """SIGINT and SIGTERM end a command as Ctrl-C does: stored work kept, a resume hint."""
+    _last_signal[0] = signum
+    raise KeyboardInterrupt
+
+
+def _redeliver_interrupts(hook):
+    """``sys.unraisablehook`` for a command's lifetime. Python drops an exception raised inside a
+    garbage-collector callback (JAX registers one) or a ``__del__``: a signal that landed there
+    would be lost and the command would run on. Such a KeyboardInterrupt is sent again a moment
+    later, out of that context; anything else goes to ``hook``."""
+
+    def unraisable(u) -> None:
+        if isinstance(u.exc_type, type) and issubclass(u.exc_type, KeyboardInterrupt):
+            timer = threading.Timer(_REDELIVER_S, os.kill, (os.getpid(), _last_signal[0]))
+            timer.daemon = True
+            _pending.append(timer)
+            timer.start()
+            return
+        hook(u)
+
+    return unraisable
 
 
 @app.callback()
@@ -45,10 +73,23 @@ def main(
 ) -> None:
     """Discover how planar creatures can move with sensor-actuator networks."""
     try:
-        previous = signal.signal(signal.SIGTERM, _terminate)
+        previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, _interrupt)}
     except ValueError:  # not the main thread (an embedding application): leave signals alone
         return
-    ctx.call_on_close(lambda: signal.signal(signal.SIGTERM, previous))
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not when SIGINT is ignored
+        previous[signal.SIGINT] = signal.signal(signal.SIGINT, _interrupt)
+    hook = sys.unraisablehook
+    sys.unraisablehook = _redeliver_interrupts(hook)
+
+    def restore() -> None:
+        for timer in _pending:
+            timer.cancel()
+        _pending.clear()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        sys.unraisablehook = hook
+
+    ctx.call_on_close(restore)
 
 
 app.command()(creatures.check)
@@ -70,8 +111,6 @@ app.command()(studio.studio)
 def run() -> None:
     """The ``sanlab`` program: :data:`app`, with a command-line mistake (an unknown option, a value
     out of range) reported as one line on stderr, exit 2, like every other error."""
-    import sys
-
     # Typer vendors Click and exports only some of its exceptions: find the bases by name.
     bases: dict[str, Any] = {c.__name__: c for c in typer.BadParameter.__mro__}
     usage_error, click_exception = bases["UsageError"], bases["ClickException"]
@@ -96,8 +135,6 @@ def run() -> None:
         # Interrupted: what was done is committed and the resume hint printed. End here, not in
         # the interpreter's shutdown, which can crash (SIGSEGV, exit 139) in JAX's native threads
         # when the interrupt cut a first compile short.
-        import os
-
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(130)
