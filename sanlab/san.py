@@ -143,8 +143,16 @@ class San:
             x = jnp.concatenate([bits.astype(params.k1.dtype), s.out])
             total = jnp.sum(params.weights * x[None, :], axis=1)
         else:
-            inputs = jnp.concatenate([bits.astype(jnp.int32), s.out.astype(jnp.int32)])
-            x = jnp.sum(inputs << jnp.arange(self.n_inputs, dtype=jnp.int32))
+            if self.n_inputs <= 24:
+                # x as two float32 dot products: every partial sum is a sum of distinct powers of
+                # two below 2^24, so exact, and XLA's CPU backend runs a dot faster than the
+                # integer reduction below (bounder: 3 % of a step; bit-identical results)
+                w = jnp.asarray(np.exp2(np.arange(self.n_inputs)), jnp.float32)
+                dot = lambda a, b: jnp.dot(a.astype(jnp.float32), b, precision=jax.lax.Precision.HIGHEST)
+                x = (dot(bits, w[: self.n_sensors]) + dot(s.out, w[self.n_sensors :])).astype(jnp.int32)
+            else:
+                inputs = jnp.concatenate([bits.astype(jnp.int32), s.out.astype(jnp.int32)])
+                x = jnp.sum(inputs << jnp.arange(self.n_inputs, dtype=jnp.int32))
             pc = jax.lax.population_count
             total = pc(x & p[0]) + 2 * pc(x & p[1]) + 4 * pc(x & p[2]) - 2 * pc(x)
             total = total.astype(params.k1.dtype)

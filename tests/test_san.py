@@ -94,20 +94,23 @@ def test_network_matches_figure_7_transcription():
         assert len(np.unique(u)) > 2  # the actuators really move
 
 
-def test_packed_popcount_sum_equals_the_dot_product():
-    san = San(8, 8, 4)
+@pytest.mark.parametrize("sizes", [(8, 8, 4), (12, 10, 4)], ids=["20 inputs (dot)", "26 inputs (integer sum)"])
+def test_packed_popcount_sum_equals_the_dot_product(sizes):
+    S, H, A = sizes
+    san = San(S, H, A)
+    N = H + A
     w = np.stack([san.random_weights(0, i) for i in range(50)])
-    bits = np.random.default_rng(1).integers(0, 2, (50, 8)).astype(np.float32)
-    out = np.random.default_rng(2).integers(0, 2, (50, 12)).astype(np.float32)
+    bits = np.random.default_rng(1).integers(0, 2, (50, S)).astype(np.float32)
+    out = np.random.default_rng(2).integers(0, 2, (50, N)).astype(np.float32)
     p = san.params(w, 0.1, 0.1)
-    wide = San(8, 8, 4)
     for b in range(50):
         pb = jax.tree_util.tree_map(lambda x: x[b], p)
-        s = wide.init(pb, None)._replace(out=jnp.asarray(out[b]), istate=jnp.full(12, 0.5, jnp.float32))
-        _, u = wide.apply(pb, s, jnp.asarray(bits[b]), DT)
-        x = np.concatenate([bits[b], out[b]])
-        expected = (np.clip(w[b].astype(float) @ x, -2, 2)[8:] + 2) / 4
-        np.testing.assert_array_equal(np.asarray(u), expected)
+        s = san.init(pb, None)._replace(out=jnp.asarray(out[b]), istate=jnp.full(N, 0.5, jnp.float32))
+        s2, u = san.apply(pb, s, jnp.asarray(bits[b]), DT)
+        total = w[b].astype(float) @ np.concatenate([bits[b], out[b]])
+        np.testing.assert_array_equal(np.asarray(u), (np.clip(total, -2, 2)[H:] + 2) / 4)
+        # every node's sum, hidden ones too, decides which way its state moves
+        np.testing.assert_array_equal(np.asarray(s2.istate) > 0.5, total > 0)
 
 
 def test_too_many_inputs_fall_back_to_the_float_sum():
