@@ -92,12 +92,12 @@ class Audit:
         if not self.reproduced:
             return f"NOT REPRODUCED: stored {self.stored_cm_s:.1f} cm/s, re-scored {self.nominal_cm_s:.1f}"
         name = max(self.changes, key=lambda k: self.changes[k])
-        what = "RESOLUTION-DEPENDENT" if self.flagged else "robust"
+        what = "RESOLUTION-DEPENDENT" if self.resolution_dependent else "robust"
         return f"{what}: worst change {100 * self.worst:.0f} % ({name})"
 
     def to_json(self) -> dict[str, Any]:
         return {"stored_cm_s": _finite(self.stored_cm_s), "nominal_cm_s": _finite(self.nominal_cm_s),
-                "reproduced": self.reproduced,
+                "reproduced": self.reproduced, "resolution_dependent": self.resolution_dependent,
                 "speeds": {k: _finite(v) for k, v in self.speeds.items()},
                 "changes": {k: _finite(v) for k, v in self.changes.items()}, "fell": dict(self.fell),
                 "threshold": self.threshold, "dt": self.dt, "members": self.members}

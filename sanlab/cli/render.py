@@ -159,8 +159,8 @@ def render(
         if ext not in allowed:
             what = "an animation (.gif, .mp4) or a strobe picture (.png)" if len(allowed) > 1 else (
                 "a plot" if plot else "a contact sheet") + " (.png)"
-            if ext in allowed or ext in (*ANIMATIONS, ".png"):  # a kind sanlab writes, but not of this target
-                raise fail(f"--out {out}: {'a run' if not gait else 'a plot'} is drawn as {what}, not {ext}")
+            if ext in ANIMATIONS:  # a kind sanlab writes, but not of a run
+                raise fail(f"--out {out}: a run is drawn as {what}, not {ext}")
             raise fail(f"--out {out}: unknown kind {ext or '(no extension)'!r}; expected {what}")
         folder = os.path.dirname(os.path.abspath(out))
         if not os.path.isdir(folder):

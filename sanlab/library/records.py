@@ -192,11 +192,9 @@ class AuditRecord:
 
     @property
     def resolution_dependent(self) -> bool:
-        """A nudge changed the speed by more than the audit's threshold."""
-        if self.reproduced:
-            return self.flagged
-        t = self.result.get("threshold")
-        return not (isinstance(t, (int, float)) and self.worst <= t)
+        """A nudge changed the speed by more than the audit's threshold (older audits: flagged
+        meant only that)."""
+        return self.result.get("resolution_dependent", self.flagged) is True
 
 
 @dataclass(frozen=True)

@@ -15,11 +15,11 @@ server also pushes:
 
     {"type": "library", "runs": [[run_id, status, count], ...]}    the library changed
     {"type": "job", "job": {...}}                                   a search or tuning progressed
+    {"type": "live.frames", ...} / {"type": "live.stats", ...} / {"type": "live.reset", ...}
 
 A job's status is queued, running, done, failed, or (after ``{"op": "job.cancel", "job": ID}``)
 cancelling, then cancelled: the batch in flight is committed and the run left interrupted; the
 job's ``resume`` is then the command that carries it on.
-    {"type": "live.frames", ...} / {"type": "live.stats", ...} / {"type": "live.reset", ...}
 
 A failed request changes nothing and the connection stays open.
 
@@ -225,9 +225,7 @@ class Jobs:
         self.pool = ThreadPoolExecutor(1, thread_name_prefix="studio-job")
         self.jobs: dict[str, dict] = {}
         self._n = 0
-        self._cancel: dict[str, threading.Event] = {}
-        self._futures: dict[str, Future] = {}
-        self._push: dict[str, Callable[..., None]] = {}
+        self._control: dict[str, tuple[threading.Event, Future, Callable[..., None]]] = {}  # cancel, future, push
 
     def list(self) -> list[dict]:
         return list(self.jobs.values())
@@ -241,9 +239,10 @@ class Jobs:
         if job is None:
             raise StudioError(f"job.cancel: no job {job_id!r}" + (f" (jobs: {', '.join(self.jobs)})" if self.jobs else ""))
         if job["status"] in ("queued", "running"):
-            self._cancel[job_id].set()
-            job["status"] = "cancelled" if self._futures[job_id].cancel() else "cancelling"
-            self._push[job_id](True)
+            cancel, future, push = self._control[job_id]
+            cancel.set()
+            job["status"] = "cancelled" if future.cancel() else "cancelling"
+            push(True)
         return dict(job)
 
     def submit(self, kind: str, label: str, fn: Callable[[Callable[[dict], None]], Any]) -> dict:
@@ -254,7 +253,7 @@ class Jobs:
         self.jobs[job["id"]] = job
         loop = asyncio.get_running_loop()
         last = [0.0]
-        cancel = self._cancel[job["id"]] = threading.Event()
+        cancel = threading.Event()
 
         def push(force: bool = False) -> None:
             now = time.monotonic()
@@ -294,8 +293,7 @@ class Jobs:
                 job["status"], job["error"] = "failed", f"{type(e).__name__}: {e}"
             push(True)
 
-        self._push[job["id"]] = push
-        self._futures[job["id"]] = self.pool.submit(work)
+        self._control[job["id"]] = (cancel, self.pool.submit(work), push)
         return dict(job)
 
 
