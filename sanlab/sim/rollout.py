@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from sanlab.sim.dynamics import Frame, State, advance, make_state, prepare, sense, velocity
+from sanlab.sim.dynamics import Frame, State, _barrier, advance, make_state, prepare, sense, velocity
 from sanlab.sim.model import Model
 
 
@@ -168,7 +168,7 @@ def batch_quantum() -> int:
 
 @lru_cache(maxsize=64)
 def _program(controller: Controller, observer: Observer | None, n_steps: int, every: int, params_batched: bool,
-             fence: bool, with_cstate: bool, devs: tuple):
+             fence: bool, with_cstate: bool, with_state0: bool, devs: tuple):
     """The compiled rollout of one configuration over the devices ``devs``: each device rolls out
     its own contiguous share of the batch, and nothing in the program crosses devices. Without
     recording (``every`` 0) the number of steps is an argument of the program, not part of it
@@ -188,10 +188,19 @@ def _program(controller: Controller, observer: Observer | None, n_steps: int, ev
 
     def local(model, cparams, state0, cstate0, one, steps):
         in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
+        if state0 is None:  # at rest in the start pose, built here: op by op on the host it cost ~50 ms a call
+            if params_batched:
+                state0 = jax.vmap(make_state, in_axes=(in_model,))(model)
+            else:
+                b = jax.tree_util.tree_leaves(cparams)[0].shape[0]
+                # the fence keeps XLA from fusing the whole start state into the broadcast, which
+                # then re-derives it for every element of the batch (20 ms a call at batch 1024)
+                one0 = _barrier(make_state(model), (one > 0) if fence else None)
+                state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (b, *x.shape)), one0)
         return _batched(model, controller, observer, n_steps if every else steps, every, cparams, state0,
                         cstate0, (one > 0) if fence else None, in_model)
 
-    specs = (B if params_batched else R, B, B, B if with_cstate else R, R, R)
+    specs = (B if params_batched else R, B, B if with_state0 else R, B if with_cstate else R, R, R)
     return mesh, jax.jit(jax.shard_map(local, mesh=mesh, in_specs=specs, out_specs=B, check_vma=False))
 
 
@@ -257,28 +266,22 @@ def rollout(
     q = batch_quantum()
     n = max(pad_to or 0, B)
     n = int(math.ceil(n / q) * q)
-    if state0 is None:
-        if params_batched:  # each member starts at rest in its own pose
-            in_model = jax.tree_util.tree_map(lambda _: 0, model)
-            state0 = jax.vmap(make_state, in_axes=(in_model,))(model)
-        else:
-            state0 = make_state(model)
-    if np.ndim(state0.q) == 1:
+    if state0 is not None and np.ndim(state0.q) == 1:
         state0 = jax.tree_util.tree_map(lambda x: np.broadcast_to(np.asarray(x), (B, *np.shape(x))), state0)
     dtype = model.dtype
     if fence is None:
         fence = devices()[0].platform == "cpu"
     mesh, program = _program(controller, observer, steps if every else 0, every, params_batched, fence,
-                             cstate0 is not None, tuple(devices()))
+                             cstate0 is not None, state0 is not None, tuple(devices()))
     shard = jax.sharding.NamedSharding(mesh, P("b"))
     whole = jax.sharding.NamedSharding(mesh, P())
-    batched = lambda x: jax.device_put(_pad(_host(x, dtype), n), shard)
-    cp = jax.tree_util.tree_map(batched, cparams)
-    s0 = jax.tree_util.tree_map(batched, state0)
-    cs0 = None if cstate0 is None else jax.tree_util.tree_map(batched, cstate0)
-    m = jax.tree_util.tree_map(batched if params_batched else (lambda x: jax.device_put(_host(x, dtype), whole)), model)
-    one = jax.device_put(np.ones((), dtype), whole)
-    n_run = jax.device_put(np.asarray(steps, np.int32), whole)
+    batched = lambda x: _pad(_host(x, dtype), n)
+    host = lambda x: _host(x, dtype)
+    # one transfer call per placement, not one per leaf (a call costs ~0.2 ms, a model has ~40 leaves)
+    cp, s0, cs0 = jax.device_put(jax.tree_util.tree_map(batched, (cparams, state0, cstate0)), shard)
+    m = jax.device_put(jax.tree_util.tree_map(batched if params_batched else host, model),
+                       shard if params_batched else whole)
+    one, n_run = jax.device_put((np.ones((), dtype), np.asarray(steps, np.int32)), whole)
     out = jax.device_get(program(m, cp, s0, cs0, one, n_run))  # each device's share, copied to the host
     state, acc, deepest, finite, frames, cstate = jax.tree_util.tree_map(lambda x: x[:B], out)
     if frames is not None:
