@@ -304,3 +304,36 @@ def test_a_run_continues_exactly_from_its_final_state_and_controller_state():
     np.testing.assert_array_equal(np.asarray(rest.state.q), np.asarray(whole.state.q))
     np.testing.assert_array_equal(np.asarray(rest.cstate.istate), np.asarray(whole.cstate.istate))
     assert not np.array_equal(np.asarray(first.state.q), np.asarray(whole.state.q))  # it moved on
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_the_default_start_state_is_the_one_evaluations_start_from(dtype):
+    # rollout builds the default start state inside its compiled program; it must be, bit for
+    # bit, the state every score starts from (the evaluator's compiled start), so that a replay of
+    # a gait starts where its evaluation did; make_state run op by op on the host agrees to round-off
+    from sanlab.evaluate.evaluator import _start
+
+    spec = creature.load("walker")  # on the host its foot anchors differ from compiled ones in the last bit
+    m = sim.compile_creature(spec, dtype)
+    san, params = random_sans(spec, 5, seed=2)
+    q0 = np.asarray(m.params.q0)[None].repeat(5, 0)
+    scored = _start(m, q0, np.ones(5, bool), False)
+    at0 = sim.rollout(m, san, params, steps=0)
+    for field in ("q", "p", "anchor", "t"):
+        np.testing.assert_array_equal(np.asarray(getattr(at0.state, field)), np.asarray(getattr(scored, field)))
+        np.testing.assert_allclose(np.asarray(getattr(at0.state, field))[0], np.asarray(getattr(sim.make_state(m), field)),
+                                   rtol=0, atol=1e-9)
+    default = sim.rollout(m, san, params, steps=400)
+    given = sim.rollout(m, san, params, steps=400, state0=scored)
+    np.testing.assert_array_equal(np.asarray(default.state.q), np.asarray(given.state.q))
+    np.testing.assert_array_equal(np.asarray(default.state.p), np.asarray(given.state.p))
+    assert np.ptp(np.asarray(default.state.q[:, 0])) > 1e-4  # the controllers moved it, differently
+    # with a batch of models, each member starts in its own pose
+    mb = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (5,) + x.shape), m)
+    q0[:, 1] += np.linspace(0.0, 0.04, 5)
+    mb = mb.with_params(q0=q0)
+    at0 = sim.rollout(mb, san, params, steps=0, params_batched=True)
+    scored = _start(mb, q0, np.ones(5, bool), True)
+    np.testing.assert_array_equal(np.asarray(at0.state.q), q0.astype(dtype))
+    np.testing.assert_array_equal(np.asarray(at0.state.anchor), np.asarray(scored.anchor))
+    assert np.ptp(np.asarray(at0.state.anchor[:, 0, 1])) > 0.03  # the poses differ
