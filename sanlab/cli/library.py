@@ -241,7 +241,8 @@ def import_(
     """Import a gait exported by `sanlab export`; prints its new gait id.
 
     The gait is checked completely (its creature, its network against the creature, every
-    parameter) before anything is written: a bad file leaves the library as it was."""
+    parameter, no unknown field) before anything is written: a bad file leaves the library as it
+    was. An audit in the file is not imported (`sanlab audit` re-runs it on this machine)."""
     from sanlab.creature.files import NotRegularFile, TooLarge, read_regular_file
 
     try:
@@ -270,4 +271,9 @@ def import_(
     except LibraryError as e:
         raise fail(f"{file}: {e}") from None
     lib = open_library(db, create=True)  # an import starts a run: it may start the library too
-    typer.echo(library_call(lib.import_gait, data))
+    gait = library_call(lib.import_gait, data)
+    typer.echo(gait)
+    if isinstance(data.get("audit"), dict):
+        said = "flagged" if data["audit"].get("flagged") else "not flagged"
+        warn(f"the file's audit ({said}) is the exporting sanlab's and was not imported: "
+             f"`sanlab audit {gait}` audits the gait here")

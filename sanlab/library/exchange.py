@@ -6,8 +6,9 @@ Fields: ``format`` ("sanlab-gait"), ``version``, ``source`` (the exported ``RUN#
 ``creature``, ``creature_text`` (the creature file, verbatim), ``creature_hash`` (its SHA-256),
 ``encoding``, ``params``, ``score``, ``speed_cm_s``, ``fell``, ``nonfinite``, ``extra``,
 ``run_params`` (the source run's settings), ``dtype`` and ``sanlab_version``; ``audit`` (the
-gait's artefact audit, when it has one: informative, not imported). Strict JSON: NaN and
-infinities are written as null.
+gait's artefact audit, when it has one: informative, not imported, since an audit re-simulates the
+gait and says what this machine's sanlab makes of it). Strict JSON: NaN and infinities are
+written as null. An import refuses any other field (a misspelt optional one would be lost).
 """
 
 from __future__ import annotations
@@ -67,8 +68,12 @@ def validate_gait(data: Any) -> dict:
         "run_params": (dict, True), "nonfinite": (bool, False),
         "extra": ((dict, type(None)), False), "source": ((str, type(None)), False),
         "creature_hash": (str, False), "dtype": ((str, type(None)), False),
-        "sanlab_version": ((str, type(None)), False),
+        "sanlab_version": ((str, type(None)), False), "audit": ((dict, type(None)), False),
     }
+    unknown = sorted(str(k)[:40] for k in data.keys() - fields.keys() - {"format", "version"})
+    if unknown:  # a misspelt optional field would otherwise be dropped without a word
+        raise LibraryError(f"bad sanlab gait: unknown field {', '.join(map(repr, unknown[:5]))} (version "
+                           f"{GAIT_FORMAT_VERSION} has {', '.join(['format', 'version', *fields])})")
     for name, (types, required) in fields.items():
         if name not in data:
             if required:

@@ -67,3 +67,18 @@ def test_a_bad_export_starts_no_library(tmp_path):
     r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
     assert r.exit_code == 2 and r.output.startswith(f"{gait}: bad sanlab gait: encoding"), r.output
     assert not db.exists()  # "a bad file leaves the library as it was": here, no library at all
+
+
+def test_an_imported_audit_is_named_and_left_behind(tmp_path):
+    exported = cart_export(tmp_path)
+    exported["audit"] = {"flagged": True, "worst": 0.4, "created": "2026-12-01", "result": {}}
+    gait = tmp_path / "gait.json"
+    gait.write_text(json.dumps(exported))
+    db = tmp_path / "new.db"
+    r = runner.invoke(app, ["import", str(gait), "--db", str(db)])
+    assert r.exit_code == 0, r.output
+    gid = r.stdout.strip()  # stdout stays the gait id alone, for scripts
+    assert r.stderr == (f"the file's audit (flagged) is the exporting sanlab's and was not imported: "
+                        f"`sanlab audit {gid}` audits the gait here\n")
+    with Library(db) as lib:
+        assert lib.audits(lib.gait(gid).run_id) == {}

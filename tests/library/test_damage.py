@@ -79,6 +79,8 @@ BAD_IMPORTS = [
     ("a lone surrogate", _set(["creature"], "cart\ud800"), "not valid Unicode"),
     ("unknown dtype", _set(["dtype"], "float16"), "'dtype' must be"),
     ("extra nested too deep", _set(["extra"], {"a": _nested(5000)}), "nested too deep"),
+    ("a misspelt optional field", lambda d: d.update(non_finite=d.pop("nonfinite")), "unknown field 'non_finite'"),
+    ("an audit that is not an object", _set(["audit"], "robust"), "field 'audit' has the wrong type"),
 ]
 
 
