@@ -188,17 +188,18 @@ def _program(controller: Controller, observer: Observer | None, n_steps: int, ev
 
     def local(model, cparams, state0, cstate0, one, steps):
         in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
-        if state0 is None:  # at rest in the start pose, built here: op by op on the host it cost ~50 ms a call
+        gate = (one > 0) if fence else None
+        if state0 is None:  # at rest in the start pose, built here: op by op on the host it cost 30-50 ms a call
             if params_batched:
                 state0 = jax.vmap(make_state, in_axes=(in_model,))(model)
             else:
                 b = jax.tree_util.tree_leaves(cparams)[0].shape[0]
                 # the fence keeps XLA from fusing the whole start state into the broadcast, which
                 # then re-derives it for every element of the batch (20 ms a call at batch 1024)
-                one0 = _barrier(make_state(model), (one > 0) if fence else None)
+                one0 = _barrier(make_state(model), gate)
                 state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (b, *x.shape)), one0)
         return _batched(model, controller, observer, n_steps if every else steps, every, cparams, state0,
-                        cstate0, (one > 0) if fence else None, in_model)
+                        cstate0, gate, in_model)
 
     specs = (B if params_batched else R, B, B if with_state0 else R, B if with_cstate else R, R, R)
     return mesh, jax.jit(jax.shard_map(local, mesh=mesh, in_specs=specs, out_specs=B, check_vma=False))
