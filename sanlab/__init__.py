@@ -18,7 +18,9 @@ def configure() -> None:
     - turns on ``jax_enable_x64``, so that ``dtype="float64"`` models really are float64 (float32
       models stay float32: every array sanlab builds is given its dtype);
     - points JAX's persistent compilation cache at :func:`sanlab._jax.cache_dir` (``SANLAB_CACHE``
-      moves it, ``SANLAB_NO_COMPILE_CACHE=1`` turns it off).
+      moves it, ``SANLAB_NO_COMPILE_CACHE=1`` turns it off);
+    - imports JAX with SIGINT and SIGTERM held back, and delivers one that came once the import
+      is done (a KeyboardInterrupt raised inside jaxlib's native initialisation aborts Python).
 
     Importing sanlab or any of its modules changes none of this. The CLI calls it at the start of
     every command that simulates; ``sim.compile_creature`` calls it too, so a library user's first
