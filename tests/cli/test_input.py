@@ -301,14 +301,20 @@ def _umask() -> int:
     return mask
 
 
+def _python(code: str) -> subprocess.CompletedProcess:
+    """Run ``code`` in a fresh interpreter with sanlab importable and no compile cache, so that a
+    command reaches JAX's import and a first compile as a new user's would."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "SANLAB_NO_COMPILE_CACHE": "1"}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+
+
 def test_sigterm_ends_a_command_like_ctrl_c(tmp_path):
     """A command that takes a while (check --simulate of a creature not yet compiled) is stopped
     by SIGTERM as Ctrl-C stops it: no traceback, a short message."""
     code = ("import os, signal, sys, threading; from sanlab.cli import app; "
             "threading.Timer(3.0, lambda: os.kill(os.getpid(), signal.SIGTERM)).start(); "
             "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; app()")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "SANLAB_NO_COMPILE_CACHE": "1"}
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    r = _python(code)
     assert r.returncode in (1, 130) and "Traceback" not in r.stderr, r.stderr
     assert r.returncode != -signal.SIGTERM
 
@@ -325,10 +331,8 @@ def test_an_interrupt_python_drops_in_a_gc_callback_still_ends_the_command():
             "        _interrupt(signal.SIGTERM, None)\n"
             "gc.callbacks.append(cb)\n"
             "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; app()\n")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "SANLAB_NO_COMPILE_CACHE": "1"}
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    r = _python(code)
     assert r.returncode in (1, 130) and "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr
-
 
 
 def test_an_interrupt_in_the_middle_of_importing_jax_ends_the_command_cleanly():
@@ -348,8 +352,7 @@ def test_an_interrupt_in_the_middle_of_importing_jax_ends_the_command_cleanly():
             "enum.EnumType.__call__ = call\n"
             "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; run()\n"
             "print('never reached: the interrupt was lost', file=sys.stderr)\n")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "SANLAB_NO_COMPILE_CACHE": "1"}
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    r = _python(code)
     assert r.returncode == 130 and "Traceback" not in r.stderr and "terminate" not in r.stderr, (r.returncode, r.stderr)
 
 
