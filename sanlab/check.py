@@ -14,6 +14,8 @@ each of these is reported in one line, as a warning when it looks wrong:
 - ``strength``: each actuator's strength against its gravity load (paper §3.3: a 10 degree
   deflection should hold half the body weight);
 - ``radians``: angle ranges that look like radians (every |value| < 6.3 on a ``_deg`` field);
+- ``resolution``: servos the step cannot resolve (underdamped and omega dt > 1,
+  ``sanlab.evaluate.resolution``): every evaluation of such a creature is flagged non-finite;
 - ``sensors``: sensors that never turn on, or never turn off, in the drop or the sweeps (those
   the actuators move: touch, joint-angle and length sensors; tilt sensors, angle sensors on a
   root and eyes depend on the body's attitude or the follow point, and are not judged, nor is
@@ -193,8 +195,34 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -
         out += _ground(spec, P)
         out.append(_standing(spec, P, r.frames.t))
     out += strength(spec)
+    out += resolution(spec)
     out += radian_ranges(spec)
     out += _sensors(spec, bits)
+    return out
+
+
+def resolution(spec: Creature) -> list[Finding]:
+    """Servos the step cannot resolve (``sanlab.evaluate.resolution``): one warning each, or
+    one line saying every servo is resolved."""
+    from sanlab.evaluate.resolution import OMEGA_DT, Servos
+
+    sv = Servos.of(spec)
+    if not len(sv.index):
+        return []
+    ks = np.array([a.ks for a in spec.actuators])
+    kd = np.array([a.kd for a in spec.actuators])
+    omega, zeta = sv.modes(ks, kd)
+    out = []
+    for j, k in enumerate(sv.index):
+        if zeta[j] < 1.0 and omega[j] * spec.dt > OMEGA_DT:
+            out.append(Finding("resolution", True, (
+                f"actuator {spec.actuators[k].name}: rings at {omega[j] / (2 * math.pi):.3g} Hz (damping ratio "
+                f"{zeta[j]:.2g}), {omega[j] * spec.dt:.3g} rad per step of {spec.dt:g} s: the step cannot follow it, so "
+                "every evaluation is flagged non-finite (raise its kd, lower its ks, or lower dt)"),
+                {"omega_dt": float(omega[j] * spec.dt), "zeta": float(zeta[j])}))
+    if not out:
+        out.append(Finding("resolution", False, f"servos: the step resolves every one (largest omega dt "
+                                                f"{float(np.max(omega * spec.dt)):.2g}, or overdamped)"))
     return out
 
 

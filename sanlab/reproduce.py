@@ -32,7 +32,7 @@ import numpy as np
 from sanlab.creature import load, read_source
 from sanlab.creature.spec import Terrain
 from sanlab.creature.table1 import TABLE1
-from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.ensemble import Ensemble, default_ensemble
 from sanlab.library import Library, Run, SearchSettings, TuneSettings
 
 SEARCH_BATCH = 256  # controllers per phase-1 batch
@@ -182,7 +182,7 @@ def _audit(lib: Library, gait_id: str, run: bool = True) -> tuple[dict | None, b
     from sanlab.audit import THRESHOLD, audit_and_store
 
     rec = lib.audit(gait_id)
-    if rec is not None and rec.result.get("threshold") == THRESHOLD:
+    if rec is not None and rec.result.get("threshold") == THRESHOLD and rec.result.get("audit_members") is not None:
         return {**rec.result, "flagged": rec.flagged, "worst": rec.worst}, True
     if not run:
         return None, False
@@ -195,9 +195,11 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
     there is one (else a new one when ``run``): ({"gait", "speed", "trial", "worst",
     "candidates"} or None, whether it was stored before). "gait" is None when no rung of the
     climb kept its speed."""
-    from sanlab.audit import SELECT_TOP, THRESHOLD, select_robust
+    from sanlab.audit import LEVEL, MAX_MEMBERS, MEMBERS, SELECT_TOP, THRESHOLD, select_robust
 
-    before = (lib.selection(run_id) or {}).get("settings") == {"top": SELECT_TOP, "threshold": THRESHOLD}
+    settings = {"top": SELECT_TOP, "threshold": THRESHOLD, "members": MEMBERS, "max_members": MAX_MEMBERS,
+                "level": LEVEL}
+    before = (lib.selection(run_id) or {}).get("settings") == settings
     if not before and not run:
         return None, False
     sel = select_robust(lib, run_id)
@@ -217,7 +219,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     continues (see the module docstring). Raises LibraryError and ValueError as ``run_search``
     and ``tune`` do; KeyboardInterrupt leaves every stored evaluation in the library."""
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
-    ens = Ensemble(members=int(ensemble))
+    ens = default_ensemble(int(ensemble))
     rows: list[Row] = []
     extras: dict = {}
     t_all = time.perf_counter()
@@ -255,7 +257,7 @@ def _verdict(audit: dict | None) -> str:
     if audit.get("reproduced") is False:
         return f"not reproduced: stored {audit.get('stored_cm_s')} cm/s, re-scored {audit.get('nominal_cm_s')}"
     changes = {k: (float("inf") if v is None else v) for k, v in (audit.get("changes") or {}).items()}
-    what = "flagged" if audit.get("flagged") else "robust"
+    what = audit.get("verdict") or ("flagged" if audit.get("flagged") else "robust")
     if not changes:
         return what
     worst = max(changes, key=lambda k: changes[k])
@@ -315,15 +317,17 @@ def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials:
             f"| {r.wall:.0f} s{' (resumed)' if r.resumed else ''} |"
         )
     lines += ["", "Speeds are those of the centre of mass: net displacement over the evaluation time.",
-              "", "*Tuned gait nudged*: the tuned gait re-scored on the same ensemble with the step halved and "
-              "quartered and in float64 (`sanlab audit`); *flagged* (resolution-dependent) when a nudge moved its "
-              "speed by more than 10 %, so its speed is an artefact of the integrator rather than a result.",
+              "", "*Tuned gait nudged*: the mean speed of the audit's 32 perturbed starts with the step halved "
+              "and quartered and in float64 (`sanlab audit`). *Audit*: *robust* when, for every nudge, the bootstrap "
+              "interval (95 % over the three) of the relative change of the mean speed lies inside ±10 %; "
+              "*resolution-dependent* when one lies wholly outside it (the speed is an artefact of the integrator "
+              "rather than a result); *undecided* otherwise (not a pass).",
               "", "*Robust tuned gait*: the audited selection (`sanlab audit RUN --select`): up to 16 rungs of the "
               "tuning chain's climb (its start, its best and the vectors that first reached the scores between) are "
-              "audited the same way, and the best held-out score among those no nudge moves by more than 10 % is "
-              "stored as the run's gait #1. This is the tuned speed to quote (it can be the start itself, when no tuned "
-              "rung survives); the tracking and robustness sections, where present, use it (the chain's best where "
-              "no rung kept its speed).",
+              "audited the same way, and the best-scoring robust one that is robust again on fresh draws is stored "
+              "as the run's gait #1, with its held-out speed. This is the tuned speed to quote (it can be the start "
+              "itself, when no tuned rung survives); the tracking and robustness sections, where present, use it "
+              "(the chain's best where no rung kept its speed).",
               "", "*(resumed)*: an earlier call on the same library had stored some of this creature's work; "
               "the wall time counts this call only.",
               "", "A random SAN *moved usefully* when the run stayed finite, the creature did not fall, and it "

@@ -242,8 +242,11 @@ def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(select
     c = sel.chosen
     assert sel.gait_id == f"{res.run_id}#1" and c is not None
     assert sel.candidates[0].trial == -1 and len(sel.candidates) >= 2  # the start and at least one accepted trial
-    robust = [x for x in sel.candidates if x.worst <= sel.threshold]
-    assert c in robust and c.score == max(x.score for x in robust)
+    robust = [x for x in sel.candidates if x.verdict == "robust"]
+    assert c in robust and c.chosen_ok  # robust on the audit's draws, and again on fresh ones
+    # every robust rung that scored better failed its confirmation: the best of many noisy tests is
+    # not taken on one pass
+    assert all(x.confirmed is not None and not x.chosen_ok for x in robust if x.score > c.score)
     with Library(path) as lib:
         stored = lib.gait(sel.gait_id)
         assert stored.speed_cm_s == pytest.approx(c.nominal_cm_s, abs=1e-6)

@@ -86,7 +86,8 @@ def test_check_simulate_prints_one_line_per_finding():
     lines = r.stdout.splitlines()
     assert "simulated (two seconds, servos at mid targets, then sweeping): 3 warnings" in lines
     marked = [ln.strip() for ln in lines if ln.startswith("  ok ") or ln.startswith("  warning ")]
-    assert len(marked) == 8 and sum(ln.startswith("warning ") for ln in marked) == 3, marked
+    assert len(marked) == 9 and sum(ln.startswith("warning ") for ln in marked) == 3, marked
+    assert any(ln.startswith("ok      servos: the step resolves every one") for ln in marked)
     assert any(ln.startswith("warning actuator hip: min_deg, max_deg = [-0.8, 0.8] look like radians") for ln in marked)
     assert any(ln.startswith("ok      start: rests on the ground") for ln in marked)
 

@@ -39,6 +39,12 @@ METRIC_HELP = " | ".join(METRICS)
 EnsembleOpt = Annotated[int, typer.Option(
     "--ensemble", help="Score each controller as the median over K perturbed copies (start pose jittered by "
                        "1 mm and 0.5 deg), K from 1 to 256; 1: a single unperturbed rollout.")]
+DtFactorsOpt = Annotated[str | None, typer.Option(
+    "--dt-factors", help="The ensemble's members run at these factors on the time step in turn, and the lowest "
+                         "group median is the score, so a gait of one step size cannot win; default 1,0.5 "
+                         "(1 with --ensemble 1); 1: every member at the creature's step.")]
+DtJitterOpt = Annotated[float, typer.Option(
+    "--dt-jitter", min=0.0, help="Scale each member's step by 1 + U(-D, D) as well (D < 0.5; default 0: off).")]
 BackendOpt = Annotated[str, typer.Option(
     "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
                       "pip install 'sanlab\\[cluster]').")]
@@ -91,15 +97,24 @@ def check_dtype(dtype: str) -> None:
         raise fail(f"--dtype: expected float32 or float64, got {dtype!r}")
 
 
-def ensemble_or_exit(members: int) -> Any:
-    """The :class:`sanlab.evaluate.Ensemble` of ``--ensemble K``, or exit 2 with one line."""
-    from sanlab.evaluate import Ensemble
+def ensemble_or_exit(members: int, dt_factors: str | None = None, dt_jitter: float = 0.0) -> Any:
+    """The :class:`sanlab.evaluate.Ensemble` of ``--ensemble K``, ``--dt-factors F,F`` and
+    ``--dt-jitter D`` (``sanlab.evaluate.ensemble.default_ensemble``), or exit 2 with one line."""
+    from sanlab.evaluate.ensemble import default_ensemble
 
     check_count("--ensemble", members, 1, MAX_MEMBERS)
+    factors = None
+    if dt_factors is not None:
+        try:
+            factors = tuple(float(x) for x in dt_factors.split(","))
+        except ValueError:
+            raise fail(f"--dt-factors: expected comma-separated numbers such as 1,0.5, got {dt_factors!r}") from None
     try:
-        return Ensemble(members=members)
+        return default_ensemble(members, factors, dt_jitter)
     except ValueError as e:
-        raise fail(option_error("--ensemble", e)) from None
+        which = "--dt-factors" if "dt_factors" in str(e) or "step factors" in str(e) else (
+            "--dt-jitter" if "dt must" in str(e) else "--ensemble")
+        raise fail(option_error(which, e)) from None
 
 
 def backend_or_exit(name: str, address: str | None, workers: int | None) -> Any:
@@ -331,8 +346,9 @@ ARROWS = {"+x": "→", "-x": "←", None: " "}
 def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
     """The run's ``n`` best gaits as the rows ``--json`` prints: gait id, score, speed (cm/s),
     the signed displacement along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the
-    run did not store it), flags (``resolution_dependent`` and ``reproduced``: the verdicts of the
-    gait's stored audit, null when it was never audited; see ``sanlab audit``), encoding."""
+    run did not store it), flags (``audit``: the stored audit's verdict, "robust",
+    "resolution-dependent", "undecided" or "not reproduced", and ``resolution_dependent`` and
+    ``reproduced`` from it; null when it was never audited; see ``sanlab audit``), encoding."""
     audits = lib.audits(run_id)
     rows = []
     for rank, e in enumerate(lib.top(run_id, n), 1):
@@ -341,6 +357,7 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
         rows.append({
             "gait": f"{run_id}/{rank}", "score": e.score, "speed_cm_s": e.speed_cm_s, "dx_m": dx,
             "direction": direction(dx), "fell": e.fell, "nonfinite": e.nonfinite,
+            "audit": audits[e.idx].verdict if e.idx in audits else None,
             "resolution_dependent": audits[e.idx].resolution_dependent if e.idx in audits else None,
             "reproduced": audits[e.idx].reproduced if e.idx in audits else None, "encoding": e.encoding,
         })
@@ -356,8 +373,8 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
                                           ("not reproduced", r.get("reproduced") is False),
                                           ("resolution-dependent", r.get("resolution_dependent")),
-                                          ("audited: robust", r.get("resolution_dependent") is False
-                                           and r.get("reproduced") is not False)) if on)
+                                          ("audit undecided", r.get("audit") == "undecided"),
+                                          ("audited: robust", r.get("audit") == "robust")) if on)
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
@@ -430,15 +447,15 @@ class ProgressBar:
 
 def print_static_warnings(spec, creature: str) -> None:
     """The warnings of `sanlab check` that need no simulation (angle ranges that look like
-    radians, actuators too weak or too strong for their load), once, on stderr; the simulated
+    radians, actuators too weak or too strong for their load, servos the step cannot resolve), once, on stderr; the simulated
     ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
     `sanlab check --simulate`."""
     from rich.console import Console
 
-    from sanlab.check import radian_ranges, strength
+    from sanlab.check import radian_ranges, resolution, strength
 
     err = Console(stderr=True)  # stdout stays the table, or the JSON
-    found = [f.message for f in (*radian_ranges(spec), *strength(spec)) if f.warning]
+    found = [f.message for f in (*radian_ranges(spec), *strength(spec), *resolution(spec)) if f.warning]
     for message in found:
         err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
     if found:

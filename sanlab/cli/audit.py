@@ -1,5 +1,5 @@
 """``sanlab audit``: re-score stored gaits with the step halved and quartered and in float64, and
-flag those whose speed does not survive (``sanlab.audit``)."""
+say whether their speed distribution survives (``sanlab.audit``)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,13 @@ def audit(
     target: Annotated[str, typer.Argument(help="A gait (RUN/RANK or RUN#IDX), or a run id to audit its top gaits.")],
     top: Annotated[int | None, typer.Option(min=1, help=(
         "With a run id: audit its K best gaits (default 1); with --select: audit up to K rungs (default 16)."))] = None,
-    threshold: Annotated[float, typer.Option(min=0.0, help="Flag a relative speed change above this (0.10 = 10 %).")] = 0.10,
+    threshold: Annotated[float, typer.Option(min=0.0, help=(
+        "The band: a relative change of the mean speed within it is robust (0.10 = 10 %)."))] = 0.10,
+    members: Annotated[int, typer.Option(min=2, max=4096, help=(
+        "Perturbed starts the audit draws for itself; more narrow the interval (an undecided audit says how many "
+        "would decide it)."))] = 32,
+    max_members: Annotated[int, typer.Option(min=2, max=4096, help=(
+        "An undecided audit looks once more, on as many members as it said would decide it, up to this."))] = 256,
     select: Annotated[bool, typer.Option("--select", help=(
         "With a tuning run: audit the rungs of its climb and store the best-scoring one that no nudge "
         "moves by more than the threshold as its gait RUN#1."))] = False,
@@ -28,15 +34,19 @@ def audit(
 ) -> None:
     """Audit gaits for integrator artefacts (dt/2, dt/4, float64).
 
-    Each gait is re-scored exactly as it was scored (same ensemble and draws), once per nudge; a
-    gait whose robust speed changes by more than the threshold is flagged resolution-dependent,
-    and one whose stored speed is that far from the re-scored one is flagged not reproduced
-    (here, in `sanlab show` and in exports). The audit is stored in the library.
+    Each gait is simulated from --members perturbed starts of its own at its step and under each
+    nudge, and the relative change of the mean speed is bootstrapped (a 95 % interval over the
+    three nudges together): robust when every interval lies inside the band (--threshold),
+    resolution-dependent when one lies outside it, undecided otherwise (not a pass). An
+    undecided gait is looked at once more, on as many starts as would likely decide it (at most
+    --max-members); if that still does not decide it, it says how many would. A gait whose stored speed is more than the threshold from
+    the speed re-scored exactly as stored is flagged not reproduced. The verdict is stored in
+    the library (shown by `sanlab show` and carried by exports).
 
     With --select and a tuning run: up to 16 rungs of its chain's climb (its start, its best and
-    the vectors that first reached the scores between) are audited, and the best-scoring one that
-    keeps its speed (the start itself, when no tuned rung does) is stored as the run's gait RUN#1,
-    the tuned result to quote."""
+    the vectors that first reached the scores between) are audited, and the best-scoring robust
+    one that is robust again on fresh draws (the start itself, when no tuned rung is) is stored
+    as the run's gait RUN#1, the tuned result to quote."""
     configure()
     from sanlab.audit import SELECT_TOP, audit_and_store
 
@@ -52,7 +62,9 @@ def audit(
                        f"(sanlab tune --resume {run.run_id} --db {db})")
         log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
         try:
-            sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP), run.run_id)
+            sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP, members,
+                                                                   max_members),
+                               run.run_id)
         except KeyboardInterrupt:
             typer.echo("interrupted; nothing of this selection was stored: run the same command again", err=True)
             raise typer.Exit(130) from None
@@ -66,40 +78,61 @@ def audit(
         run = library_call(lib.get_run, target)
         gaits = [e.gait_id for e in library_call(lib.top, run.run_id, top)]
     log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
-    results = [library_call(lambda g: audit_and_store(lib, g, threshold=threshold, log=log), g) for g in gaits]
+    results = [library_call(lambda g: audit_and_store(lib, g, threshold=threshold, members=members,
+                                                           max_members=max_members, log=log), g)
+               for g in gaits]
     if as_json:
         typer.echo(json.dumps([{"gait": a.gait_id, "flagged": a.flagged, "worst": a.worst if a.worst != float("inf") else None,
                                 **a.to_json()} for a in results], indent=2))
         return
     names = list(results[0].speeds) if results else []
-    # borderless and wrapping: seven columns fit 80 characters, a narrower terminal wraps cells
+    # borderless and wrapping: the columns fit 80 characters, a narrower terminal wraps cells
     # rather than cutting off the verdict
-    table = Table(title="audit: robust speed (cm/s) under nudges, change against the re-scored speed",
+    table = Table(title="audit: mean speed (cm/s) of the audit's perturbed starts under each nudge, "
+                        "its change and 95 % interval",
                   box=box.SIMPLE_HEAD, collapse_padding=True, pad_edge=False)
     table.add_column("gait", no_wrap=True)
-    for name in ("stored", "re-scored", *names, "verdict"):
+    for name in ("stored", "re-scored", "at dt (starts)", *names, "verdict"):
         table.add_column(name)
     for a in results:
-        cells = [f"{a.speeds[n]:.1f} {100 * a.changes[n]:.0f}%" for n in names]
-        verdict = ("[red]not reproduced[/red]" if not a.reproduced else "[red]flagged[/red]" if a.flagged
-                   else "[green]robust[/green]")
-        table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}", *cells, verdict)
+        cells = [shift_cell(a.speeds[n], a.shifts[n]) for n in names]
+        table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}",
+                      f"{a.reference_cm_s:.1f} ({a.audit_members})", *cells,
+                      verdict_cell(a.verdict, a.needed))
     console.print(table)
     if any(not a.reproduced for a in results):
         console.print(f"not reproduced: the stored speed is more than {100 * threshold:.0f} % from what this sanlab "
                       "re-scores (a score from another engine, or edited): quote the re-scored speed, or search again")
     if any(a.resolution_dependent for a in results):
-        console.print(f"flagged: resolution-dependent (a nudge moved the speed more than {100 * threshold:.0f} %); "
-                      "`sanlab show` and exports say so")
+        console.print(f"resolution-dependent: a nudge moved the mean speed outside ±{100 * threshold:.0f} % "
+                      "(its whole interval); `sanlab show` and exports say so")
+    if any(a.verdict == "undecided" for a in results):
+        console.print(f"undecided: an interval straddles ±{100 * threshold:.0f} % (the gait is not vouched for); "
+                      "audit again with more --members")
 
 
-def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16) -> dict:
+def shift_cell(speed: float, sh) -> str:
+    """"35.3 -69% [-75,-60]": a nudge's mean speed, its change and interval (percent)."""
+    pct = lambda x: "inf" if not math.isfinite(x) else f"{100 * x:+.0f}"
+    return f"{speed:.1f} {pct(sh.change)}% [{pct(sh.lo)},{pct(sh.hi)}]"
+
+
+def verdict_cell(verdict: str, needed: int | None = None) -> str:
+    if verdict == "robust":
+        return "[green]robust[/green]"
+    if verdict == "undecided":
+        return "[yellow]undecided[/yellow]" + (f" (~{needed} members)" if needed else "")
+    return f"[red]{verdict}[/red]"
+
+
+def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16,
+                      members: int = 32, max_members: int = 256) -> dict:
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
     ``quiet``; returns its JSON summary ({"run", "robust_gait", "trial", "speed_cm_s", "worst",
     "candidates": [...]})."""
-    from sanlab.audit import rung_name, select_robust
+    from sanlab.audit import combine, rung_name, select_robust
 
-    sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top)
+    sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top, members=members, max_members=max_members)
     c = sel.chosen
     out = {"run": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
            "speed_cm_s": None if c is None else c.nominal_cm_s, "worst": None if c is None else c.worst,
@@ -107,17 +140,24 @@ def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet
     if quiet:
         return out
     names = list(sel.candidates[0].speeds) if sel.candidates else []
-    table = Table(title=f"run {sel.run_id}: the rungs of its climb, audited (cm/s, change against held-out)")
-    for name in ("trial", "chain score", "held out", *names, ""):
-        table.add_column(name, no_wrap=True)
+    table = Table(title=f"run {sel.run_id}: the rungs of its climb, audited on perturbed starts of their own "
+                        "(mean cm/s; change and 95 % interval)", box=box.SIMPLE_HEAD, collapse_padding=True,
+                  pad_edge=False)
+    for name in ("trial", "chain score", "held out", "at dt", *names, "verdict"):
+        table.add_column(name)
     for x in sel.candidates:
-        mark = "[green]chosen[/green]" if x is c else ("[red]flagged[/red]" if x.worst > threshold else "robust")
+        mark = verdict_cell(x.verdict)
+        if x.confirmed is not None:
+            again = combine(x.confirmed)
+            mark += ", confirmed" if again == "robust" else f", not on fresh draws ({again})"
+        if x is c:
+            mark = "[bold green]chosen[/bold green] " + mark
         table.add_row(rung_name(x.trial).removeprefix("trial "), f"{x.chain_score:.2f}", f"{x.nominal_cm_s:.1f}",
-                      *[f"{x.speeds[n]:.1f} {100 * x.changes[n]:.0f}%" for n in names], mark)
+                      f"{x.reference_cm_s:.1f}", *[shift_cell(x.speeds[n], x.shifts[n]) for n in names], mark)
     console.print(table)
     if c is None:
-        console.print(f"no rung keeps its speed within {100 * threshold:.0f} % under every nudge: "
-                      "this run has no robust tuned gait")
+        console.print(f"no rung keeps its mean speed within ±{100 * threshold:.0f} % under every nudge, "
+                      "confirmed on fresh draws: this run has no robust tuned gait")
     else:
         console.print(f"robust tuned gait: {sel.gait_id}, {c.nominal_cm_s:.1f} cm/s "
                       f"({rung_name(c.trial)}, worst change {100 * c.worst:.0f} %)")

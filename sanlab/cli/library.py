@@ -125,7 +125,8 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
                "score": ev.score, "score_unit": SCORE_UNITS.get(gait.metric), "speed_cm_s": ev.speed_cm_s,
                "dx_m": dx if isinstance(dx, (int, float)) else None, "direction": direction(dx),
                "fell": ev.fell, "nonfinite": ev.nonfinite, "encoding": ev.encoding, "parameters": values,
-               "audit": None if audit is None else {"resolution_dependent": audit.resolution_dependent,
+               "audit": None if audit is None else {"verdict": audit.verdict,
+                                                     "resolution_dependent": audit.resolution_dependent,
                                                      "reproduced": audit.reproduced, "created": audit.created,
                                                      "result": audit.result}}
     if network:
@@ -137,6 +138,7 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
     flags = ", ".join(f for f, on in (("fell", ev.fell), ("non-finite", ev.nonfinite),
                                       ("not reproduced", audit is not None and not audit.reproduced),
                                       ("resolution-dependent", audit is not None and audit.resolution_dependent),
+                                      ("audit undecided", audit is not None and audit.verdict == "undecided"),
                                       ("audited: robust", audit is not None and not flagged)) if on) or "-"
     console.print(f"[bold]gait {safe(ev.gait_id)}[/bold] (rank {ev.rank} of run {safe(run.run_id)}), "
                   f"{safe(gait.spec.name)}, metric {safe(gait.metric)}: score {ev.score:.3f} "

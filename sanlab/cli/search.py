@@ -13,6 +13,8 @@ from sanlab.cli._common import (
     AddressOpt,
     BackendOpt,
     DbOpt,
+    DtFactorsOpt,
+    DtJitterOpt,
     DtypeOpt,
     EnsembleOpt,
     JsonOpt,
@@ -48,6 +50,8 @@ def search(
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
     batch: Annotated[int, typer.Option(min=1, help="Controllers simulated (and committed) together.")] = 256,
     ensemble: EnsembleOpt = 8,
+    dt_factors: DtFactorsOpt = None,
+    dt_jitter: DtJitterOpt = 0.0,
     backend: BackendOpt = "local",
     address: AddressOpt = None,
     workers: WorkersOpt = None,
@@ -63,11 +67,12 @@ def search(
     from sanlab.search import run_search
 
     check_dtype(dtype)
-    ens = ensemble_or_exit(ensemble)
+    ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     if (creature is None) == (resume is None):
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
     if resume is not None:
-        refuse_with_resume(ctx, "search", ("controllers", "seconds", "seed", "metric", "batch", "ensemble", "dtype"))
+        refuse_with_resume(ctx, "search", ("controllers", "seconds", "seed", "metric", "batch", "ensemble", "dt_factors", "dt_jitter",
+                                               "dtype"))
     text = where = ""
     if creature is not None:
         spec = load_or_exit(creature)[0]

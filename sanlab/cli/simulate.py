@@ -12,6 +12,8 @@ from rich.table import Table
 from sanlab import configure
 from sanlab.cli._common import (
     CreatureArg,
+    DtFactorsOpt,
+    DtJitterOpt,
     DtypeOpt,
     EnsembleOpt,
     check_dtype,
@@ -29,6 +31,8 @@ def simulate(
     seconds: Annotated[float | None, typer.Option(min=0.001, help="Simulated time per controller (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     ensemble: EnsembleOpt = 8,
+    dt_factors: DtFactorsOpt = None,
+    dt_jitter: DtJitterOpt = 0.0,
     dtype: DtypeOpt = "float32",
     top: Annotated[int, typer.Option(min=0, help="Best controllers shown (rows of the table, entries of --json's top).")] = 10,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")] = False,
@@ -39,7 +43,7 @@ def simulate(
     c, _ = load_or_exit(creature)
     check_run_args(c, controllers=controllers, seconds=seconds, seed=seed)
     seconds = seconds if seconds is not None else c.evaluation.seconds
-    ens = ensemble_or_exit(ensemble)
+    ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     print_static_warnings(c, creature)  # as search does: the same file, the same warnings
     configure()
     from sanlab.engine_report import simulate_random

@@ -16,6 +16,8 @@ from sanlab.cli._common import (
     AddressOpt,
     BackendOpt,
     DbOpt,
+    DtFactorsOpt,
+    DtJitterOpt,
     EnsembleOpt,
     JsonOpt,
     ProgressBar,
@@ -44,6 +46,8 @@ def tune(
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
     batch: Annotated[int, typer.Option(min=1, help="Evaluations simulated together per round.")] = 128,
     ensemble: EnsembleOpt = 8,
+    dt_factors: DtFactorsOpt = None,
+    dt_jitter: DtJitterOpt = 0.0,
     resume: Annotated[list[str] | None, typer.Option(
         "--resume", help="Finish an interrupted tune run (repeat for each chain of one tuning).")] = None,
     backend: BackendOpt = "local",
@@ -66,7 +70,7 @@ def tune(
     from sanlab.library import LibraryError
     from sanlab.search.tune import tune as run_tune
 
-    ens = ensemble_or_exit(ensemble)
+    ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     if threshold is not None and not select:
         raise fail("tune: --threshold applies to --select; add --select, or drop it")
     if threshold is not None and not math.isfinite(threshold):
@@ -79,7 +83,8 @@ def tune(
     if (gait is None) == (not resume):
         raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
     if resume:
-        refuse_with_resume(ctx, "tune", ("method", "trials", "seed", "top", "morphology", "terrain", "batch", "ensemble"))
+        refuse_with_resume(ctx, "tune", ("method", "trials", "seed", "top", "morphology", "terrain", "batch", "ensemble",
+                                             "dt_factors", "dt_jitter"))
     check_render_dir(render_dir)
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db)  # the gaits to tune are in it: a missing file is a mistyped --db

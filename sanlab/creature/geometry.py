@@ -138,3 +138,25 @@ def mass_matrix(creature: Creature) -> tuple[list[list[float]], list[str]]:
             for b in range(n):
                 M[a][b] += link.mass * (jx[a] * jx[b] + jy[a] * jy[b]) + link.inertia * rot[a] * rot[b]
     return M, owner
+
+
+def joint_inertias(creature: Creature) -> dict[str, float]:
+    """Each joint's effective inertia at the file's start pose (kg m^2), by the name of the
+    link it turns: 1 / (M^-1)_jj, the inertia a torque at that joint meets when every other
+    dof is free to move (:func:`mass_matrix`). A servo of stiffness ks there oscillates at
+    sqrt(ks / I) rad/s. Joints of a tree welded to the world count the same way."""
+    import numpy as np
+
+    M, owner = mass_matrix(creature)
+    if not owner:
+        return {}
+    A = np.asarray(M, float)
+    keep = np.flatnonzero(np.diag(A) > 0)  # a dof no mass moves (a massless chain) has no inertia
+    inv = np.linalg.pinv(A[np.ix_(keep, keep)])
+    out: dict[str, float] = {}
+    for row, dof in enumerate(keep):
+        name = owner[dof]
+        link = next(link for link in creature.links if link.name == name)
+        if link.parent is not None and dof == max(i for i, o in enumerate(owner) if o == name):
+            out[name] = 1.0 / inv[row, row] if inv[row, row] > 0 else math.inf
+    return out

@@ -16,9 +16,18 @@ rollout:
   re-seated on the ground (``sanlab.sim.dynamics.seat_on_ground``) so that no contact starts
   inside it.
 
-The step jitter is off by default. It nudges the integrator inside the ensemble, as the audit
-nudges it afterwards (``sanlab.audit``): a gait that only works at one exact step, which tuning
-otherwise breeds, then loses its median.
+Members at several steps (``dt_factors``, issue 28: an objective the step cannot win). With
+``dt_factors = (1, 0.5)`` the members take the factors on the time step in turn (member 0 at dt,
+member 1 at dt/2, member 2 at dt, ...), each simulating the same time (a member at dt/2 runs
+twice the steps), and the evaluation scores the *lower* of the two groups' medians, so a gait
+that only moves at one step size cannot raise its score: tuning at dt alone learns the 1 ms step
+(the walker of ``docs/table1.md``, 114 cm/s at dt and 23 at dt/4). The group with the lower median
+score gives the evaluation's speed and distance too. One step factor (``(1.0,)``) is plain
+scoring, and what every run stored before this option existed reads as.
+
+The step jitter (``dt``) is off by default. It too nudges the integrator inside the ensemble,
+but only within [1 - dt, 1 + dt] of the step, where a tuned gait can still find a rate that
+works at all of them (measured: ``docs/robust-objective.md``).
 
 The perturbations of an evaluation come from its own random stream, ``default_rng(key)``, where
 the key names the evaluation within its run (see the ``*_key`` functions): any subset of a run
@@ -40,7 +49,7 @@ Key = tuple[int, ...]
 
 # The last element of every key says what kind of evaluation it names, so that no two kinds
 # ever share a stream.
-_SEARCH, _TRIAL, _START, _HELDOUT, _CHAIN = 1, 2, 3, 4, 5
+_SEARCH, _TRIAL, _START, _HELDOUT, _CHAIN, _AUDIT, _CONFIRM = 1, 2, 3, 4, 5, 6, 7
 
 
 def search_key(seed: int, idx: int) -> Key:
@@ -68,6 +77,32 @@ def chain_key(seed: int, chain: int) -> Key:
     return (seed, chain, _CHAIN)
 
 
+def audit_key(key: Key) -> Key:
+    """The audit's draws for the evaluation named ``key`` (``sanlab.audit``): its own stream, so
+    an audit's members are never the members its score was taken on."""
+    return (*key, _AUDIT)
+
+
+def confirm_key(seed: int, chain: int) -> Key:
+    """Fresh draws confirming the rung a tuning chain's audited selection chose."""
+    return (seed, chain, _CONFIRM)
+
+
+# The searches' default step groups (issue 28): members at dt and at dt/2, the lower group median
+# scored. Chosen by measurement: docs/robust-objective.md.
+DEFAULT_DT_FACTORS: tuple[float, ...] = (1.0, 0.5)
+
+
+def default_ensemble(members: int = 8, dt_factors: tuple[float, ...] | None = None, dt: float = 0.0) -> Ensemble:
+    """The ensemble a search or tuning run scores with when given ``members`` (and optionally
+    its step factors and jitter): :data:`DEFAULT_DT_FACTORS` from two members on, plain scoring
+    for one member (a single unperturbed rollout, as before ensembles existed). Raises
+    ValueError as :class:`Ensemble`."""
+    if dt_factors is None:
+        dt_factors = DEFAULT_DT_FACTORS if members >= len(DEFAULT_DT_FACTORS) else (1.0,)
+    return Ensemble(members=int(members), dt=dt, dt_factors=tuple(dt_factors))
+
+
 @dataclass(frozen=True)
 class Ensemble:
     """K perturbed copies per evaluation (see the module docstring).
@@ -75,7 +110,10 @@ class Ensemble:
     members: K >= 1. pose: standard deviation of each free tree's centre of mass x and y (m).
     angle: standard deviation of every angle coordinate (degrees). friction: half-width of the
     uniform relative change of every link's friction coefficients (0: unchanged). dt: half-width
-    of the uniform relative change of each member's time step (0: unchanged; below 0.5).
+    of the uniform relative change of each member's time step (0: unchanged; below 0.5). dt_factors:
+    the members' factors on the time step, taken in turn, the first 1 (the unperturbed member
+    0's), each in (0, 1]; with several, the score is the lowest group median (module docstring).
+    Raises ValueError for values outside these ranges, or fewer members than step factors.
     """
 
     members: int = 8
@@ -83,10 +121,19 @@ class Ensemble:
     angle: float = 0.5
     friction: float = 0.0
     dt: float = 0.0
+    dt_factors: tuple[float, ...] = (1.0,)
 
     def __post_init__(self):
         if not (isinstance(self.members, int) and self.members >= 1):
             raise ValueError(f"ensemble: members must be an integer >= 1, got {self.members!r}")
+        fs = tuple(float(f) for f in self.dt_factors)
+        object.__setattr__(self, "dt_factors", fs)
+        if not fs or fs[0] != 1.0 or not all(0 < f <= 1 and math.isfinite(f) for f in fs):
+            raise ValueError(f"ensemble: dt_factors must start with 1 and lie in (0, 1], got {list(fs)}")
+        if len(set(fs)) != len(fs):
+            raise ValueError(f"ensemble: dt_factors must differ from each other, got {list(fs)}")
+        if self.members < len(fs):
+            raise ValueError(f"ensemble: {len(fs)} step factors need at least as many members, got {self.members}")
         for name in ("pose", "angle", "friction", "dt"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -100,6 +147,8 @@ class Ensemble:
         out = {"members": self.members, "pose": self.pose, "angle": self.angle, "friction": self.friction}
         if self.dt:  # written only when used, so that the settings of every other run read as before
             out["dt"] = self.dt
+        if len(self.dt_factors) > 1:
+            out["dt_factors"] = list(self.dt_factors)
         return out
 
     @classmethod
@@ -109,7 +158,12 @@ class Ensemble:
         if not d:
             return cls(members=1)
         return cls(int(d.get("members", 1)), float(d.get("pose", 1e-3)), float(d.get("angle", 0.5)),
-                   float(d.get("friction", 0.0)), float(d.get("dt", 0.0)))
+                   float(d.get("friction", 0.0)), float(d.get("dt", 0.0)), tuple(d.get("dt_factors", (1.0,))))
+
+    def groups(self) -> list[np.ndarray]:
+        """The members of each step factor, in the order of ``dt_factors``: [array of member indices]."""
+        G = len(self.dt_factors)
+        return [np.arange(j, self.members, G) for j in range(G)]
 
     def step_scales(self, key: Key) -> np.ndarray:
         """Each member's factor on the time step [K] for the evaluation named ``key`` (member 0:

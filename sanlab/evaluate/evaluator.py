@@ -27,6 +27,7 @@ import numpy as np
 from sanlab.creature.spec import Creature, Terrain
 from sanlab.evaluate.ensemble import Ensemble, Key
 from sanlab.evaluate.records import ScoreBatch
+from sanlab.evaluate.resolution import Servos
 from sanlab.metrics import Metric, scores
 from sanlab.san import San, SanParams
 from sanlab.sim.model import Model
@@ -114,6 +115,7 @@ class Evaluator:
         self.batch = int(batch)
         self.ensemble = ensemble if ensemble is not None else Ensemble()
         self.space = space
+        self.servos = Servos.of(spec)
         self._compiled: tuple[Model, list[Any]] | None = None
 
     # A worker process receives the evaluator pickled and compiles it there.
@@ -214,33 +216,81 @@ class Evaluator:
             state0 = _start(m, q, member0, need)
         cp = SanParams(np.repeat(W, reps, axis=0).astype(self.dtype), np.repeat(k1, reps, axis=0).astype(self.dtype),
                        np.repeat(k2, reps, axis=0).astype(self.dtype))
-        r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
-                        pad_to=R)
-        s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+        factors = self.ensemble.dt_factors
+        if len(factors) == 1:
+            r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
+                            pad_to=R)
+            s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+        else:
+            s = self._groups(m, cp, state0, need, R, K)
         if step is not None:  # a member with a longer step ran longer: compare over the nominal time
             for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
                 s[name] = s[name] / step
-        return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}).take(slice(0, n))
+        # A servo the step cannot resolve makes every number of the run the integrator's: scored
+        # and flagged as a run that blew up (sanlab.evaluate.resolution).
+        bad = np.broadcast_to(self.servos.unresolved(m.params.act_ks, m.params.act_kd, self.spec.dt), (R,))
+        if bad.any():
+            s["nonfinite"] = np.asarray(s["nonfinite"]) | bad
+            for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
+                s[name] = np.where(bad, 0.0, s[name])
+        return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()},
+                      self.ensemble.groups()).take(slice(0, n))
+
+    def _groups(self, m: Model, cp: SanParams, state0, need: bool, R: int, K: int) -> dict[str, np.ndarray]:
+        """The rows' metric scores when the ensemble's members run at several steps: one rollout
+        per step factor over its members' rows (each simulating ``seconds``, so a member at dt/2
+        runs twice the steps), all of the same size, so they share one compiled program."""
+        import jax
+
+        from sanlab import sim
+
+        member = np.arange(R) % K
+        dt0 = float(np.asarray(self.model.params.dt))
+        out: dict[str, np.ndarray] = {}
+        for f, members in zip(self.ensemble.dt_factors, self.ensemble.groups(), strict=True):
+            rows = np.flatnonzero(np.isin(member, members))
+            take = lambda x, rows=rows: x[rows]
+            mj = _tree(lambda x, rows=rows: np.asarray(x)[rows], m) if need else m
+            mj = mj.with_params(dt=(np.asarray(mj.params.dt, float) * f).astype(self.model.dtype))
+            s0 = None if state0 is None else jax.tree_util.tree_map(take, state0)
+            r = sim.rollout(mj, self.san, jax.tree_util.tree_map(take, cp), steps=int(round(self.seconds / (dt0 * f))),
+                            observer=self.metric, state0=s0, params_batched=need, pad_to=len(rows))
+            sj = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+            for name, v in sj.items():
+                v = np.asarray(v)
+                if name not in out:
+                    out[name] = np.zeros((R, *v.shape[1:]), v.dtype)
+                out[name][rows] = v
+        return out
 
 
-def robust(rows: dict[str, np.ndarray]) -> ScoreBatch:
+def robust(rows: dict[str, np.ndarray], groups: Sequence[np.ndarray] | None = None) -> ScoreBatch:
     """Evaluations' scores from their rows' (``metrics.scores`` arrays shaped [B, T terrains,
     K members]): a member's score, speed and distance are its means over the terrains (it fell,
     or went non-finite, if it did on any); an evaluation's are the medians over its members, it
     fell if more than half of its members fell, and it is non-finite if any member was: then it
     scores 0 (score, speed and distance), like a single rollout that blew up. A controller that
     blows up on some perturbed copies is an artefact of the simulation however well its other
-    copies move, and the median of those would rank it. The members' own values are kept."""
+    copies move, and the median of those would rank it. The members' own values are kept.
+
+    ``groups`` (the members of each step factor, ``Ensemble.groups``): with several, an
+    evaluation's score, speed and distances are the medians of the group whose median score is
+    the lowest (the step cannot win: ``sanlab.evaluate.ensemble``)."""
     member_score = rows["score"].mean(1)
     member_speed = rows["speed_cm_s"].mean(1)
     member_dist = rows["distance_m"].mean(1)
+    member_dx = rows["dx_m"].mean(1) if "dx_m" in rows else None
     fell = np.any(rows["fell"], axis=1)
     nonfinite = np.any(rows["nonfinite"], axis=(1, 2))
-    K = member_score.shape[1]
-    med = lambda x: np.where(nonfinite, 0.0, np.median(x, 1))
+    B, K = member_score.shape
+    if groups is None or len(groups) <= 1:
+        med = lambda x: np.where(nonfinite, 0.0, np.median(x, 1))
+    else:
+        worst = np.argmin(np.stack([np.median(member_score[:, g], 1) for g in groups], 1), 1)  # [B]
+        med = lambda x: np.where(nonfinite, 0.0, np.stack([np.median(x[:, g], 1) for g in groups], 1)[np.arange(B), worst])
     return ScoreBatch(med(member_score), med(member_speed), med(member_dist),
                       np.sum(fell, axis=1) > K / 2, nonfinite, member_score, member_speed,
-                      med(rows["dx_m"].mean(1)) if "dx_m" in rows else None)
+                      None if member_dx is None else med(member_dx))
 
 
 def _tree(fn, model: Model) -> Model:

@@ -196,6 +196,17 @@ class AuditRecord:
         meant only that)."""
         return self.result.get("resolution_dependent", self.flagged) is True
 
+    @property
+    def verdict(self) -> str:
+        """"robust", "resolution-dependent", "undecided" or "not reproduced" (``sanlab.audit``);
+        an audit stored before verdicts (one median against a line) reads as it was decided."""
+        v = self.result.get("verdict")
+        if isinstance(v, str):
+            return v
+        if not self.reproduced:
+            return "not reproduced"
+        return "resolution-dependent" if self.resolution_dependent else "robust"
+
 
 @dataclass(frozen=True)
 class TracePoint:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from sanlab import __version__
 from sanlab.creature import loads
 from sanlab.evaluate.backends import Backend, Local
-from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.ensemble import Ensemble, default_ensemble
 from sanlab.evaluate.evaluator import Evaluator
 from sanlab.evaluate.records import GaitParams
 from sanlab.library import Library, LibraryError, SearchSettings
@@ -54,7 +54,7 @@ def run_search(
         run_id = run.run_id
     else:
         spec = loads(creature_text, source=creature_source)
-        ens = ensemble if isinstance(ensemble, Ensemble) else Ensemble(members=int(ensemble))
+        ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
         run_id = None
     ev = Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=batch, ensemble=ens)
     on, off = ev.delays()

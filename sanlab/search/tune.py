@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from sanlab import __version__
 from sanlab.creature import loads
 from sanlab.evaluate.backends import Backend, Local
-from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.ensemble import Ensemble, default_ensemble
 from sanlab.evaluate.evaluator import TERRAINS, Evaluator
 from sanlab.evaluate.records import Scores
 from sanlab.gait import Gait
@@ -77,7 +77,7 @@ def tune(
         ev, chains = _resumed(library, resume)
     else:
         ev, chains = _fresh(library, list(gait_ids), method, trials, seed, morphology, terrain, batch, dtype,
-                            ensemble if isinstance(ensemble, Ensemble) else Ensemble(members=int(ensemble)),
+                            ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)),
                             backend.describe())
     summary = driver.run(Together([c for _, c in chains]), ev, library, reporter, backend)
     results = []

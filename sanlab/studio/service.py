@@ -189,6 +189,7 @@ class Service:
         return {"gait": f"{run_id}/{e.rank}", "id": e.gait_id, "run_id": run_id, "rank": e.rank,
                 "score": _num(e.score), "speed_cm_s": _num(e.speed_cm_s), "fell": e.fell,
                 "nonfinite": e.nonfinite, "parent": e.parent,
+                "audit": None if audit is None else audit.verdict,
                 "resolution_dependent": None if audit is None else audit.resolution_dependent,
                 "reproduced": None if audit is None else audit.reproduced}
 

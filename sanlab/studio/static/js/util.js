@@ -40,6 +40,7 @@ export function flags(g) {
   if (g.nonfinite) out.push("non-finite");
   if (g.reproduced === false) out.push("not reproduced");
   if (g.resolution_dependent) out.push("resolution-dependent");
+  if (g.audit === "undecided") out.push("audit undecided");
   return out.join(", ") || "–";
 }
 
