@@ -187,6 +187,10 @@ def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
     ["tune", "x/1", "--trials", "abc"],  # not a number
     ["search", "bounder", "--seconds", "inf"],  # sanlab's own check, before a run exists
     ["search", "bounder", "--ensemble", "100000"],
+    ["search", "bounder", "--dt-factors", "1,half"],
+    ["search", "bounder", "--dt-factors", "0.5,1"],  # the first factor is the creature's own step
+    ["search", "bounder", "--ensemble", "1", "--dt-factors", "1,0.5"],  # two groups need two members
+    ["search", "bounder", "--dt-jitter", "0.7"],
     ["simulate", "bounder", "--seconds", "1e9"],
 ])
 def test_command_line_mistakes_are_one_line_with_exit_2(tmp_path, args):

@@ -146,3 +146,71 @@ def test_the_step_jitter_runs_each_member_at_its_own_step_and_scores_it_over_the
     plain = Evaluator(sled, seconds=2.0, batch=1, ensemble=Ensemble(members=6, pose=0.0, angle=0.0))(W, keys=[key])
     # member 0 runs at the creature's own step (the batched-parameter program may differ in the last bits)
     assert r.member_score[0, 0] == pytest.approx(plain.member_score[0, 0], rel=1e-5)
+
+
+def test_members_at_several_steps_run_each_group_at_its_step_and_score_the_lowest_group():
+    """Issue 28's objective: members take the factors on the step in turn; those at dt are
+    exactly the plain ensemble's members of the same index (the same draws, the same step), and
+    the score is the lower of the two groups' medians."""
+    from sanlab.evaluate.ensemble import DEFAULT_DT_FACTORS, default_ensemble
+
+    san_w = np.stack([Evaluator(BOUNDER).san.random_weights(0, i) for i in range(4)])
+    keys = [search_key(0, i) for i in range(4)]
+    plain = Evaluator(BOUNDER, seconds=1.0, batch=4, ensemble=Ensemble(4))(san_w, keys=keys)
+    two = Evaluator(BOUNDER, seconds=1.0, batch=4, ensemble=Ensemble(4, dt_factors=(1.0, 0.5)))(san_w, keys=keys)
+    np.testing.assert_array_equal(two.member_score[:, 0::2], plain.member_score[:, 0::2])
+    assert not np.array_equal(two.member_score[:, 1::2], plain.member_score[:, 1::2])  # dt/2: another trajectory
+    groups = np.stack([np.median(two.member_score[:, 0::2], 1), np.median(two.member_score[:, 1::2], 1)], 1)
+    np.testing.assert_allclose(two.score, np.where(two.nonfinite, 0.0, groups.min(1)))
+    # the default of searches and tuning, except for one member (a single unperturbed rollout)
+    assert default_ensemble(8).dt_factors == DEFAULT_DT_FACTORS == (1.0, 0.5)
+    assert default_ensemble(1).dt_factors == (1.0,)
+
+
+def test_step_factors_are_checked_stored_and_older_runs_read_as_one_step():
+    e = Ensemble(8, dt_factors=(1.0, 0.5))
+    assert Ensemble.from_json(e.to_json()) == e and e.to_json()["dt_factors"] == [1.0, 0.5]
+    assert "dt_factors" not in Ensemble(8).to_json()  # a plain ensemble's settings read as before
+    assert Ensemble.from_json({"members": 8}).dt_factors == (1.0,)
+    assert [list(g) for g in Ensemble(5, dt_factors=(1.0, 0.5)).groups()] == [[0, 2, 4], [1, 3]]
+    for bad in ((0.5, 1.0), (1.0, 2.0), (1.0, 1.0), (), (1.0, 0.0)):
+        with pytest.raises(ValueError, match="dt_factors"):
+            Ensemble(8, dt_factors=bad)
+    with pytest.raises(ValueError, match="at least as many members"):
+        Ensemble(1, dt_factors=(1.0, 0.5))
+
+
+POWERED_CHANGES = (("mass", "0.001"), ("ks", "1e6"), ("kd", "0.0"))
+
+
+def powered_bounder() -> str:
+    """Issue 28's case: the built-in bounder with every link at 1 g, servos at ks = 1e6 N m/deg and
+    kd = 0, ground stiffness 1000 N/m (it scored 251 m/s under --metric distance)."""
+    import re
+
+    text, _ = creature.read_source("bounder")
+    for field, value in POWERED_CHANGES:
+        text = re.sub(rf"^{field} = [0-9.]+", f"{field} = {value}", text, flags=re.M)
+    return text.replace("gravity = 9.81\n", "gravity = 9.81\n\n[world.ground]\nstiffness = 1000.0\n", 1)
+
+
+def test_a_creature_whose_servos_the_step_cannot_resolve_scores_nothing():
+    from sanlab.check import resolution
+    from sanlab.evaluate.resolution import Servos
+
+    spec = creature.loads(powered_bounder(), source="powered.toml")
+    assert [a.ks for a in spec.actuators] == [pytest.approx(1e6 * 180 / math.pi)] * 4
+    ev = Evaluator(spec, metric="distance", seconds=1.0, batch=8, ensemble=Ensemble(2))
+    w = np.stack([ev.san.random_weights(0, i) for i in range(8)])
+    r = ev(w, keys=[search_key(0, i) for i in range(8)])
+    assert r.nonfinite.all() and (r.score == 0).all() and (r.speed_cm_s == 0).all()
+    warned = [f for f in resolution(spec) if f.warning]
+    assert len(warned) == 4 and "cannot follow it" in warned[0].message
+    # the same servos with enough damping settle within a step, as the implicit step settles them
+    damped = creature.loads(powered_bounder().replace("kd = 0.0", "kd = 1e6"), source="damped.toml")
+    sv = Servos.of(damped)
+    assert not sv.unresolved([a.ks for a in damped.actuators], [a.kd for a in damped.actuators], damped.dt)
+    from sanlab.creature.files import builtin_names
+
+    for name in builtin_names():  # every built-in is resolved
+        assert not [f for f in resolution(creature.load(name)) if f.warning], name
