@@ -2,10 +2,10 @@
 
 The gaits in ``tests/data/gaits`` are exports of runs made by sanlab itself at the paper's budget
 (200 random SANs, 1000 annealing trials, ensemble 8, seed 0): the walker's tuned 114 cm/s and the
-bounder's tuned 66.8 cm/s of ``docs/table1.md`` (23 and 36 cm/s at dt/4 there), a chaotic random
-three-link gait, and a two-link gait tuned under members at dt and dt/2 whose starts all fall into
-one limit cycle. Each test imports one and audits it from scratch: nothing here is a stored
-result.
+bounder's tuned 66.8 cm/s of ``docs/table1.md`` (23 and 36 cm/s at dt/4 there), the tuned bounder
+of issue 28 (seed 5, 157.4 cm/s, 77.1 in float64), a chaotic random three-link gait, and a two-link
+gait tuned under members at dt and dt/2 whose starts all fall into one limit cycle. Each test
+imports one and audits it from scratch: nothing here is a stored result.
 """
 
 from __future__ import annotations
@@ -74,3 +74,12 @@ def test_the_same_nudge_twice_on_fresh_draws_is_not_flagged(lib):
     a, b = (ev(g.weights[None], theta, [(7, k, 99)]).member_speed_cm_s[0] for k in (1, 2))
     assert np.std(a) > 0.2 * np.mean(a)  # chaotic: the starts spread widely
     assert shift(a, b).verdict != DEPENDENT
+
+
+def test_the_bounder_chain_of_issue_28_is_resolution_dependent(lib):
+    """The bounder, seed 5, 200 random SANs + 1000 annealing trials, every member at dt (before issue 28):
+    157.4 cm/s, which issue 28 found at 77.1 in float64 (-51 %)."""
+    a = audit(lib, _imported(lib, "bounder-seed5-tuned-artefact"))
+    assert a.stored_cm_s == pytest.approx(157.4, abs=0.05)
+    assert a.resolution_dependent, a.summary()
+    assert a.shifts["float64"].verdict == DEPENDENT and a.shifts["float64"].hi < -0.3
