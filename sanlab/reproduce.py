@@ -209,17 +209,18 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
 
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
-              log=print, ensemble: int = 8, audit: bool = True) -> str:
-    """Run the paper's budget on each creature, every score over an ensemble of ``ensemble``
-    members, and audit each tuned gait (``audit=False``: only a stored audit is shown); returns
-    the Markdown report.
+              log=print, ensemble: int | Ensemble = 8, audit: bool = True) -> str:
+    """Run the paper's budget on each creature, every score over an ensemble (``ensemble``: a
+    number of members, scored as searches score by default, ``default_ensemble``, or an
+    :class:`Ensemble`), and audit each tuned gait (``audit=False``: only a stored audit is
+    shown); returns the Markdown report.
 
     Resumable: what ``lib`` already holds from an earlier call with the same arguments (a
     finished search, tuning run or audit) is reused, and an interrupted search or tuning run
     continues (see the module docstring). Raises LibraryError and ValueError as ``run_search``
     and ``tune`` do; KeyboardInterrupt leaves every stored evaluation in the library."""
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
-    ens = default_ensemble(int(ensemble))
+    ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []
     extras: dict = {}
     t_all = time.perf_counter()
@@ -248,7 +249,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
         if name == "bounder":
             extras["robustness"] = robustness(lib, shown)
             extras["robustness_gait"] = shown
-    return markdown(rows, extras, seed, controllers, trials, time.perf_counter() - t_all, ensemble)
+    return markdown(rows, extras, seed, controllers, trials, time.perf_counter() - t_all, ens)
 
 
 def _verdict(audit: dict | None) -> str:
@@ -289,8 +290,19 @@ def _nudged(audit: dict | None) -> str:
     return " · ".join(f"{k} {'-' if v is None else f'{v:.1f}'}" for k, v in speeds.items())
 
 
+def _scoring(ens: Ensemble) -> str:
+    """How the report's scores were taken, in words."""
+    if ens.members == 1:
+        return "every score one unperturbed rollout; "
+    if len(ens.dt_factors) == 1:
+        return f"every score the median over an ensemble of {ens.members} perturbed starts (the tuned gait's on a held-out ensemble); "
+    steps = ", ".join("dt" if f == 1 else f"dt x {f:g}" for f in ens.dt_factors)
+    return (f"every score the lowest of the group medians over an ensemble of {ens.members} perturbed starts, the members "
+            f"at {steps} in turn (the tuned gait's on a held-out ensemble); ")
+
+
 def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials: int, total: float,
-             ensemble: int = 8) -> str:
+             ensemble: int | Ensemble = 8) -> str:
     import jax
 
     from sanlab import __version__
@@ -301,9 +313,7 @@ def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials:
         "",
         f"sanlab {__version__}, seed {seed}, {controllers} random SANs per creature (6 s; 30 s for the fish "
         f"and the crawler), then {trials} simulated-annealing trials on the best; "
-        + (f"every score the lower of two medians over an ensemble of {ensemble} perturbed starts, half at the "
-           "step and half at half the step (the tuned gait's on a held-out ensemble); " if ensemble > 1 else
-           "every score one unperturbed rollout; ")
+        + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
         + f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min.",
         "",
         "| creature | links | sensors | actuators | hidden | Table 1 speed (cm/s) | sanlab best random (cm/s) "

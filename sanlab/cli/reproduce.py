@@ -8,7 +8,19 @@ from typing import Annotated
 import typer
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, check_run_args, console, fail, library_call, load_or_exit, open_library, output_file, safe
+from sanlab.cli._common import (
+    DbOpt,
+    DtFactorsOpt,
+    check_run_args,
+    console,
+    ensemble_or_exit,
+    fail,
+    library_call,
+    load_or_exit,
+    open_library,
+    output_file,
+    safe,
+)
 from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
 
@@ -19,6 +31,7 @@ def reproduce(
     controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
+    dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
     audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4, float64) and print the audit beside its speed.")] = True,
     db: DbOpt = "sanlab.db",
@@ -29,6 +42,8 @@ def reproduce(
     configure()
     from sanlab.reproduce import reproduce as run
 
+    ens = ensemble_or_exit(ensemble, dt_factors)
+
     names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
     for n in names:  # every argument checked before the first run is created
         check_run_args(load_or_exit(n)[0], controllers=controllers, trials=trials, seed=seed)
@@ -37,7 +52,7 @@ def reproduce(
     lib = open_library(db, create=True)
     try:
         report = library_call(lambda: run(lib, names, seed=seed, controllers=controllers, trials=trials,
-                                          log=lambda s: console.print(s), ensemble=ensemble, audit=audit))
+                                          log=lambda s: console.print(s), ensemble=ens, audit=audit))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None
