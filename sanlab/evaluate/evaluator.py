@@ -239,7 +239,8 @@ class Evaluator:
     def _groups(self, m: Model, cp: SanParams, state0, need: bool, R: int, K: int) -> dict[str, np.ndarray]:
         """The rows' metric scores when the ensemble's members run at several steps: one rollout
         per step factor over its members' rows (each simulating ``seconds``, so a member at dt/2
-        runs twice the steps), all of the same size, so they share one compiled program."""
+        runs twice the steps); when the factors divide the members evenly the rollouts are of one
+        size and share one compiled program."""
         import jax
 
         from sanlab import sim
