@@ -103,6 +103,8 @@ def ensemble_or_exit(members: int, dt_factors: str | None = None, dt_jitter: flo
     from sanlab.evaluate.ensemble import default_ensemble
 
     check_count("--ensemble", members, 1, MAX_MEMBERS)
+    if not (math.isfinite(dt_jitter) and 0 <= dt_jitter < 0.5):
+        raise fail(f"--dt-jitter: expected a number in [0, 0.5), got {dt_jitter:g}")
     factors = None
     if dt_factors is not None:
         try:
@@ -112,8 +114,7 @@ def ensemble_or_exit(members: int, dt_factors: str | None = None, dt_jitter: flo
     try:
         return default_ensemble(members, factors, dt_jitter)
     except ValueError as e:
-        which = "--dt-factors" if "dt_factors" in str(e) or "step factors" in str(e) else (
-            "--dt-jitter" if "dt must" in str(e) else "--ensemble")
+        which = "--dt-factors" if "dt_factors" in str(e) or "step factors" in str(e) else "--ensemble"
         raise fail(option_error(which, e)) from None
 
 
