@@ -92,12 +92,12 @@ def audit(
                         "its change and 95 % interval",
                   box=box.SIMPLE_HEAD, collapse_padding=True, pad_edge=False)
     table.add_column("gait", no_wrap=True)
-    for name in ("stored", "re-scored", "at dt (starts)", *names, "verdict"):
+    for name in ("stored", "rescored", "at dt", *names, "verdict"):
         table.add_column(name)
     for a in results:
         cells = [shift_cell(a.speeds[n], a.shifts[n]) for n in names]
         table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}",
-                      f"{a.reference_cm_s:.1f} ({a.audit_members})", *cells,
+                      f"{a.reference_cm_s:.1f}\n({a.audit_members})", *cells,
                       verdict_cell(a.verdict, a.needed))
     console.print(table)
     if any(not a.reproduced for a in results):
@@ -112,9 +112,10 @@ def audit(
 
 
 def shift_cell(speed: float, sh) -> str:
-    """"35.3 -69% [-75,-60]": a nudge's mean speed, its change and interval (percent)."""
+    """"35.3 -69%" over "[-75,-60]": a nudge's mean speed and change, and under them the
+    interval (percent), on two lines so that an 80-column table does not cut the interval."""
     pct = lambda x: "inf" if not math.isfinite(x) else f"{100 * x:+.0f}"
-    return f"{speed:.1f} {pct(sh.change)}% [{pct(sh.lo)},{pct(sh.hi)}]"
+    return f"{speed:.1f} {pct(sh.change)}%\n[{pct(sh.lo)},{pct(sh.hi)}]"
 
 
 def verdict_cell(verdict: str, needed: int | None = None) -> str:
