@@ -42,9 +42,37 @@ _pending: list[threading.Timer] = []
 
 
 def _interrupt(signum, frame) -> None:
-    """SIGINT and SIGTERM end a command as Ctrl-C does: stored work kept, a resume hint."""
+    """SIGINT and SIGTERM end a command as Ctrl-C does: stored work kept, a resume hint.
+
+    XLA compiles on a worker thread while the main thread waits in JAX's compiler; a
+    KeyboardInterrupt raised in that wait ended the process under the running compile, which then
+    touched the freed client (SIGSEGV, exit 139, no message). A signal landing there is sent again
+    a moment later, until the compile is done."""
     _last_signal[0] = signum
+    if _compiling(frame):
+        if not _pending:
+            sys.stderr.write("sanlab: stopping once the compile under way is done\n")
+        _send_again_soon()
+        return
     raise KeyboardInterrupt
+
+
+_COMPILER = os.path.join("jax", "_src", "compiler.py")
+
+
+def _compiling(frame) -> bool:
+    while frame is not None:
+        if frame.f_code.co_filename.endswith(_COMPILER):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _send_again_soon() -> None:
+    timer = threading.Timer(_REDELIVER_S, os.kill, (os.getpid(), _last_signal[0]))
+    timer.daemon = True
+    _pending.append(timer)
+    timer.start()
 
 
 def _redeliver_interrupts(hook):
@@ -55,10 +83,7 @@ def _redeliver_interrupts(hook):
 
     def unraisable(u) -> None:
         if isinstance(u.exc_type, type) and issubclass(u.exc_type, KeyboardInterrupt):
-            timer = threading.Timer(_REDELIVER_S, os.kill, (os.getpid(), _last_signal[0]))
-            timer.daemon = True
-            _pending.append(timer)
-            timer.start()
+            _send_again_soon()
             return
         hook(u)
 

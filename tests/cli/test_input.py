@@ -319,6 +319,47 @@ def test_sigterm_ends_a_command_like_ctrl_c(tmp_path):
     assert r.returncode != -signal.SIGTERM
 
 
+def test_sigterm_during_a_compile_ends_the_command_without_a_crash():
+    """XLA compiles on a worker thread while the main thread waits in JAX's compiler: an
+    interrupt raised in that wait ended Python under the running compile (SIGSEGV, exit 139; one
+    SIGTERM in three landed there). Here SIGTERM is sent once the main thread is seen inside the
+    compiler compiling the rollout (the long compile), so that it lands there every time."""
+    code = ("import os, signal, sys, threading, time; from sanlab.cli import app\n"
+            "main = threading.main_thread().ident\n"
+            "def inside():\n"
+            "    f, files = sys._current_frames().get(main), set()\n"
+            "    while f is not None:\n"
+            "        files.add(os.path.join(*f.f_code.co_filename.split(os.sep)[-3:]))\n"
+            "        f = f.f_back\n"
+            "    return {os.path.join('jax', '_src', 'compiler.py'), os.path.join('sanlab', 'sim', 'rollout.py')} <= files\n"
+            "def watch():\n"
+            "    while not inside():\n"
+            "        time.sleep(0.005)\n"
+            "    print('sent', file=sys.stderr, flush=True)\n"
+            "    os.kill(os.getpid(), signal.SIGTERM)\n"
+            "threading.Thread(target=watch, daemon=True).start()\n"
+            "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; app()\n")
+    r = _python(code)
+    assert r.stderr.startswith("sent"), r.stderr
+    assert r.returncode in (1, 130) and "Traceback" not in r.stderr, (r.returncode, r.stderr)
+
+
+def test_an_interrupt_in_jaxs_compiler_is_sent_again_not_raised(monkeypatch):
+    """The handler itself: inside JAX's compiler it raises nothing and sends the signal again;
+    anywhere else it raises KeyboardInterrupt."""
+    import sanlab.cli as cli
+
+    sent: list[int] = []
+    monkeypatch.setattr(cli, "_send_again_soon", lambda: sent.append(cli._last_signal[0]))
+    where: dict = {}
+    exec(compile("import sys\nframe = sys._getframe()", os.path.join("site", "jax", "_src", "compiler.py"), "exec"), where)
+    cli._interrupt(signal.SIGTERM, where["frame"])
+    assert sent == [signal.SIGTERM]
+    with pytest.raises(KeyboardInterrupt):
+        cli._interrupt(signal.SIGINT, sys._getframe())
+    assert sent == [signal.SIGTERM] and cli._last_signal[0] == signal.SIGINT
+
+
 def test_an_interrupt_python_drops_in_a_gc_callback_still_ends_the_command():
     """Python ignores an exception raised inside a garbage-collector callback (JAX has one): a
     SIGTERM landing there was lost and the command ran to its end (exit 0; seen under load). Here
