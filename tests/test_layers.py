@@ -5,7 +5,7 @@ Layers, lowest first (a module may import from its own layer and the ones below)
     base              sanlab (the package: __version__, configure) and sanlab._jax
     creature          the spec and the file format
     sim               compile, step, roll out
-    san, metrics      controllers and observers of a rollout; interop (MJCF export) sits here too,
+    san, metrics      controllers and observers of a rollout (metrics, descriptors); interop (MJCF export) sits here too,
                       above sim, which it may use
     evaluate          evaluate (scoring batches), gait (a stored controller with its creature,
                       replayed), engine_report (random SANs summarised, `sanlab simulate`),
@@ -14,7 +14,7 @@ Layers, lowest first (a module may import from its own layer and the ones below)
     library           the gait library (SQLite)
     search | render   side by side, neither imports the other: search holds the phase 1 and 2
                       drivers, reproduce (both phases per creature, the Table 1 report) and
-                      audit (a gait re-scored under nudges);
+                      audit (a gait re-scored under nudges), modes (a run's gaits grouped);
                       render draws scenes, scores and traces it is handed
     cli, studio       the applications: the command line, and the web studio
 
@@ -38,10 +38,10 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("base", {"base": ("sanlab", "sanlab._jax")}),
     ("creature", {"creature": ("sanlab.creature",)}),
     ("sim", {"sim": ("sanlab.sim",)}),
-    ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics",), "interop": ("sanlab.interop",)}),
+    ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics", "sanlab.descriptors"), "interop": ("sanlab.interop",)}),
     ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
-    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit"), "render": ("sanlab.render",)}),
+    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",)}),
 ]
 SIDE_BY_SIDE = {"search and render"}

@@ -24,6 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from sanlab import descriptors
 from sanlab.creature.spec import Creature, Terrain
 from sanlab.evaluate.ensemble import Ensemble, Key
 from sanlab.evaluate.records import ScoreBatch
@@ -117,10 +118,18 @@ class Evaluator:
         self.space = space
         self.servos = Servos.of(spec)
         self._compiled: tuple[Model, list[Any]] | None = None
+        self._observer: Observers | None = None
 
     # A worker process receives the evaluator pickled and compiles it there.
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "_compiled": None}
+        return {**self.__dict__, "_compiled": None, "_observer": None}
+
+    @property
+    def observer(self) -> Observers:
+        """What every rollout observes: the metric's ingredients and the descriptors."""
+        if self._observer is None:
+            self._observer = Observers(self.metric, descriptors.Descriptors.for_creature(self.model))
+        return self._observer
 
     @property
     def model(self) -> Model:
@@ -218,14 +227,16 @@ class Evaluator:
                        np.repeat(k2, reps, axis=0).astype(self.dtype))
         factors = self.ensemble.dt_factors
         if len(factors) == 1:
-            r = sim.rollout(m, self.san, cp, self.seconds, observer=self.metric, state0=state0, params_batched=need,
-                            pad_to=R)
-            s = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
+            r = sim.rollout(m, self.san, cp, self.seconds, observer=self.observer, state0=state0,
+                            params_batched=need, pad_to=R)
+            s, d, sig = self._scores(r)
         else:
-            s = self._groups(m, cp, state0, need, R, K)
+            s, d, sig = self._groups(m, cp, state0, need, R, K)
         if step is not None:  # a member with a longer step ran longer: compare over the nominal time
             for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
                 s[name] = s[name] / step
+            d["turns_per_s"] = d["turns_per_s"] / step
+        d["vx_cm_s"] = np.asarray(s["dx_m"], float) / self.seconds * 100.0
         # A servo the step cannot resolve makes every number of the run the integrator's: scored
         # and flagged as a run that blew up (sanlab.evaluate.resolution).
         bad = np.broadcast_to(self.servos.unresolved(m.params.act_ks, m.params.act_kd, self.spec.dt), (R,))
@@ -233,10 +244,20 @@ class Evaluator:
             s["nonfinite"] = np.asarray(s["nonfinite"]) | bad
             for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
                 s[name] = np.where(bad, 0.0, s[name])
-        return robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()},
-                      self.ensemble.groups()).take(slice(0, n))
+        groups = self.ensemble.groups()
+        batch = robust({k: np.asarray(v).reshape(P, T, K) for k, v in s.items()}, groups)
+        summary, signature = summarise({k: np.asarray(v).reshape(P, T, K, *np.shape(v)[1:]) for k, v in d.items()},
+                                       np.asarray(sig, dtype=object).reshape(P, T, K), batch, groups)
+        return dataclasses.replace(batch, descriptors=summary, signature=signature).take(slice(0, n))
 
-    def _groups(self, m: Model, cp: SanParams, state0, need: bool, R: int, K: int) -> dict[str, np.ndarray]:
+    def _scores(self, r) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list]:
+        """A rollout's rows: the metric's arrays, the descriptors' and the signatures."""
+        s = scores(self.metric, r.acc[0], r.finite, self.seconds, self.spec.world.plane)
+        d, sig = descriptors.values(self.observer.descriptors, r.acc[1], s["dx_m"], self.seconds)
+        return s, d, sig
+
+    def _groups(self, m: Model, cp: SanParams, state0, need: bool, R: int,
+                K: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list]:
         """The rows' metric scores when the ensemble's members run at several steps: one rollout
         per step factor over its members' rows (each simulating ``seconds``, so a member at dt/2
         runs twice the steps); when the factors divide the members evenly the rollouts are of one
@@ -248,6 +269,8 @@ class Evaluator:
         member = np.arange(R) % K
         dt0 = float(np.asarray(self.model.params.dt))
         out: dict[str, np.ndarray] = {}
+        desc: dict[str, np.ndarray] = {}
+        sig: list = [None] * R
         for f, members in zip(self.ensemble.dt_factors, self.ensemble.groups(), strict=True):
             rows = np.flatnonzero(np.isin(member, members))
             take = lambda x, rows=rows: x[rows]
@@ -255,14 +278,17 @@ class Evaluator:
             mj = mj.with_params(dt=(np.asarray(mj.params.dt, float) * f).astype(self.model.dtype))
             s0 = None if state0 is None else jax.tree_util.tree_map(take, state0)
             r = sim.rollout(mj, self.san, jax.tree_util.tree_map(take, cp), steps=int(round(self.seconds / (dt0 * f))),
-                            observer=self.metric, state0=s0, params_batched=need, pad_to=len(rows))
-            sj = scores(self.metric, r.acc, r.finite, self.seconds, self.spec.world.plane)
-            for name, v in sj.items():
-                v = np.asarray(v)
-                if name not in out:
-                    out[name] = np.zeros((R, *v.shape[1:]), v.dtype)
-                out[name][rows] = v
-        return out
+                            observer=self.observer, state0=s0, params_batched=need, pad_to=len(rows))
+            sj, dj, gj = self._scores(r)
+            for into, part in ((out, sj), (desc, dj)):
+                for name, v in part.items():
+                    v = np.asarray(v)
+                    if name not in into:
+                        into[name] = np.zeros((R, *v.shape[1:]), v.dtype)
+                    into[name][rows] = v
+            for row, g in zip(rows, gj, strict=True):
+                sig[row] = g
+        return out, desc, sig
 
 
 def robust(rows: dict[str, np.ndarray], groups: Sequence[np.ndarray] | None = None) -> ScoreBatch:
@@ -283,15 +309,70 @@ def robust(rows: dict[str, np.ndarray], groups: Sequence[np.ndarray] | None = No
     member_dx = rows["dx_m"].mean(1) if "dx_m" in rows else None
     fell = np.any(rows["fell"], axis=1)
     nonfinite = np.any(rows["nonfinite"], axis=(1, 2))
-    B, K = member_score.shape
-    if groups is None or len(groups) <= 1:
-        med = lambda x: np.where(nonfinite, 0.0, np.median(x, 1))
-    else:
-        worst = np.argmin(np.stack([np.median(member_score[:, g], 1) for g in groups], 1), 1)  # [B]
-        med = lambda x: np.where(nonfinite, 0.0, np.stack([np.median(x[:, g], 1) for g in groups], 1)[np.arange(B), worst])
+    K = member_score.shape[1]
+    chosen = _chosen(member_score, groups)
+    med = lambda x: np.where(nonfinite, 0.0, _median(x, chosen))
     return ScoreBatch(med(member_score), med(member_speed), med(member_dist),
                       np.sum(fell, axis=1) > K / 2, nonfinite, member_score, member_speed,
                       None if member_dx is None else med(member_dx))
+
+
+def _chosen(member_score: np.ndarray, groups: Sequence[np.ndarray] | None) -> tuple[list[np.ndarray], np.ndarray]:
+    """(the member groups, per evaluation the index of the one its medians are taken over): all
+    members as one group, or the group of the lowest median score."""
+    B, K = member_score.shape
+    if groups is None or len(groups) <= 1:
+        return [np.arange(K)], np.zeros(B, int)
+    groups = [np.asarray(g) for g in groups]
+    return groups, np.argmin(np.stack([np.median(member_score[:, g], 1) for g in groups], 1), 1)
+
+
+def _median(x: np.ndarray, chosen: tuple[list[np.ndarray], np.ndarray]) -> np.ndarray:
+    """x [B, K, ...] -> [B, ...]: each evaluation's median over its chosen group of members."""
+    groups, which = chosen
+    per = np.stack([np.median(x[:, g], 1) for g in groups], 1)  # [B, G, ...]
+    return per[np.arange(len(which)), which]
+
+
+def summarise(rows: dict[str, np.ndarray], signatures: np.ndarray, batch: ScoreBatch,
+              groups: Sequence[np.ndarray] | None) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Evaluations' descriptors from their rows' (each [B, T, K, ...], ``sanlab.descriptors``):
+    a member's are its means over the terrains, an evaluation's the medians over the members its
+    score was taken from (see :func:`robust`; NaN where it went non-finite), and its signature
+    the most common of those members' (terrains' and members' in order on a tie)."""
+    chosen = _chosen(np.asarray(batch.member_score), groups)
+    bad = np.asarray(batch.nonfinite)
+    out = {}
+    for name, v in rows.items():
+        m = _median(np.asarray(v, float).mean(1), chosen)
+        out[name] = np.where(bad.reshape(-1, *([1] * (m.ndim - 1))), np.nan, m)
+    sig = np.full(len(bad), None, dtype=object)
+    groups, which = chosen
+    for b in range(len(bad)):
+        if bad[b]:
+            continue
+        seen = [s for s in signatures[b][:, groups[which[b]]].reshape(-1) if s is not None]
+        if seen:
+            sig[b] = max(dict.fromkeys(seen), key=seen.count)
+    return out, sig
+
+
+@dataclass(frozen=True)
+class Observers:
+    """The metric's observer and the descriptors' in one rollout (``sim.rollout`` takes one)."""
+
+    metric: Metric
+    descriptors: descriptors.Descriptors
+
+    def init(self, model, state):
+        return self.metric.init(model, state), self.descriptors.init(model, state)
+
+    def update(self, model, acc, state, fr, bits, u):
+        return (self.metric.update(model, acc[0], state, fr, bits, u),
+                self.descriptors.update(model, acc[1], state, fr, bits, u))
+
+    def finish(self, model, acc, state):
+        return self.metric.finish(model, acc[0], state), acc[1]
 
 
 def _tree(fn, model: Model) -> Model:

@@ -93,6 +93,7 @@ class Scores:
     member_scores: tuple[float, ...] = ()
     member_speeds: tuple[float, ...] = ()  # cm/s
     dx_m: float | None = None  # m, signed displacement along x (the members' median; None: unknown)
+    descriptors: dict[str, Any] | None = None  # sanlab.descriptors: {name: float (None: NaN), "duty": [..], "signature": str | None}
 
     def to_json(self) -> dict[str, Any]:
         out = {"score": self.score, "speed_cm_s": self.speed_cm_s, "distance_m": self.distance_m,
@@ -100,6 +101,8 @@ class Scores:
                "members": {"score": list(self.member_scores), "speed_cm_s": list(self.member_speeds)}}
         if self.dx_m is not None and math.isfinite(self.dx_m):
             out["dx_m"] = self.dx_m
+        if self.descriptors is not None:
+            out["descriptors"] = self.descriptors
         return out
 
     @classmethod
@@ -116,7 +119,8 @@ class Scores:
                    bool(d.get("fell", False)), bool(d.get("nonfinite", False)),
                    tuple(float(x) for x in ms) if ms else (score,),
                    tuple(float(x) for x in mv) if mv else (speed,),
-                   None if d.get("dx_m") is None else float(d["dx_m"]))
+                   None if d.get("dx_m") is None else float(d["dx_m"]),
+                   d["descriptors"] if isinstance(d.get("descriptors"), dict) else None)
 
 
 @dataclass(frozen=True)
@@ -124,7 +128,9 @@ class ScoreBatch:
     """Scores of a batch of B evaluations as arrays (what an evaluator returns; compact to send
     between processes): score, speed_cm_s, distance_m [B] float64; fell, nonfinite [B] bool;
     member_score, member_speed_cm_s [B, K] float64; dx_m [B] float64 (m, signed displacement
-    along x, the members' median; NaN where unknown)."""
+    along x, the members' median; NaN where unknown); descriptors: {name: [B] or [B, n]} float64,
+    the members' medians of ``sanlab.descriptors`` (None: not computed); signature [B] object
+    (str or None), the members' most common."""
 
     score: np.ndarray
     speed_cm_s: np.ndarray
@@ -134,10 +140,14 @@ class ScoreBatch:
     member_score: np.ndarray
     member_speed_cm_s: np.ndarray
     dx_m: Any = None
+    descriptors: dict[str, np.ndarray] | None = None
+    signature: Any = None
 
     def __post_init__(self):
         if self.dx_m is None:
             object.__setattr__(self, "dx_m", np.full(len(self.score), np.nan))
+        if self.descriptors is not None and self.signature is None:
+            object.__setattr__(self, "signature", np.full(len(self.score), None, dtype=object))
 
     def __len__(self) -> int:
         return len(self.score)
@@ -148,18 +158,41 @@ class ScoreBatch:
                       bool(self.fell[k]), bool(self.nonfinite[k]),
                       tuple(float(x) for x in self.member_score[k]),
                       tuple(float(x) for x in self.member_speed_cm_s[k]),
-                      float(self.dx_m[k]) if np.isfinite(self.dx_m[k]) else None)
+                      float(self.dx_m[k]) if np.isfinite(self.dx_m[k]) else None,
+                      self._descriptors(k))
+
+    def _descriptors(self, k: int) -> dict[str, Any] | None:
+        if self.descriptors is None:
+            return None
+        out: dict[str, Any] = {}
+        for name, v in self.descriptors.items():
+            x = np.asarray(v[k], float)
+            out[name] = [_json_float(y) for y in x] if x.ndim else _json_float(x)
+        out["signature"] = self.signature[k]
+        return out
 
     def rows(self) -> list[Scores]:
         return [self.row(k) for k in range(len(self))]
 
     def take(self, index: Any) -> ScoreBatch:
         """The evaluations at ``index`` (a slice or an index array)."""
-        return ScoreBatch(*(np.asarray(getattr(self, f))[index] for f in _FIELDS))
+        d = None if self.descriptors is None else {k: np.asarray(v)[index] for k, v in self.descriptors.items()}
+        sig = None if d is None else np.asarray(self.signature, dtype=object)[index]
+        return ScoreBatch(*(np.asarray(getattr(self, f))[index] for f in _FIELDS), descriptors=d, signature=sig)
 
     @staticmethod
     def concat(batches: list[ScoreBatch]) -> ScoreBatch:
-        return ScoreBatch(*(np.concatenate([getattr(b, f) for b in batches]) for f in _FIELDS))
+        d = sig = None
+        if batches and all(b.descriptors is not None for b in batches):
+            d = {k: np.concatenate([b.descriptors[k] for b in batches]) for k in batches[0].descriptors}  # type: ignore[index]
+            sig = np.concatenate([np.asarray(b.signature, dtype=object) for b in batches])
+        return ScoreBatch(*(np.concatenate([getattr(b, f) for b in batches]) for f in _FIELDS), descriptors=d,
+                          signature=sig)
+
+
+def _json_float(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 _FIELDS = ("score", "speed_cm_s", "distance_m", "fell", "nonfinite", "member_score", "member_speed_cm_s", "dx_m")

@@ -33,6 +33,8 @@ class SearchSettings:
     delay_off: float
     san: dict[str, int] = field(default_factory=dict)  # sensors, hidden, actuators
     imported_from: str | None = None  # set on an imported gait's run: the source gait id
+    strategy: str = "random"  # a phase-1 strategy of ``sanlab.search.registry``
+    grid: dict | None = None  # map-elites: its archive (``sanlab.search.base.Grid`` as JSON)
 
     kind = "search"
 
@@ -42,6 +44,10 @@ class SearchSettings:
                "delay_on": self.delay_on, "delay_off": self.delay_off, "san": dict(self.san)}
         if self.imported_from is not None:
             out["imported_from"] = self.imported_from
+        if self.strategy != "random":  # a random search's settings read as they did before strategies
+            out["strategy"] = self.strategy
+        if self.grid is not None:
+            out["grid"] = self.grid
         return out
 
     @classmethod
@@ -50,7 +56,8 @@ class SearchSettings:
         return cls(int(d.get("controllers", 0)), None if seconds is None else float(seconds),
                    None if metric is None else str(metric), int(d.get("batch", 256)),
                    d.get("source"), Ensemble.from_json(d.get("ensemble")), float(d.get("delay_on", 0.1)),
-                   float(d.get("delay_off", 0.1)), dict(d.get("san") or {}), d.get("imported_from"))
+                   float(d.get("delay_off", 0.1)), dict(d.get("san") or {}), d.get("imported_from"),
+                   str(d.get("strategy", "random")), d.get("grid") if isinstance(d.get("grid"), dict) else None)
 
 
 @dataclass(frozen=True)
@@ -236,6 +243,8 @@ class EvaluationRow:
         extra = {"distance_m": s["distance_m"], "members": s["members"], **self.extra}
         if "dx_m" in s:
             extra["dx_m"] = s["dx_m"]
+        if "descriptors" in s:
+            extra["descriptors"] = s["descriptors"]
         return {"idx": self.idx, "encoding": self.encoding, "params": self.params.to_json(),
                 "score": s["score"], "speed_cm_s": s["speed_cm_s"], "fell": s["fell"],
                 "nonfinite": s["nonfinite"], "extra": extra, "parent": self.parent}
