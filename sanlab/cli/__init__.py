@@ -1,7 +1,7 @@
 """The ``sanlab`` command line: this module only composes the commands, one module per group.
 
 ``creatures`` (check, creatures), ``simulate``, ``search``, ``library`` (runs, show, export,
-import), ``tune``, ``audit``, ``reproduce``, ``render``, ``studio`` (the web studio, an optional extra);
+import), ``modes``, ``tune``, ``audit``, ``reproduce``, ``render``, ``studio`` (the web studio, an optional extra);
 ``_common`` holds what they share (``fail``, the options, opening the library, the progress bar).
 Heavy imports (JAX, the drawing libraries, the web stack) stay inside the commands that need them,
 so that ``sanlab check`` starts fast; commands that simulate call :func:`sanlab.configure` first.
@@ -20,7 +20,7 @@ from typing import Annotated, Any
 import typer
 
 from sanlab import __version__
-from sanlab.cli import audit, creatures, library, render, reproduce, search, simulate, studio, tune
+from sanlab.cli import audit, creatures, library, modes, render, reproduce, search, simulate, studio, tune
 
 app = typer.Typer(
     help="Discover how planar creatures can move with sensor-actuator networks.",
@@ -123,6 +123,7 @@ app.command()(simulate.simulate)
 app.command()(search.search)
 app.command()(library.runs)
 app.command()(library.show)
+app.command()(modes.modes)
 app.command("export")(library.export_)
 app.command("import")(library.import_)
 app.command()(tune.tune)

@@ -1,0 +1,65 @@
+"""``sanlab modes``: a run's useful controllers grouped into gait modes (``sanlab.modes``)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.table import Table
+
+from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, safe
+
+if TYPE_CHECKING:
+    from sanlab.modes import Mode
+
+
+def modes(
+    run_id: Annotated[str, typer.Argument(metavar="RUN_ID", help="A run id (or an unambiguous prefix).")],
+    min_score: Annotated[float | None, typer.Option(help=(
+        "Controllers scoring at least this are grouped (default: a fifth of the run's best score)."))] = None,
+    top: Annotated[int, typer.Option(min=1, max=10_000, help="Modes to show, best first (--json: all).")] = 10,
+    min_cluster: Annotated[int, typer.Option(min=2, max=1000, help="Smallest group the density clustering forms.")] = 3,
+    db: DbOpt = "sanlab.db",
+    as_json: JsonOpt = False,
+) -> None:
+    """Group a run's useful controllers into gait modes and name them.
+
+    Useful: not fallen, finite, scoring at least --min-score. Controllers are grouped by HDBSCAN on
+    their standardised behaviour descriptors and, exactly, by their periodic sensor signature (the
+    same cycle of sensor words is the same mode); each mode is named where a rule fits (rolling,
+    flipping, swimming, hopping, walking, shuffling, sliding; else "mode k") and shown with its best
+    gait, its size and its descriptors' medians."""
+    from sanlab.modes import of_run
+
+    lib = open_library(db, readonly=True)
+    run = library_call(lib.get_run, run_id)
+    found, threshold, missing = library_call(of_run, lib, run.run_id, min_score, min_cluster)
+    if missing and not found:
+        raise fail(f"run {run.run_id} has no behaviour descriptors (stored before sanlab computed them); "
+                   f"search again to get them, e.g. `sanlab search {run.creature} --seed {run.seed}`")
+    if as_json:
+        typer.echo(dump_json({"run_id": run.run_id, "creature": run.creature, "min_score": threshold,
+                              "without_descriptors": missing, "modes": [m.to_json() for m in found]}))
+        return
+    if missing:
+        console.print(f"{missing} useful controllers were stored without descriptors and are left out")
+    print_modes(found[:top], f"run {run.run_id}: {run.creature}, {len(found)} modes of "
+                             f"{sum(m.size for m in found)} controllers scoring at least {threshold:.3g}")
+    if len(found) > top:
+        console.print(f"and {len(found) - top} more modes (--top {len(found)} shows them all)")
+
+
+def print_modes(found: list[Mode], title: str) -> None:
+    """The modes table: name, size, best gait, its speed (cm/s; arrow: direction along x), the mode's
+    median turns over the run, airborne fraction and period (its signature: ``--json``)."""
+    from sanlab.cli._common import ARROWS, direction
+
+    table = Table("mode", "size", "best gait", "cm/s", "turns", "airborne", "period s", title=safe(title))
+    for m in found:
+        s = m.summary
+        f = lambda v, fmt: "-" if not math.isfinite(v) else format(v, fmt)
+        arrow = ARROWS[direction(m.best.descriptors.get("vx_cm_s"))]
+        table.add_row(safe(m.name), str(m.size), m.best.gait_id, f"{arrow} {m.best.speed_cm_s:.1f}",
+                      f(m.turns, "+.2f"), f(s["airborne"], ".2f"), f(s["period_s"], ".2f"))
+    console.print(table)

@@ -1,0 +1,240 @@
+"""Gait modes: a run's useful controllers grouped by how they move (issue 31; §6.1: the cart's
+five gaits, "told apart by eye").
+
+Each evaluation carries behaviour descriptors (``sanlab.descriptors``). The useful ones (not
+fallen, finite, scoring at least ``min_score``) are grouped in two ways at once:
+
+- by density, with scikit-learn's HDBSCAN on the standardised continuous descriptors (signed
+  speed, COM height and its spread, turns per second, airborne fraction, joint speed, each touch
+  sensor's duty factor); and
+- exactly, by the periodic sensor signature: two controllers with the same cyclic pattern of
+  sensor words (of at least two words) are the same mode by construction.
+
+A mode is a connected group under either relation (same HDBSCAN cluster, or same signature). A
+controller HDBSCAN calls noise and that shares no signature is a mode of its own: the best gaits
+of a random search are rare (§6.1's five cart gaits came from 1000 SANs), and folding one into
+the nearest crowd would hide it. Modes are ranked by their best score and named from their
+descriptors' medians where a rule fits (see :func:`name`), else "mode k".
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sanlab.descriptors import NAMES
+
+if TYPE_CHECKING:
+    from sanlab.library import Library
+
+MIN_SHARE = 0.2  # useful gaits score at least this share of their run's best (the default)
+FEATURES = ("vx_cm_s", "height_m", "height_sd_m", "turns_per_s", "airborne", "joint_speed_rad_s")
+# The smallest difference in each feature that tells gaits apart (a feature's scale is at least
+# this and a tenth of its median size): a feature that only varies by noise among the gaits
+# would otherwise be stretched to the weight of one that separates them.
+RESOLUTION = {"vx_cm_s": 0.5, "height_m": 0.005, "height_sd_m": 0.002, "turns_per_s": 0.02, "airborne": 0.02,
+              "joint_speed_rad_s": 0.1, "duty": 0.02}
+MIN_CLUSTER = 3  # HDBSCAN's smallest group (its min_samples too)
+
+
+@dataclass(frozen=True)
+class Gait:
+    """What :func:`find` needs of one evaluation."""
+
+    gait_id: str  # "RUN#IDX"
+    score: float
+    speed_cm_s: float
+    descriptors: dict[str, Any]  # as stored (``Scores.descriptors``)
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One mode: its members (best first), name and descriptor medians."""
+
+    name: str
+    gaits: tuple[Gait, ...]  # best score first
+    summary: dict[str, float]  # each descriptor's median over the members (NaN-free ones)
+    signature: str | None  # the members' most common signature (None: none periodic)
+    duty: tuple[float, ...] = field(default=())  # per touch sensor, the members' median duty factor
+    seconds: float = math.nan  # the evaluation time (s)
+
+    @property
+    def turns(self) -> float:
+        """The members' median net turns of the body over the run."""
+        return self.summary.get("turns_per_s", math.nan) * self.seconds
+
+    @property
+    def best(self) -> Gait:
+        return self.gaits[0]
+
+    @property
+    def size(self) -> int:
+        return len(self.gaits)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"name": self.name, "size": self.size, "best": self.best.gait_id, "score": self.best.score,
+                "speed_cm_s": self.best.speed_cm_s, "signature": self.signature, "turns": _json(self.turns),
+                "descriptors": {k: (v if math.isfinite(v) else None) for k, v in self.summary.items()},
+                "duty": list(self.duty), "gaits": [g.gait_id for g in self.gaits]}
+
+
+def periodic(signature: str | None) -> bool:
+    """A signature that names a cycle (two words or more), not a word the sensors kept."""
+    return bool(signature) and "." in str(signature)
+
+
+def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_cluster: int = MIN_CLUSTER) -> list[Mode]:
+    """Group ``gaits`` (the useful ones, with descriptors) into modes, best first (see the module
+    docstring). ``seconds``: the evaluation time (s; for the rotation rules); ``water``: the
+    creature swims (``Structure.water``). Raises ValueError for a gait without descriptors."""
+    gaits = list(gaits)
+    for g in gaits:
+        if not g.descriptors:
+            raise ValueError(f"gait {g.gait_id} has no descriptors")
+    if not gaits:
+        return []
+    X = features(gaits)
+    labels = _density(X, min_cluster)
+    parent = list(range(len(gaits)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def join(i: int, j: int) -> None:
+        parent[root(i)] = root(j)
+
+    first: dict[Any, int] = {}
+    for i, g in enumerate(gaits):
+        keys = []
+        if labels[i] >= 0:
+            keys.append(("cluster", int(labels[i])))
+        sig = g.descriptors.get("signature")
+        if periodic(sig):
+            keys.append(("signature", sig))
+        for k in keys:
+            if k in first:
+                join(i, first[k])
+            else:
+                first[k] = i
+    groups: dict[int, list[int]] = {}
+    for i in range(len(gaits)):
+        groups.setdefault(root(i), []).append(i)
+    modes = [_mode([gaits[i] for i in sorted(m, key=lambda i: -gaits[i].score)]) for m in groups.values()]
+    modes.sort(key=lambda m: -m.best.score)
+    named, used = [], {}
+    for k, m in enumerate(modes, 1):
+        n = name(m.summary, m.duty, seconds=seconds, water=water) or f"mode {k}"
+        used[n] = used.get(n, 0) + 1
+        named.append(Mode(n if used[n] == 1 else f"{n} {used[n]}", m.gaits, m.summary, m.signature, m.duty, seconds))
+    return named
+
+
+def of_run(lib: Library, run_id: str, min_score: float | None = None,
+           min_cluster: int = MIN_CLUSTER) -> tuple[list[Mode], float, int]:
+    """The modes of a stored run: (modes, the score threshold used, how many useful gaits were
+    stored without descriptors and left out). Useful: not fallen, finite, scoring at least
+    ``min_score`` (default: :data:`MIN_SHARE` of the run's best, and above 0). Raises
+    LibraryError for an unknown run."""
+    from sanlab.creature import loads
+
+    run = lib.get_run(run_id)
+    evs = [e for e in lib.top(run.run_id, None) if not e.fell and not e.nonfinite and math.isfinite(e.score)]
+    best = max((e.score for e in evs), default=0.0)
+    threshold = MIN_SHARE * best if min_score is None else float(min_score)
+    useful = [e for e in evs if e.score >= threshold and (min_score is not None or e.score > 0)]
+    gaits = [Gait(e.gait_id, e.score, e.speed_cm_s, e.extra["descriptors"]) for e in useful
+             if e.extra is not None and isinstance(e.extra.get("descriptors"), dict)]
+    spec = loads(run.creature_text, source=run.creature)
+    seconds = float(run.params.get("seconds") or spec.evaluation.seconds)
+    return find(gaits, seconds=seconds, water=spec.world.water_drag > 0, min_cluster=min_cluster), threshold, \
+        len(useful) - len(gaits)
+
+
+def features(gaits: Sequence[Gait]) -> np.ndarray:
+    """[G, F] standardised descriptor vectors (``FEATURES`` then each touch sensor's duty factor):
+    centred, divided by the largest of the standard deviation, :data:`RESOLUTION` and a tenth of
+    the median magnitude; a missing value is the feature's median."""
+    n_duty = max((len(g.descriptors.get("duty") or ()) for g in gaits), default=0)
+    rows = []
+    for g in gaits:
+        d = g.descriptors
+        duty = list(d.get("duty") or ())
+        rows.append([_num(d.get(k)) for k in FEATURES] + [_num(x) for x in duty] + [math.nan] * (n_duty - len(duty)))
+    X = np.asarray(rows, float).reshape(len(gaits), -1)
+    med = np.nanmedian(np.where(np.isfinite(X), X, np.nan), 0) if len(X) else np.zeros(X.shape[1])
+    med = np.where(np.isfinite(med), med, 0.0)
+    X = np.where(np.isfinite(X), X, med)
+    floor = np.array([RESOLUTION[k] for k in FEATURES] + [RESOLUTION["duty"]] * n_duty)
+    scale = np.maximum.reduce([X.std(0), floor, 0.1 * np.median(np.abs(X), 0)])
+    return (X - X.mean(0)) / scale
+
+
+def _density(X: np.ndarray, min_cluster: int) -> np.ndarray:
+    if len(X) < max(2, min_cluster):
+        return np.full(len(X), -1)
+    from sklearn.cluster import HDBSCAN
+
+    options: dict[str, Any] = {"min_cluster_size": min_cluster, "copy": True}  # copy: sklearn 1.9 warns without it
+    return HDBSCAN(**options).fit_predict(X)
+
+
+def _mode(gaits: list[Gait]) -> Mode:
+    summary = {}
+    for k in NAMES:
+        v = np.array([_num(g.descriptors.get(k)) for g in gaits])
+        v = v[np.isfinite(v)]
+        summary[k] = float(np.median(v)) if len(v) else math.nan
+    duties = [list(g.descriptors.get("duty") or ()) for g in gaits]
+    n = min((len(d) for d in duties), default=0)
+    duty = tuple(float(np.median([d[j] for d in duties if _num(d[j]) == _num(d[j])] or [math.nan])) for j in range(n))
+    sigs = [g.descriptors.get("signature") for g in gaits if periodic(g.descriptors.get("signature"))]
+    sig = max(dict.fromkeys(sigs), key=sigs.count) if sigs else None
+    return Mode("", tuple(gaits), summary, sig, duty)
+
+
+def name(summary: dict[str, float], duty: Sequence[float], *, seconds: float, water: bool) -> str | None:
+    """The mode's name from its descriptor medians, first rule that fits:
+
+    - ``rolling``: at least 1.5 net turns of the body over the run;
+    - ``flipping``: between 0.4 and 1.5 turns (it went over, about once);
+    - ``swimming``: the creature is in water;
+    - ``hopping``: airborne at least 10 % of the time;
+    - ``walking``: two or more touch sensors each on between 15 % and 85 % of the time;
+    - ``shuffling``: never (under 2 %) airborne, moving with its joints;
+    - ``sliding``: never airborne, its joints all but still (under 0.2 rad/s).
+
+    None where no rule fits (the caller numbers it)."""
+    turns = abs(_num(summary.get("turns_per_s"))) * seconds
+    air = _num(summary.get("airborne"))
+    joints = _num(summary.get("joint_speed_rad_s"))
+    if turns >= 1.5:
+        return "rolling"
+    if turns >= 0.4:
+        return "flipping"
+    if water:
+        return "swimming"
+    if air >= 0.10:
+        return "hopping"
+    if sum(0.15 <= _num(d) <= 0.85 for d in duty) >= 2:
+        return "walking"
+    if air < 0.02 and joints == joints:
+        return "shuffling" if joints >= 0.2 else "sliding"
+    return None
+
+
+def _json(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def _num(x) -> float:
+    try:
+        return float(x) if x is not None else math.nan
+    except (TypeError, ValueError):
+        return math.nan
