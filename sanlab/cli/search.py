@@ -48,7 +48,15 @@ def search(
     seconds: Annotated[float | None, typer.Option(min=0.001, help="Evaluation time (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
-    batch: Annotated[int, typer.Option(min=1, help="Controllers simulated (and committed) together.")] = 256,
+    batch: Annotated[int | None, typer.Option(min=1, help=(
+        "Controllers simulated (and committed) together; map-elites' generation (default 256; map-elites 64)."))] = None,
+    strategy: Annotated[str, typer.Option(help=(
+        "random (§5.2: random SANs) or map-elites (a repertoire: the best gait in each cell of --grid)."))] = "random",
+    grid: Annotated[str | None, typer.Option(help=(
+        "map-elites: two behaviour descriptors NAME,NAME or NAME:LO:HI,NAME:LO:HI (default vx_cm_s,airborne; "
+        "names: vx_cm_s, height_m, height_sd_m, turns_per_s, airborne, joint_speed_rad_s, period_s; a range left "
+        "out: [0, 1] for airborne, else three times the first generation's extent)."))] = None,
+    bins: Annotated[int, typer.Option(min=2, max=1000, help="map-elites: cells along each descriptor.")] = 16,
     ensemble: EnsembleOpt = 8,
     dt_factors: DtFactorsOpt = None,
     dt_jitter: DtJitterOpt = 0.0,
@@ -62,9 +70,14 @@ def search(
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits."""
+    """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits.
+
+    With --strategy map-elites, -n controllers are spent on a repertoire instead: the first tenth
+    random, then mutants of the archive's elites, keeping the best gait of each cell of --grid."""
     configure()
     from sanlab.search import run_search
+    from sanlab.search.map_elites import DEFAULT_GENERATION, archive_stats, parse_grid
+    from sanlab.search.registry import names
 
     check_dtype(dtype)
     ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
@@ -72,11 +85,23 @@ def search(
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
     if resume is not None:
         refuse_with_resume(ctx, "search", ("controllers", "seconds", "seed", "metric", "batch", "ensemble", "dt_factors", "dt_jitter",
-                                               "dtype"))
+                                               "dtype", "strategy", "grid", "bins"))
+    if strategy not in names(1):
+        raise fail(f"--strategy: expected one of {', '.join(names(1))}, got {strategy!r}")
+    if batch is None:
+        batch = DEFAULT_GENERATION if strategy == "map-elites" else 256
     text = where = ""
+    archive = None
     if creature is not None:
         spec = load_or_exit(creature)[0]
         check_run_args(spec, controllers=controllers, seconds=seconds, metric=metric, seed=seed, batch=batch, top=top)
+        if strategy == "map-elites":
+            try:
+                archive = parse_grid(grid, bins)
+            except ValueError as e:
+                raise fail(f"--grid: {e}") from None
+        elif grid is not None:
+            raise fail("--grid: only with --strategy map-elites")
         text, where = read_source(creature)
         print_static_warnings(spec, creature)
     check_render_dir(render_dir)
@@ -88,7 +113,10 @@ def search(
     def report(p) -> None:
         nonlocal run_id
         run_id = p.run_id  # known from the first report on, so Ctrl-C names this run
-        bar.update(f"search {p.run_id}", p.evaluated, p.total, p.rate, p.best)
+        label = f"search {p.run_id}"
+        if p.stats:
+            label += f" (coverage {p.stats['coverage']:.0%}, QD {p.stats['qd_score']:.3g})"
+        bar.update(label, p.evaluated, p.total, p.rate, p.best)
 
     try:
         with bar:
@@ -96,7 +124,7 @@ def search(
                 lambda: run_search(
                     lib, text, where, controllers=controllers, seconds=seconds, seed=seed,
                     metric=metric, batch=batch, dtype=dtype, ensemble=ens, reporter=report, resume=resume,
-                    backend=engine,
+                    backend=engine, strategy=strategy, grid=archive,
                 )
             )
     except KeyboardInterrupt:
@@ -110,14 +138,22 @@ def search(
         from sanlab.cli.render import render_into
 
         render_into(lib, [run_id], render_dir, top, quiet=as_json)
-    if as_json:
-        typer.echo(json.dumps({"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}, indent=2))
-        return
     run = lib.get_run(run_id)
+    stats = archive_stats(lib, run_id)
+    if as_json:
+        out = {"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}
+        if stats is not None:
+            out["archive"] = stats
+        typer.echo(json.dumps(out, indent=2))
+        return
     metric = run.settings.metric or ""
     print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {metric}",
               SCORE_UNITS.get(metric, ""))
     print_distribution(lib.scores(run_id))
+    if stats is not None:
+        console.print(f"archive over {' x '.join(stats['grid']['names'])}: {stats['elites']} elites, coverage "
+                      f"{stats['coverage']:.1%}, QD-score {stats['qd_score']:.4g}")
     earlier = [r.run_id for r in lib.same_runs("search", run.creature_text, run.params, run.seed) if r.run_id != run_id]
     next_steps(db, run_id, rows, lib.tally(run_id), earlier)
+
 

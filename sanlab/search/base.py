@@ -57,6 +57,28 @@ class Start:
 
 
 @dataclass(frozen=True)
+class Grid:
+    """The archive of a quality-diversity search: two behaviour descriptors
+    (``sanlab.descriptors.NAMES``), each one's range (None: from the search's first generation,
+    see ``sanlab.search.map_elites.resolve``) and its number of cells; a value outside a range
+    falls into the edge cell (pyribs' ``GridArchive``)."""
+
+    names: tuple[str, ...]
+    ranges: tuple[tuple[float, float] | None, ...]
+    bins: tuple[int, ...]
+
+    def to_json(self) -> dict:
+        return {"names": list(self.names), "ranges": [None if r is None else list(r) for r in self.ranges],
+                "bins": list(self.bins)}
+
+    @classmethod
+    def from_json(cls, d: dict) -> Grid:
+        return cls(tuple(str(n) for n in d["names"]),
+                   tuple(None if r is None else (float(r[0]), float(r[1])) for r in d["ranges"]),
+                   tuple(int(b) for b in d["bins"]))
+
+
+@dataclass(frozen=True)
 class Problem:
     """Everything a strategy is built from.
 
@@ -65,6 +87,8 @@ class Problem:
     chains started together (phase 2; names its random streams). space: the tuned parameters
     (phase 2). start: where phase 2 starts. gait_params: what every phase-1 controller is stored
     with (the creature file's delays). dtype: of the model that re-seats a reshaped creature.
+    grid: a quality-diversity search's archive; generation: how many controllers such a search
+    asks before it looks at their scores (its batch).
     """
 
     run_id: str
@@ -76,6 +100,8 @@ class Problem:
     start: Start | None = None
     gait_params: GaitParams = field(default_factory=GaitParams)
     dtype: str = "float32"
+    grid: Grid | None = None
+    generation: int = 64
 
 
 @dataclass

@@ -36,6 +36,7 @@ class Progress:
     rate: float  # evaluations per second in this session (speculative ones included)
     done: bool = False
     run_ids: tuple[str, ...] = ()  # every run being written
+    stats: dict | None = None  # what the strategy says of itself (map-elites: coverage, qd_score, elites)
 
     @property
     def trials(self) -> int:
@@ -75,7 +76,9 @@ def run(strategy: Strategy, evaluator: Evaluator, library: Library, reporter: Re
     def progress(done: bool = False) -> Progress:
         units, total, best = strategy.progress()
         rate = evaluated / max(time.perf_counter() - t0, 1e-9)
-        return Progress(run_ids[0], units, total, best, rate, done, run_ids)
+        stats = getattr(strategy, "stats", None)
+        said = stats() if callable(stats) else None
+        return Progress(run_ids[0], units, total, best, rate, done, run_ids, said if isinstance(said, dict) else None)
 
     pending: dict[int, list[Candidate]] = {}
     try:

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 from sanlab.search.anneal import Anneal
 from sanlab.search.base import Problem, Strategy, StrategyClass
+from sanlab.search.map_elites import MapElites
 from sanlab.search.random_search import RandomSearch
 from sanlab.search.sga import SGA
 
 STRATEGIES: dict[str, StrategyClass] = {
     "random": RandomSearch,  # phase 1 (§5.2)
+    "map-elites": MapElites,  # phase 1: a repertoire over two behaviour descriptors
     "sga": SGA,  # phase 2: stochastic gradient ascent (Figure 9)
     "sa": Anneal,  # phase 2: simulated annealing
 }

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 from sanlab import __version__, creature
+from sanlab.descriptors import NAMES
 from sanlab.evaluate import ScoreBatch
 from sanlab.evaluate.records import GaitParams
 from sanlab.library import Library
-from sanlab.search.base import Problem, Start
+from sanlab.search.base import Grid, Problem, Start
 from sanlab.search.registry import STRATEGIES, make, names
 from sanlab.search.space import Space
 
@@ -37,14 +38,21 @@ def synthetic(cands) -> ScoreBatch:
         out.append(base + noise + 1.0)
     s = np.asarray(out)
     no = np.zeros(len(s), bool)
-    return ScoreBatch(s, 100 * s, s, no, no, s[:, None], 100 * s[:, None])
+    # behaviour descriptors for quality-diversity strategies: functions of the weights alone
+    w = np.stack([np.asarray(c.weights, float).reshape(-1) for c in cands]) if cands else np.zeros((0, 1))
+    desc = {name: np.full(len(s), 0.5) for name in NAMES}
+    desc["vx_cm_s"] = np.tanh(w[:, ::2].mean(1))
+    desc["airborne"] = 0.5 + 0.5 * np.tanh(w[:, 1::2].mean(1))
+    desc["duty"] = np.zeros((len(s), 0))
+    return ScoreBatch(s, 100 * s, s, no, no, s[:, None], 100 * s[:, None], descriptors=desc)
 
 
 def problem(name: str, run_id: str) -> Problem:
     cls = STRATEGIES[name]
     san = SPACE.san
     if cls.phase == 1:
-        return Problem(run_id, san, BUDGET, seed=3, gait_params=GaitParams(0.1, 0.1))
+        grid = Grid(("vx_cm_s", "airborne"), ((-0.5, 0.5), (0.25, 0.75)), (4, 4))
+        return Problem(run_id, san, BUDGET, seed=3, gait_params=GaitParams(0.1, 0.1), grid=grid, generation=6)
     weights = san.random_weights(3, 0)
     return Problem(run_id, san, BUDGET, seed=3, stream=1, space=SPACE, start=Start(weights, SPACE.nominal(), None))
 
@@ -80,7 +88,7 @@ def stored(lib: Library, run_id: str):
 
 
 def test_the_registry_has_both_phases():
-    assert names(1) == ["random"] and set(names(2)) == {"sga", "sa"}
+    assert names(1) == ["random", "map-elites"] and set(names(2)) == {"sga", "sa"}
     with pytest.raises(ValueError, match="expected one of"):
         make("newton", problem("random", "x"))
 
