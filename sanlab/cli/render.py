@@ -3,7 +3,9 @@
     sanlab render RUN/RANK [--out FILE.gif|FILE.mp4|FILE.png] [--seconds T] [--fps F] [--width W]
                            [--nodes/--no-nodes] [--camera auto|follow|fixed] [--db PATH]
     sanlab render RUN [--top N] [--out sheet.png]          a contact sheet of the run's best gaits
-    sanlab render RUN --plot scores|trace [--out FILE.png]  sorted scores / tuning trace
+    sanlab render RUN --modes [--top N] [--out modes.png]  one strobe per gait mode, named
+    sanlab render RUN --plot scores|trace|archive [--out FILE.png]  sorted scores / tuning trace /
+                                                            the repertoire's heat map
 
 The output kind follows the file's extension: .gif or .mp4 is an animation, .png a strobe
 picture (for a gait), a contact sheet (for a run) or a plot (with --plot). Default names, in the
@@ -47,7 +49,7 @@ if TYPE_CHECKING:
     from sanlab.render.scene import Scene
 
 ANIMATIONS = (".gif", ".mp4")
-PLOTS = ("scores", "trace")
+PLOTS = ("scores", "trace", "archive")
 DEFAULT_WIDTH = {".gif": 640, ".mp4": 640, "strobe": 1000, "sheet": 1200, "plot": 0}
 
 
@@ -133,7 +135,10 @@ def render(
     top: Annotated[int, typer.Option(min=1, max=60, help="Gaits on a run's contact sheet.")] = 10,
     db: DbOpt = "sanlab.db",
     nodes: Annotated[bool, typer.Option("--nodes/--no-nodes", help="Add a panel of the SAN's sensor and node outputs over time.")] = False,
-    plot: Annotated[str | None, typer.Option("--plot", help="With a run id: scores (sorted phase-1 scores) or trace (tuning score per trial).")] = None,
+    plot: Annotated[str | None, typer.Option("--plot", help=(
+        "With a run id: scores (sorted phase-1 scores), trace (tuning score per trial) or archive (the best score "
+        "in each cell of the run's MAP-Elites grid; another run's evaluations binned into the default grid)."))] = None,
+    modes: Annotated[bool, typer.Option("--modes", help="With a run id: a sheet of its gait modes' best gaits (sanlab modes), named.")] = False,
     camera: Annotated[str, typer.Option(help="Animation camera: auto (follow only if the trajectory does not fit), follow, or fixed.")] = "auto",
     as_json: JsonOpt = False,
 ) -> None:
@@ -148,9 +153,11 @@ def render(
     check_count("--width", width if width is not None else 640, 64, 4096)
     check_seconds(seconds)  # the creature's own dt bound is checked when the gait is loaded
     if plot is not None and plot not in PLOTS:
-        raise fail(f"--plot: expected scores or trace, got {plot!r}")
+        raise fail(f"--plot: expected scores, trace or archive, got {plot!r}")
     if plot is not None and gait:
         raise fail(f"--plot takes a run id, not a gait ({target!r})")
+    if modes and (gait or plot is not None):
+        raise fail("--modes takes a run id, without --plot")
     if camera not in ("auto", "follow", "fixed"):
         raise fail(f"--camera: expected auto, follow or fixed, got {camera!r}")
     if out is not None:
@@ -176,6 +183,8 @@ def render(
             info = _render_plot(lib, target, plot, out)
         elif gait:
             info = _render_gait(lib, target, out, seconds, fps, width, nodes, camera)
+        elif modes:
+            info = _render_modes(lib, target, out, seconds, fps, width, top)
         else:
             info = _render_sheet(lib, target, out, seconds, fps, width, top)
     except LibraryError as e:
@@ -260,11 +269,48 @@ def _render_sheet(lib: Library, target: str, out: str | None, seconds: float | N
                     f"({lay['rows']} x {lay['cols']} tiles)"}
 
 
+def _render_modes(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,
+                  width: int | None, top: int) -> dict:
+    from sanlab.modes import of_run
+    from sanlab.render.strobe import contact_sheet, sheet_layout
+
+    run = lib.get_run(target)
+    found, _, missing = of_run(lib, run.run_id)
+    if not found:
+        raise ValueError(f"run {run.run_id} has no modes to draw" + (" (no behaviour descriptors stored)" if missing else ""))
+    shown = found[:top]
+    path = out or f"{run.run_id}_modes.png"
+    tiles = []
+    for m in shown:
+        _, gait, sc = gait_scene(lib, m.best.gait_id, seconds, fps)
+        size = f"{m.size} gait{'s' * (m.size != 1)}"
+        tiles.append((f"{m.name} ({size})   {gait.gait_id}  {gait.speed_cm_s:.1f} cm/s", sc))
+    w = width or DEFAULT_WIDTH["sheet"]
+    title = f"run {run.run_id}: {run.creature}, {len(shown)} of {len(found)} modes (best gait of each)"
+    with output_file(path) as tmp:
+        contact_sheet(tiles, title, w).save(tmp, format="PNG")
+    lay = sheet_layout(len(tiles), w)
+    W, H = lay["size"]
+    return {"path": path, "kind": "modes sheet", "run_id": run.run_id, "size": [W, H], "modes": [m.name for m in shown],
+            "line": f"wrote {printable(path)}: {len(shown)} of {len(found)} modes of run {run.run_id}, {W}x{H}"}
+
+
 def _render_plot(lib: Library, target: str, plot: str, out: str | None) -> dict:
-    from sanlab.render.plots import plot_scores, plot_trace
+    from sanlab.render.plots import plot_archive, plot_scores, plot_trace
 
     run = lib.get_run(target)
     path = out or f"{run.run_id}_{plot}.png"
+    if plot == "archive":
+        from sanlab.descriptors import UNITS
+        from sanlab.search.map_elites import cells
+
+        grid, ranges, best = cells(lib, run.run_id)
+        with output_file(path) as tmp:
+            info = plot_archive(run, grid.names, ranges, best, tmp, UNITS)
+        return {"path": path, "kind": "archive plot", "run_id": run.run_id, "grid": list(grid.names), "cells": info["cells"],
+                "filled": info["filled"], "coverage": info["coverage"], "qd_score": info["qd_score"],
+                "line": f"wrote {printable(path)}: archive of run {run.run_id} over {' x '.join(grid.names)}, "
+                        f"{info['filled']} of {info['cells']} cells, QD-score {info['qd_score']:.4g}"}
     if plot == "scores":
         with output_file(path) as tmp:
             info = plot_scores(run, lib.scores(run.run_id), tmp)

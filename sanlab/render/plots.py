@@ -5,6 +5,8 @@ tuning trace, as read from a gait library by the caller (this module reads no li
   long tail, a few good controllers among many that go nowhere), with a histogram beside it.
 - :func:`plot_trace`: a tuning run's score against trial, accepted trials highlighted and joined
   (the best-so-far staircase), rejected ones as small grey dots.
+- :func:`plot_archive`: a repertoire as a heat map, the best score of each cell of a grid over
+  two behaviour descriptors (MAP-Elites' archive, or any run's evaluations binned into it).
 
 PNG files are deterministic (no software/date metadata).
 """
@@ -123,3 +125,29 @@ def plot_trace(run: RunInfo, trace: Sequence[TrialInfo], path: str) -> dict:
     _style(ax)
     fig.savefig(path, format="png", metadata=_METADATA)
     return {"path": path, "points": len(trace), "accepted": int(acc.sum())}
+
+
+def plot_archive(run: RunInfo, names: Sequence[str], ranges: Sequence[tuple[float, float]], best: np.ndarray,
+                 path: str, units: dict[str, str] | None = None) -> dict:
+    """A heat map of ``best`` [bins_x, bins_y] (each cell's best score, NaN: empty) over the grid
+    of descriptors ``names`` with ``ranges`` -> PNG at ``path``. Returns {"path", "cells",
+    "filled", "coverage", "qd_score"}; raises ValueError for a grid that is not two-dimensional."""
+    best = np.asarray(best, float)
+    if best.ndim != 2 or len(names) != 2 or len(ranges) != 2:
+        raise ValueError("an archive plot needs a grid of two descriptors")
+    filled = np.isfinite(best)
+    units = units or {}
+    fig, ax = _figure(6.4, 5.0)
+    (x0, x1), (y0, y1) = ranges
+    img = ax.imshow(np.where(filled, best, np.nan).T, origin="lower", extent=(x0, x1, y0, y1), aspect="auto",
+                    cmap="viridis", interpolation="nearest")
+    fig.colorbar(img, ax=ax, label=f"best score ({run.metric or 'score'})")
+    label = lambda n: f"{n} ({units[n]})" if n in units else n
+    ax.set_xlabel(label(names[0]))
+    ax.set_ylabel(label(names[1]))
+    coverage = float(filled.mean())
+    qd = float(best[filled].sum())
+    ax.set_title(f"run {run.run_id}: {run.creature}, {int(filled.sum())} of {best.size} cells "
+                 f"({coverage:.0%}), QD-score {qd:.3g}", loc="left", fontsize=10)
+    fig.savefig(path, format="png", metadata=_METADATA)
+    return {"path": path, "cells": int(best.size), "filled": int(filled.sum()), "coverage": coverage, "qd_score": qd}

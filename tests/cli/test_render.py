@@ -97,6 +97,33 @@ def test_plots_are_written(lib_run, tmp_path):
     assert (tmp_path / "t2.png").read_bytes() == (tmp_path / "trace.png").read_bytes()
 
 
+def test_a_modes_sheet_and_an_archive_plot_of_a_run(lib_run, tmp_path):
+    """One tile per mode (sanlab.modes.of_run), named; the archive's heat map agrees with the
+    cells it was drawn from."""
+    from sanlab.modes import of_run
+    from sanlab.search.map_elites import cells
+
+    db, run_id = lib_run
+    with Library(db) as lib:
+        found, _, _ = of_run(lib, run_id)
+        _, _, best = cells(lib, run_id)
+    r = cli(run_id, "--modes", "--out", str(tmp_path / "m.png"), "--db", db, "--json")
+    assert r.exit_code == 0, r.output
+    import json
+
+    info = json.loads(r.stdout)
+    assert info["kind"] == "modes sheet" and info["modes"] == [m.name for m in found[:10]]
+    with Image.open(tmp_path / "m.png") as im:
+        assert tuple(im.size) == tuple(strobe.sheet_layout(len(info["modes"]), 1200)["size"])
+    r = cli(run_id, "--plot", "archive", "--out", str(tmp_path / "a.png"), "--db", db, "--json")
+    assert r.exit_code == 0, r.output
+    info = json.loads(r.stdout)
+    assert info["filled"] == int(np.isfinite(best).sum()) > 0 and info["cells"] == best.size
+    assert info["qd_score"] == pytest.approx(float(np.nansum(best)))
+    with Image.open(tmp_path / "a.png") as im:
+        assert len(np.unique(np.asarray(im.convert("RGB")).reshape(-1, 3), axis=0)) > 10  # not blank
+
+
 # --------------------------------------------------------------------------- the command
 
 
@@ -117,7 +144,9 @@ def test_default_output_name_and_summary(lib_run, tmp_path, monkeypatch):
         (["nothex/1"], "malformed gait id"),
         (["{run}/1", "--out", "x.jpg"], "unknown kind '.jpg'"),
         (["{run}", "--out", "x.gif"], "a run is drawn as a contact sheet (.png), not .gif"),
-        (["{run}", "--plot", "nope"], "--plot: expected scores or trace"),
+        (["{run}", "--plot", "nope"], "--plot: expected scores, trace or archive"),
+        (["{run}/1", "--modes"], "--modes takes a run id"),
+        (["{run}", "--modes", "--plot", "scores"], "--modes takes a run id, without --plot"),
         (["{run}/1", "--plot", "scores"], "--plot takes a run id"),
         (["{run}", "--plot", "trace"], "no tuning trace"),
         (["{run}/1", "--camera", "wobbly"], "--camera"),
