@@ -136,12 +136,15 @@ def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_clus
     return named
 
 
-def of_run(lib: Library, run_id: str, min_score: float | None = None,
-           min_cluster: int = MIN_CLUSTER) -> tuple[list[Mode], float, int]:
+def of_run(lib: Library, run_id: str, min_score: float | None = None, min_cluster: int = MIN_CLUSTER,
+           rescore: bool = False) -> tuple[list[Mode], float, int]:
     """The modes of a stored run: (modes, the score threshold used, how many useful gaits were
     stored without descriptors and left out). Useful: not fallen, finite, scoring at least
-    ``min_score`` (default: :data:`MIN_SHARE` of the run's best, and above 0). Raises
-    LibraryError for an unknown run."""
+    ``min_score`` (default: :data:`MIN_SHARE` of the run's best, and above 0). ``rescore``: a
+    search run's useful gaits stored without descriptors (before sanlab computed them) are
+    evaluated again, as the run evaluated them, for their descriptors (nothing is stored).
+    Raises LibraryError for an unknown run, ValueError when ``rescore`` cannot rebuild its
+    evaluation (not a search run)."""
     from sanlab.creature import loads
 
     run = lib.get_run(run_id)
@@ -149,12 +152,35 @@ def of_run(lib: Library, run_id: str, min_score: float | None = None,
     best = max((e.score for e in evs), default=0.0)
     threshold = MIN_SHARE * best if min_score is None else float(min_score)
     useful = [e for e in evs if e.score >= threshold and (min_score is not None or e.score > 0)]
-    gaits = [Gait(e.gait_id, e.score, e.speed_cm_s, e.extra["descriptors"]) for e in useful
-             if e.extra is not None and isinstance(e.extra.get("descriptors"), dict)]
+    stored = {e.idx: e.extra["descriptors"] for e in useful
+              if e.extra is not None and isinstance(e.extra.get("descriptors"), dict)}
+    if rescore and len(stored) < len(useful):
+        stored.update(_rescored(lib, run_id, [e for e in useful if e.idx not in stored]))
+    gaits = [Gait(e.gait_id, e.score, e.speed_cm_s, stored[e.idx]) for e in useful if e.idx in stored]
     spec = loads(run.creature_text, source=run.creature)
     seconds = float(run.params.get("seconds") or spec.evaluation.seconds)
     return find(gaits, seconds=seconds, water=spec.world.water_drag > 0, min_cluster=min_cluster), threshold, \
         len(useful) - len(gaits)
+
+
+def _rescored(lib: Library, run_id: str, evaluations: Sequence[Any]) -> dict[int, dict]:
+    """{idx: descriptors} of a search run's ``evaluations``, evaluated again with the run's own
+    settings (creature, metric, time, ensemble, keys, dtype)."""
+    from sanlab.creature import loads
+    from sanlab.evaluate import Evaluator
+    from sanlab.evaluate.ensemble import search_key
+    from sanlab.library import SearchSettings
+
+    run = lib.get_run(run_id)
+    s = run.settings
+    if not isinstance(s, SearchSettings) or run.seed is None:
+        raise ValueError(f"run {run_id} is a {run.kind} run: only a search run's gaits can be re-scored here")
+    spec = loads(run.creature_text, source=s.source or run.creature)
+    ev = Evaluator(spec, metric=s.metric, seconds=s.seconds, dtype=run.dtype or "float32", batch=min(s.batch, 256),
+                   ensemble=s.ensemble)
+    W = np.stack([ev.san.decode(e.encoding) for e in evaluations])
+    scores = ev(W, None, [search_key(run.seed, e.idx) for e in evaluations])
+    return {e.idx: scores.row(k).descriptors or {} for k, e in enumerate(evaluations)}
 
 
 def features(gaits: Sequence[Gait]) -> np.ndarray:

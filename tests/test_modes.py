@@ -100,6 +100,8 @@ def test_modes_of_a_small_search_from_the_command_line(tmp_path):
     r = CliRunner().invoke(app, ["modes", run, "--db", db, "--top", "1"])
     assert r.exit_code == 0 and "best gait" in r.output
     assert ("more modes" in r.output) == (len(sizes) > 1)
+    shown = CliRunner().invoke(app, ["show", run, "--modes", "--db", db, "--json"])  # the best gait of each mode
+    assert shown.exit_code == 0 and json.loads(shown.output) == out
 
 
 def test_a_run_stored_without_descriptors_says_so(tmp_path):
@@ -114,7 +116,16 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
             e.pop("descriptors", None)
             c.execute("UPDATE evaluations SET extra = ? WHERE idx = ?", (json.dumps(e), idx))
     r = CliRunner().invoke(app, ["modes", run, "--db", db])
-    assert r.exit_code == 2 and "no behaviour descriptors" in r.output and "sanlab search cart" in r.output
+    assert r.exit_code == 2 and "no behaviour descriptors" in r.output and "--rescore" in r.output
+    r = CliRunner().invoke(app, ["search", "cart", "-n", "16", "--seconds", "1", "--db", str(tmp_path / "b.db"), "--json"])
+    fresh = json.loads(CliRunner().invoke(app, ["modes", json.loads(r.output)["run_id"], "--db", str(tmp_path / "b.db"),
+                                                "--json"]).output)
+    again = CliRunner().invoke(app, ["modes", run, "--db", db, "--json", "--rescore"])
+    assert again.exit_code == 0, again.output
+    out = json.loads(again.output)
+    assert out["without_descriptors"] == 0
+    strip = lambda o: [(m["name"], m["size"], m["best"].split("#")[1], m["descriptors"]) for m in o["modes"]]
+    assert strip(out) == strip(fresh)  # the same search with its descriptors stored
 
 
 @pytest.mark.slow

@@ -76,6 +76,7 @@ def show(
     target: Annotated[str, typer.Argument(metavar="RUN_ID|GAIT", help="A run id (or an unambiguous prefix), or a gait (RUN/RANK, RUN#IDX).")],
     top: Annotated[int, typer.Option(min=1, max=10_000, help="Gaits to show (of a run).")] = 10,
     network: Annotated[bool, typer.Option("--network", help="Also print the weight matrix, by sensor, hidden and actuator name (of a run: its best).")] = False,
+    by_mode: Annotated[bool, typer.Option("--modes", help="Of a run: the best gait of each gait mode (as `sanlab modes`), not the --top best.")] = False,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -88,6 +89,11 @@ def show(
         _show_gait(lib, target, network, as_json)
         return
     run = library_call(lib.get_run, target)
+    if by_mode:
+        from sanlab.cli.modes import modes
+
+        modes(run.run_id, None, top, 3, False, db, as_json)
+        return
     rows = library_call(top_rows, lib, run.run_id, top)
     if network:
         if not rows:

@@ -20,6 +20,9 @@ def modes(
         "Controllers scoring at least this are grouped (default: a fifth of the run's best score)."))] = None,
     top: Annotated[int, typer.Option(min=1, max=10_000, help="Modes to show, best first (--json: all).")] = 10,
     min_cluster: Annotated[int, typer.Option(min=2, max=1000, help="Smallest group the density clustering forms.")] = 3,
+    rescore: Annotated[bool, typer.Option("--rescore", help=(
+        "A search stored before sanlab computed descriptors: evaluate its useful gaits again, as the run did, "
+        "for theirs (nothing is stored)."))] = False,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -34,10 +37,17 @@ def modes(
 
     lib = open_library(db, readonly=True)
     run = library_call(lib.get_run, run_id)
-    found, threshold, missing = library_call(of_run, lib, run.run_id, min_score, min_cluster)
+    if rescore:
+        from sanlab import configure
+
+        configure()
+    try:
+        found, threshold, missing = library_call(of_run, lib, run.run_id, min_score, min_cluster, rescore)
+    except ValueError as e:
+        raise fail(f"modes: {e}") from None
     if missing and not found:
         raise fail(f"run {run.run_id} has no behaviour descriptors (stored before sanlab computed them); "
-                   f"search again to get them, e.g. `sanlab search {run.creature} --seed {run.seed}`")
+                   f"`sanlab modes {run.run_id} --rescore` evaluates its useful gaits again for them")
     if as_json:
         typer.echo(dump_json({"run_id": run.run_id, "creature": run.creature, "min_score": threshold,
                               "without_descriptors": missing, "modes": [m.to_json() for m in found]}))
