@@ -300,49 +300,57 @@ def _of_run(lib: Library, run_id: str, history: list | None = None) -> tuple[Gri
     return grid, rebuild(grid, san.n_weights, lib.top(run.run_id, None), san.decode, generation, history)
 
 
+def view(lib: Library, run_id: str) -> dict[str, Any]:
+    """A stored run's archive, rebuilt once from its evaluations (a MAP-Elites run's own grid, any
+    other run's evaluations binned into the default grid): {"own": bool, "grid": the Grid with its
+    ranges set, "best": each cell's best score [bins_x, bins_y] (NaN: empty), "elites": [{"cell":
+    [i, j], "gait": "RUN#IDX", "score", "measures": [x, y]}] by cell, "progress": after each
+    generation {"evaluations", "coverage", "qd_score"}, "stats": {"elites", "coverage",
+    "qd_score"}}. Raises LibraryError for an unknown run."""
+    from sanlab.library import SearchSettings
+
+    s = lib.get_run(run_id).settings
+    steps: list = []
+    grid, a = _of_run(lib, run_id, steps)
+    ranges = tuple((float(lo), float(hi)) for lo, hi in zip(a.lower_bounds, a.upper_bounds, strict=True))
+    best = np.full(tuple(grid.bins), np.nan)
+    data = a.data(["objective", "index", "idx", "measures"])
+    elites = []
+    for obj, k, i, m in zip(data["objective"], data["index"], data["idx"], data["measures"], strict=True):
+        cell = np.unravel_index(int(k), tuple(grid.bins))
+        best[cell] = obj
+        elites.append({"cell": [int(c) for c in cell], "gait": f"{run_id}#{int(i)}", "score": float(obj),
+                       "measures": [float(x) for x in m]})
+    st = a.stats
+    return {"own": isinstance(s, SearchSettings) and s.grid is not None, "grid": Grid(grid.names, ranges, grid.bins),
+            "best": best, "elites": sorted(elites, key=lambda e: e["cell"]),
+            "progress": [{"evaluations": n, "coverage": c, "qd_score": q} for n, c, q in steps],
+            "stats": {"elites": int(st.num_elites), "coverage": float(st.coverage), "qd_score": float(st.qd_score)}}
+
+
 def archive_stats(lib: Library, run_id: str) -> dict | None:
-    """A MAP-Elites run's archive, rebuilt from its stored evaluations: {"grid" (its ranges set),
-    "elites", "coverage", "qd_score"}; None for a run of another strategy. Raises LibraryError
-    for an unknown run."""
+    """A MAP-Elites run's archive (:func:`view`): {"grid" (its ranges set), "elites", "coverage",
+    "qd_score"}; None for a run of another strategy. Raises LibraryError for an unknown run."""
     from sanlab.library import SearchSettings
 
     s = lib.get_run(run_id).settings
     if not isinstance(s, SearchSettings) or s.grid is None:
         return None
-    grid, a = _of_run(lib, run_id)
-    st = a.stats
-    ranges = [[float(lo), float(hi)] for lo, hi in zip(a.lower_bounds, a.upper_bounds, strict=True)]
-    return {"grid": {**grid.to_json(), "ranges": ranges}, "elites": int(st.num_elites), "coverage": float(st.coverage),
-            "qd_score": float(st.qd_score)}
+    v = view(lib, run_id)
+    return {"grid": v["grid"].to_json(), **v["stats"]}
 
 
 def cells(lib: Library, run_id: str) -> tuple[Grid, list[tuple[float, float]], np.ndarray]:
-    """(grid, its ranges, each cell's best score [bins_x, bins_y] with NaN where empty) of a
-    stored run, as :func:`_of_run` bins it; also each cell's elite (:func:`elites`)."""
-    grid, a = _of_run(lib, run_id)
-    best = np.full(tuple(grid.bins), np.nan)
-    data = a.data(["objective", "index"])
-    for obj, k in zip(data["objective"], data["index"], strict=True):
-        best[np.unravel_index(int(k), tuple(grid.bins))] = obj
-    ranges = [(float(lo), float(hi)) for lo, hi in zip(a.lower_bounds, a.upper_bounds, strict=True)]
-    return grid, ranges, best
+    """(grid, its ranges, each cell's best score [bins_x, bins_y], NaN where empty): :func:`view`."""
+    v = view(lib, run_id)
+    return v["grid"], list(v["grid"].ranges), v["best"]
 
 
 def elites(lib: Library, run_id: str) -> list[dict]:
-    """Every filled cell of a stored run's archive (see :func:`cells`): {"cell": [i, j], "gait":
-    "RUN#IDX", "score", "measures": [..]}, by cell."""
-    grid, a = _of_run(lib, run_id)
-    data = a.data(["objective", "index", "idx", "measures"])
-    out = []
-    for obj, k, i, m in zip(data["objective"], data["index"], data["idx"], data["measures"], strict=True):
-        out.append({"cell": [int(c) for c in np.unravel_index(int(k), tuple(grid.bins))], "gait": f"{run_id}#{int(i)}",
-                    "score": float(obj), "measures": [float(x) for x in m]})
-    return sorted(out, key=lambda e: e["cell"])
+    """Every filled cell of a stored run's archive, by cell: :func:`view`'s "elites"."""
+    return view(lib, run_id)["elites"]
 
 
 def progress(lib: Library, run_id: str) -> list[dict]:
-    """How a stored run's archive grew (see :func:`cells`): after each generation,
-    {"evaluations", "coverage", "qd_score"}."""
-    steps: list = []
-    _of_run(lib, run_id, steps)
-    return [{"evaluations": n, "coverage": c, "qd_score": q} for n, c, q in steps]
+    """How a stored run's archive grew, after each generation: :func:`view`'s "progress"."""
+    return view(lib, run_id)["progress"]

@@ -71,6 +71,8 @@ OPS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
     "runs": {},
     "run": {"run": ((str,), True)},
     "top": {"run": ((str,), True), "n": ((int,), False)},
+    "modes": {"run": ((str,), True), "n": ((int,), False)},
+    "archive": {"run": ((str,), True)},
     "playback": {"gait": ((str,), True)},
     "render": {"gait": ((str,), True), "kind": ((str,), True)},
     "check": {"text": ((str,), True), "filename": ((str,), False)},
@@ -376,6 +378,10 @@ class Studio:
             return await read(svc.run, a["run"])
         if op == "top":
             return await read(svc.top, a["run"], a.get("n", 10))
+        if op == "modes":
+            return await read(svc.modes, a["run"], a.get("n", 12))
+        if op == "archive":
+            return await read(svc.archive, a["run"])
         if op == "playback":
             return await compute(svc.playback, a["gait"])
         if op == "render":

@@ -46,7 +46,7 @@ LIVE_CHUNK = 12
 LIVE_TERRAINS = ("flat", "slope", "hill", "rough")
 # Work requested from the page is bounded so that a stray click cannot occupy the machine for days.
 LIMITS = {"controllers": (1, 100_000), "seconds": (0.05, 120.0), "trials": (1, 100_000),
-          "seed": (0, 2**31 - 1), "top": (1, 200)}
+          "seed": (0, 2**31 - 1), "top": (1, 200), "modes": (1, 200)}
 MAX_CREATURE_BYTES = 256 * 1024
 RENDER_KINDS = ("gif", "mp4", "png")
 
@@ -192,6 +192,63 @@ class Service:
                 "audit": None if audit is None else audit.verdict,
                 "resolution_dependent": None if audit is None else audit.resolution_dependent,
                 "reproduced": None if audit is None else audit.reproduced}
+
+    def modes(self, run_id: str, n: int = 12) -> dict:
+        """The run's gait modes (``sanlab.modes.of_run``, as `sanlab modes` groups them), best
+        first: {run_id, modes: the first ``n`` [{name, size, best (RUN#IDX), score, speed_cm_s,
+        signature, turns, descriptors (medians), duty}], total (modes found), threshold (the
+        score a gait needs to be grouped), missing (useful gaits stored without descriptors: a
+        run stored before sanlab computed them), units (of the descriptors)}. A tuning run has
+        no modes (its gaits are one gait's tuned copies): StudioError."""
+        from sanlab.descriptors import UNITS
+        from sanlab.modes import of_run
+
+        n = _check_range("modes", n)
+        with self._lib() as lib:
+            r = lib.get_run(run_id)
+            if r.kind == "tune":
+                raise StudioError(f"modes: run {r.run_id} is a tuning run (one gait's tuned copies): it has no modes")
+            try:
+                found, threshold, missing = of_run(lib, r.run_id)
+            except ValueError as e:
+                raise StudioError(f"modes of run {r.run_id}: {e}") from None
+        rows = []
+        for m in found[:n]:
+            row = m.to_json()
+            del row["gaits"]  # the members' ids: the size says enough, and a big run has thousands
+            rows.append(_strict(row))
+        return {"run_id": r.run_id, "modes": rows, "total": len(found), "threshold": _num(threshold),
+                "missing": int(missing), "units": dict(UNITS)}
+
+    def archive(self, run_id: str) -> dict:
+        """A search run's MAP-Elites archive, rebuilt from its stored evaluations
+        (``sanlab.search.map_elites``): a map-elites run's own grid, any other search's
+        evaluations binned into the default grid (``own`` false). {run_id, own, names (the two
+        descriptors), units, bins [bx, by], ranges [[lo, hi], [lo, hi]], best [bx][by] (each
+        cell's best score, None where empty), elites [{cell [i, j], gait RUN#IDX, score,
+        measures [x, y]}], progress [{evaluations, coverage, qd_score}] (after each generation),
+        stats {elites, cells, coverage (share of cells filled), qd_score (sum of the elites'
+        scores)}}. Tuning and imported runs have none: StudioError."""
+        from sanlab.descriptors import UNITS
+        from sanlab.search import map_elites
+
+        with self._lib() as lib:
+            r = lib.get_run(run_id)
+            if r.kind != "search":
+                raise StudioError(f"archive: run {r.run_id} is a {'tuning' if r.kind == 'tune' else r.kind} run; "
+                                  "only a search run has an archive")
+            try:
+                v = map_elites.view(lib, r.run_id)  # one rebuild of the archive for all of it
+            except ValueError as e:
+                raise StudioError(f"archive of run {r.run_id}: {e}") from None
+        best = np.asarray(v["best"], float)
+        grid = v["grid"]
+        stats = {**v["stats"], "cells": int(best.size)}
+        return _strict({
+            "run_id": r.run_id, "own": v["own"], "names": list(grid.names),
+            "units": [UNITS.get(k, "") for k in grid.names], "bins": [int(b) for b in best.shape],
+            "ranges": [[lo, hi] for lo, hi in grid.ranges], "best": best.tolist(), "elites": v["elites"],
+            "progress": v["progress"], "stats": stats})
 
     def export(self, gait_id: str) -> dict:
         """The gait as `sanlab export` writes it."""

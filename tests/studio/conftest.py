@@ -18,7 +18,7 @@ import shutil
 import subprocess
 
 import pytest
-from studio_helpers import DATA, SEARCH
+from studio_helpers import DATA, QD_SEARCH, SEARCH
 
 from sanlab.creature import read_source
 from sanlab.library import Library
@@ -53,8 +53,9 @@ def install_chromium() -> str:
 
 @pytest.fixture(scope="session")
 def library(tmp_path_factory) -> dict:
-    """A small library: one seeded search on the cart, and an imported fish gait (a phase-1
-    gait of `sanlab search fish -n 128 --seed 0` that swims to a point ahead of it)."""
+    """A small library: one seeded search on the cart, an imported fish gait (a phase-1
+    gait of `sanlab search fish -n 128 --seed 0` that swims to a point ahead of it), and a short
+    MAP-Elites search on the cart (two generations, for the modes and archive views)."""
     import json
 
     db = str(tmp_path_factory.mktemp("studio") / "gaits.db")
@@ -65,7 +66,9 @@ def library(tmp_path_factory) -> dict:
         cart = run_search(lib, text, where, controllers=SEARCH["controllers"], seconds=SEARCH["seconds"],
                           seed=SEARCH["seed"], ensemble=1)
         fish = lib.import_gait(json.loads((DATA / "fish_gait.json").read_text()))
-    return {"db": db, "cart": cart, "fish": fish}
+        qd = run_search(lib, text, where, controllers=QD_SEARCH["controllers"], seconds=QD_SEARCH["seconds"],
+                        batch=QD_SEARCH["batch"], seed=QD_SEARCH["seed"], strategy="map-elites", ensemble=1)
+    return {"db": db, "cart": cart, "fish": fish, "qd": qd}
 
 
 @pytest.fixture(scope="session")

@@ -1,5 +1,6 @@
 // Plots on canvas: a run's sorted scores (the paper's long tail, §5.2), a tuning run's score
-// per trial, and the SAN raster (which sensors and nodes are on when).
+// per trial, the SAN raster (which sensors and nodes are on when), and a search's MAP-Elites
+// archive (a heat map of its cells, and its coverage and QD-score as it grew).
 
 import { COLORS, fitCanvas } from "./draw.js";
 
@@ -142,4 +143,161 @@ export class Raster {
       }
     });
   }
+}
+
+// A colour for t in [0, 1]: viridis (dark blue to yellow), five stops interpolated.
+const VIRIDIS = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+export function viridis(t) {
+  const x = Math.max(0, Math.min(1, t)) * (VIRIDIS.length - 1);
+  const i = Math.min(VIRIDIS.length - 2, Math.floor(x)), f = x - i;
+  const c = VIRIDIS[i].map((a, k) => Math.round(a + (VIRIDIS[i + 1][k] - a) * f));
+  return `rgb(${c[0]},${c[1]},${c[2]})`;
+}
+
+const label = (name, unit) => (unit ? `${name} (${unit})` : name);
+
+// A MAP-Elites archive as a heat map: cell [i, j] of descriptor names[0] (x, to the right) by
+// names[1] (y, up), coloured by its best score (viridis, from the lowest filled cell's score to
+// the highest); empty cells are left blank. archive: the studio's `archive` reply.
+export class HeatMap {
+  constructor(canvas, archive) {
+    this.canvas = canvas;
+    this.archive = archive;
+    this.pad = { l: 50, r: 78, t: 10, b: 34 };
+  }
+
+  // The plot's rectangle and a cell's size, in CSS pixels.
+  layout() {
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight, p = this.pad;
+    const [bx, by] = this.archive.bins;
+    const pw = Math.max(1, w - p.l - p.r), ph = Math.max(1, h - p.t - p.b);
+    return { w, h, x0: p.l, y0: p.t, pw, ph, cw: pw / bx, ch: ph / by };
+  }
+
+  // The centre of cell [i, j] (CSS px from the canvas's top left).
+  cellPx(i, j) {
+    const L = this.layout();
+    return [L.x0 + (i + 0.5) * L.cw, L.y0 + L.ph - (j + 0.5) * L.ch];
+  }
+
+  // The cell [i, j] under (u, v) CSS px, or null outside the grid.
+  cellAt(u, v) {
+    const L = this.layout();
+    const i = Math.floor((u - L.x0) / L.cw), j = Math.floor((L.y0 + L.ph - v) / L.ch);
+    const [bx, by] = this.archive.bins;
+    return i >= 0 && j >= 0 && i < bx && j < by ? [i, j] : null;
+  }
+
+  draw() {
+    const { ctx, w, h } = fitCanvas(this.canvas);
+    const a = this.archive, L = this.layout();
+    const [bx, by] = a.bins;
+    this.drawnW = w;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, w, h);
+    let lo = Infinity, hi = -Infinity;
+    for (const col of a.best) for (const v of col) if (v !== null) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    this.scoreRange = hi >= lo ? [lo, hi] : null;
+    if (bx <= 64 && by <= 64) { // the cells' outlines, faint
+      ctx.strokeStyle = COLORS.nodeOff; ctx.lineWidth = 1;
+      ctx.beginPath();
+      for (let i = 0; i <= bx; i++) { const x = L.x0 + i * L.cw; ctx.moveTo(x, L.y0); ctx.lineTo(x, L.y0 + L.ph); }
+      for (let j = 0; j <= by; j++) { const y = L.y0 + j * L.ch; ctx.moveTo(L.x0, y); ctx.lineTo(L.x0 + L.pw, y); }
+      ctx.stroke();
+    }
+    a.best.forEach((col, i) => col.forEach((v, j) => {
+      if (v === null) return;
+      ctx.fillStyle = viridis(hi > lo ? (v - lo) / (hi - lo) : 1);
+      ctx.fillRect(L.x0 + i * L.cw, L.y0 + L.ph - (j + 1) * L.ch, Math.ceil(L.cw), Math.ceil(L.ch));
+    }));
+    ctx.strokeStyle = COLORS.gridAxis;
+    ctx.strokeRect(L.x0 - 0.5, L.y0 - 0.5, L.pw + 1, L.ph + 1);
+    // axes: each descriptor's name, unit and range
+    const [[xlo, xhi], [ylo, yhi]] = a.ranges;
+    ctx.fillStyle = COLORS.muted;
+    ctx.font = "10px system-ui, sans-serif";
+    const xl = label(a.names[0], a.units[0]), yl = label(a.names[1], a.units[1]);
+    ctx.fillText(fmtNum(xlo), L.x0, L.y0 + L.ph + 12);
+    const xh = fmtNum(xhi);
+    ctx.fillText(xh, L.x0 + L.pw - ctx.measureText(xh).width, L.y0 + L.ph + 12);
+    const right = (text, y) => ctx.fillText(text, L.x0 - 3 - ctx.measureText(text).width, y);
+    right(fmtNum(yhi), L.y0 + 8);
+    right(fmtNum(ylo), L.y0 + L.ph);
+    ctx.fillStyle = COLORS.text;
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.fillText(xl, L.x0 + (L.pw - ctx.measureText(xl).width) / 2, h - 6);
+    ctx.save();
+    ctx.translate(14, L.y0 + (L.ph + ctx.measureText(yl).width) / 2);
+    ctx.rotate(-Math.PI / 2);
+    ctx.fillText(yl, 0, 0);
+    ctx.restore();
+    // the colour scale
+    const sx = L.x0 + L.pw + 12, sw = 10;
+    for (let k = 0; k < L.ph; k++) {
+      ctx.fillStyle = viridis(1 - k / L.ph);
+      ctx.fillRect(sx, L.y0 + k, sw, 1.5);
+    }
+    ctx.fillStyle = COLORS.muted;
+    ctx.font = "10px system-ui, sans-serif";
+    if (this.scoreRange) {
+      ctx.fillText(fmtNum(hi), sx + sw + 3, L.y0 + 8);
+      ctx.fillText(fmtNum(lo), sx + sw + 3, L.y0 + L.ph);
+    }
+    ctx.save(); ctx.translate(sx + sw + 12, L.y0 + L.ph / 2 + 14); ctx.rotate(-Math.PI / 2); ctx.fillText("score", 0, 0); ctx.restore();
+    if (!this.scoreRange) {
+      ctx.fillStyle = COLORS.muted; ctx.font = "11px system-ui, sans-serif";
+      ctx.fillText("no cell filled yet", L.x0 + 8, L.y0 + 16);
+    }
+  }
+}
+
+function fmtNum(x) {
+  if (x === null || x === undefined) return "–";
+  return Math.abs(x) >= 1000 ? x.toFixed(0) : +x.toPrecision(3) + "";
+}
+
+// How an archive grew: coverage (share of cells filled, navy, left axis) and QD-score (sum of
+// the elites' scores, orange, right axis) after each generation, against evaluations.
+export function drawProgress(canvas, progress) {
+  const { ctx, w, h } = fitCanvas(canvas);
+  const pad = { l: 40, r: 52, t: 22, b: 18 };
+  ctx.fillStyle = "#fff";
+  ctx.fillRect(0, 0, w, h);
+  ctx.font = "10px system-ui, sans-serif";
+  if (!progress.length) {
+    ctx.fillStyle = COLORS.muted; ctx.fillText("no generation yet", 10, 20);
+    return;
+  }
+  const n = progress[progress.length - 1].evaluations;
+  const cmax = Math.max(1e-9, ...progress.map((p) => p.coverage));
+  const qmax = Math.max(1e-12, ...progress.map((p) => p.qd_score));
+  const X = (e) => pad.l + ((w - pad.l - pad.r) * e) / Math.max(1, n);
+  const Y = (v, top) => h - pad.b - ((h - pad.t - pad.b) * v) / top;
+  ctx.strokeStyle = COLORS.gridAxis; ctx.lineWidth = 1;
+  ctx.beginPath();
+  ctx.moveTo(pad.l, pad.t); ctx.lineTo(pad.l, h - pad.b); ctx.lineTo(w - pad.r, h - pad.b); ctx.lineTo(w - pad.r, pad.t);
+  ctx.stroke();
+  const line = (key, top, color) => {
+    ctx.beginPath();
+    ctx.moveTo(X(0), Y(0, top));
+    for (const p of progress) ctx.lineTo(X(p.evaluations), Y(p[key], top));
+    ctx.strokeStyle = color; ctx.lineWidth = 1.5; ctx.stroke();
+    ctx.fillStyle = color;
+    for (const p of progress) ctx.fillRect(X(p.evaluations) - 1.5, Y(p[key], top) - 1.5, 3, 3);
+  };
+  line("coverage", cmax, COLORS.root);
+  line("qd_score", qmax, COLORS.actuator);
+  ctx.fillStyle = COLORS.root;
+  ctx.fillText(`${+(100 * cmax).toPrecision(3)} %`, 2, pad.t + 8);
+  ctx.fillText("0", 2, h - pad.b);
+  ctx.fillStyle = COLORS.actuator;
+  ctx.fillText(fmtNum(qmax), w - pad.r + 4, pad.t + 8);
+  ctx.fillText("0", w - pad.r + 4, h - pad.b);
+  ctx.fillStyle = COLORS.muted;
+  ctx.fillText("0", pad.l, h - 4);
+  const xl = `${n} evaluations`;
+  ctx.fillText(xl, w - pad.r - ctx.measureText(xl).width, h - 4);
+  ctx.font = "11px system-ui, sans-serif";
+  ctx.fillStyle = COLORS.root; ctx.fillText("coverage", pad.l + 6, 14);
+  ctx.fillStyle = COLORS.actuator; ctx.fillText("QD-score", pad.l + 70, 14);
 }
