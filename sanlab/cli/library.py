@@ -213,14 +213,30 @@ def export_(
     toml: Annotated[bool, typer.Option("--toml", help=(
         "Write the creature file with this gait's tuned parameters applied, instead of the gait (node "
         "delays only where every node has the same; else a warning)."))] = False,
+    c: Annotated[bool, typer.Option("--c", help=(
+        "Write the gait's network as a dependency-free C99 header (san_init, san_step: sensor bits "
+        "in, actuator targets out in rad or m; float32, bit for bit as sanlab's simulation)."))] = False,
     db: DbOpt = "sanlab.db",
 ) -> None:
-    """Export a gait as JSON, or --toml its creature file with the gait applied.
+    """Export a gait as JSON, --toml its creature file with the gait applied, or --c its SAN in C.
 
     JSON: creature, encoding, parameters, score. --toml: the creature file the gait was found
-    with, its comments kept, with the gait's tuned parameters written into it."""
+    with, its comments kept, with the gait's tuned parameters written into it. --c: a C99 header
+    (stdint.h only) with the weights, node rates and actuator ranges as constants and Figure 7's
+    node in san_step, for a microcontroller (see the README)."""
+    if toml and c:
+        raise fail("--toml and --c: expected one of them (a creature file or a C header), got both")
     lib = open_library(db, readonly=True)
-    if toml:
+    if c:
+        from sanlab.gait import Gait
+        from sanlab.interop.san_c import header
+
+        ev = library_call(lib.gait, gait)
+        try:
+            data = header(Gait.from_library(lib, ev.gait_id))
+        except ValueError as e:
+            raise fail(f"{lib.path}: gait {ev.gait_id} cannot be written as a C header ({e})") from None
+    elif toml:
         from sanlab.gait import Gait
         from sanlab.tuned import apply_to_file, per_node_delays
 
