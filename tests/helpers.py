@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import sqlite3
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -90,3 +91,13 @@ def interruptible() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def rows_in(db, table: str = "evaluations") -> int:
+    """How many rows ``table`` of the library file ``db`` holds now (0 while it cannot be read):
+    what a test polls while a command it will interrupt writes."""
+    try:
+        with sqlite3.connect(db, timeout=5) as c:
+            return c.execute(f"select count(*) from {table}").fetchone()[0]
+    except sqlite3.Error:
+        return 0

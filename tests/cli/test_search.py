@@ -14,15 +14,7 @@ import time
 import pytest
 
 from sanlab.library import Library
-from tests.helpers import SANLAB, interruptible
-
-
-def _count(db) -> int:
-    try:
-        with sqlite3.connect(db, timeout=5) as c:
-            return c.execute("select count(*) from evaluations").fetchone()[0]
-    except sqlite3.Error:
-        return 0
+from tests.helpers import SANLAB, interruptible, rows_in
 
 
 @pytest.mark.slow
@@ -34,11 +26,11 @@ def test_an_interrupted_search_resumes_to_the_same_top_10(tmp_path, sig):
     proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 240
-    while _count(db) < 64 and time.time() < deadline and proc.poll() is None:
+    while rows_in(db) < 64 and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    stored = _count(db)
+    stored = rows_in(db)
     assert 64 <= stored < 1920, "the search should have been stopped part-way"
     assert stored % 64 == 0  # at most the batch in flight is lost
     with Library(str(db)) as lib:

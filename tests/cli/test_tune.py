@@ -12,7 +12,7 @@ import time
 import pytest
 
 from sanlab.library import Library
-from tests.helpers import SANLAB, interruptible
+from tests.helpers import SANLAB, interruptible, rows_in
 
 
 def test_tune_cli_json(bounder_run):
@@ -83,13 +83,6 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     assert studio_row["trials"] == 6 and studio_row["progress"] == {"done": 6, "planned": 6, "unit": "trials"}
 
 
-def _trace_count(db) -> int:
-    try:
-        with sqlite3.connect(db, timeout=5) as c:
-            return c.execute("select count(*) from trace").fetchone()[0]
-    except sqlite3.Error:
-        return 0
-
 
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
@@ -100,15 +93,15 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
         s.backup(d)  # two copies of the library: one to interrupt, one to run uninterrupted
         s.backup(r)
     args = ["tune", f"{run_id}/1", "--method", "sa", "--trials", "64", "--batch", "8", "--seed", "4", "--ensemble", "4"]
-    base = _trace_count(db)  # the shared library may hold other tests' tuning runs
+    base = rows_in(db, "trace")  # the shared library may hold other tests' tuning runs
     proc = subprocess.Popen(SANLAB + args + ["--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 300
-    while _trace_count(db) - base < 10 and time.time() < deadline and proc.poll() is None:
+    while rows_in(db, "trace") - base < 10 and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert 10 <= _trace_count(db) - base < 64, "the tuning should have been stopped part-way"
+    assert 10 <= rows_in(db, "trace") - base < 64, "the tuning should have been stopped part-way"
     with Library(str(db)) as lib:
         run = next(r for r in lib.runs() if r.kind == "tune")
         assert lib.count(run.run_id) == 0  # the tuned gait is stored only when the chain ends

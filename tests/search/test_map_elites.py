@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import signal
-import sqlite3
 import subprocess
 import time
 
@@ -15,7 +14,7 @@ import pytest
 from sanlab.library import Library
 from sanlab.search.base import Grid
 from sanlab.search.map_elites import mutate, parse_grid, rebuild, resolve
-from tests.helpers import SANLAB, interruptible
+from tests.helpers import SANLAB, interruptible, rows_in
 
 
 def test_a_mutant_changes_a_few_weights_and_stays_in_range():
@@ -52,13 +51,6 @@ def test_an_open_range_is_three_times_the_first_generation_extent():
     assert flat.ranges[0] == (-3.0, 7.0)
 
 
-def _count(db) -> int:
-    try:
-        with sqlite3.connect(db, timeout=5) as c:
-            return c.execute("select count(*) from evaluations").fetchone()[0]
-    except sqlite3.Error:
-        return 0
-
 
 @pytest.mark.slow
 def test_a_killed_map_elites_search_resumes_to_the_same_rows_and_archive(tmp_path):
@@ -68,11 +60,11 @@ def test_a_killed_map_elites_search_resumes_to_the_same_rows_and_archive(tmp_pat
     proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 240
-    while _count(db) < 160 and time.time() < deadline and proc.poll() is None:  # past the random tenth
+    while rows_in(db) < 160 and time.time() < deadline and proc.poll() is None:  # past the random tenth
         time.sleep(0.02)
     proc.send_signal(signal.SIGKILL)
     proc.communicate(timeout=60)
-    stored = _count(db)
+    stored = rows_in(db)
     assert 160 <= stored < 640, "the search should have been killed part-way"
     with Library(str(db)) as lib:
         run = lib.runs()[0].run_id
