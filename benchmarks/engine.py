@@ -18,8 +18,11 @@ thread per core) on the same converted chain. The long chains' cold compiles tak
     python benchmarks/engine.py [--batch 2048] [--steps 2000] [--mujoco-seconds 5]
                                 [--growth 2,4,8,16,32] [--dense-up-to 16]
 
+Also the replay: one 6 s bounder replay at batch 1 recorded at 30 fps in a fresh process, cold
+and with warm caches (the issue-29 goal: under 1 s warm).
+
 The last line is ``ratio_vs_mujoco=<x> ratio_vs_mujoco_c_loop=<x> sanlab_steps_per_s=<y>
-compile_s=<z>``.
+compile_s=<z> replay_warm_s=<w>``.
 """
 
 from __future__ import annotations
@@ -90,6 +93,38 @@ def cached_start(batch: int) -> float:
                                            capture_output=True, text=True).stdout.split()[-1])
         cold, warm = run(), run()
     print(f"start-up to first result: {cold:.1f} s with an empty cache, {warm:.1f} s with a warm one")
+    return warm
+
+
+REPLAY = """
+import sanlab; sanlab.configure()
+import time
+from sanlab import creature, sim
+from sanlab.engine_report import random_san_params
+t0 = time.perf_counter()
+spec = creature.load("{name}")
+m = sim.compile_creature(spec)
+san, p = random_san_params(spec, 1, 0)
+r = sim.rollout(m, san, p, seconds=6.0, record_fps=30)
+assert r.frames.q.shape[1] == 181
+print(time.perf_counter() - t0)
+"""
+
+
+def replay(name: str = "bounder") -> float:
+    """Seconds of one 6 s replay at batch 1 recorded at 30 fps (what render, the studio's playback
+    and check --simulate do), in a fresh process after JAX's import, with an empty cache and then a
+    warm one (the persistent XLA cache and the traced programs of sanlab.sim.executables)."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, SANLAB_CACHE=cache, PYTHONPATH=str(ROOT))
+        env.pop("SANLAB_NO_COMPILE_CACHE", None)
+        code = REPLAY.format(name=name)
+        run = lambda: float(subprocess.run([sys.executable, "-c", code], env=env, check=True,
+                                           capture_output=True, text=True).stdout.split()[-1])
+        cold = run()
+        warm = min(run(), run())
+    print(f"replay: {name}, 6 s at batch 1, 30 fps: {cold:.1f} s with an empty cache, {warm:.2f} s with a warm one "
+          "(compile_creature + rollout, after import)")
     return warm
 
 
@@ -176,11 +211,14 @@ def main() -> None:
     rate, compile_s = sanlab_route(a.batch, a.steps, a.repeats)
     if not a.skip_start:
         cached_start(a.batch)
+        replay_s = replay()
+    else:
+        replay_s = float("nan")
     latency()
     if a.growth:
         growth([int(n) for n in a.growth.split(",")], a.batch, a.growth_steps, a.dense_up_to)
     print(f"ratio_vs_mujoco={rate / mj:.1f} ratio_vs_mujoco_c_loop={rate / mjc:.1f} "
-          f"sanlab_steps_per_s={rate:.0f} compile_s={compile_s:.1f}")
+          f"sanlab_steps_per_s={rate:.0f} compile_s={compile_s:.1f} replay_warm_s={replay_s:.2f}")
 
 
 if __name__ == "__main__":

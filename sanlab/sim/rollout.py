@@ -30,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
+from sanlab.sim import executables
 from sanlab.sim.dynamics import Frame, State, _barrier, advance, make_state, prepare, sense, velocity
 from sanlab.sim.model import Model
 
@@ -272,8 +273,9 @@ def rollout(
     dtype = model.dtype
     if fence is None:
         fence = devices()[0].platform == "cpu"
-    mesh, program = _program(controller, observer, steps if every else 0, every, params_batched, fence,
-                             cstate0 is not None, state0 is not None, tuple(devices()))
+    config = (controller, observer, steps if every else 0, every, params_batched, fence,
+              cstate0 is not None, state0 is not None, tuple(devices()))
+    mesh, program = _program(*config)
     shard = jax.sharding.NamedSharding(mesh, P("b"))
     whole = jax.sharding.NamedSharding(mesh, P())
     batched = lambda x: _pad(_host(x, dtype), n)
@@ -283,7 +285,8 @@ def rollout(
     m = jax.device_put(jax.tree_util.tree_map(batched if params_batched else host, model),
                        shard if params_batched else whole)
     one, n_run = jax.device_put((np.ones((), dtype), np.asarray(steps, np.int32)), whole)
-    out = jax.device_get(program(m, cp, s0, cs0, one, n_run))  # each device's share, copied to the host
+    # a warm start loads the stored executable and skips the trace (see sim.executables)
+    out = jax.device_get(executables.call(config[:-1], program, (m, cp, s0, cs0, one, n_run)))  # each device's share, to the host
     state, acc, deepest, finite, frames, cstate = jax.tree_util.tree_map(lambda x: x[:B], out)
     if frames is not None:
         qf, qdf, bits, u, cs = frames

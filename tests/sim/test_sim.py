@@ -290,6 +290,7 @@ def test_persistent_compile_cache_is_written(tmp_path):
     subprocess.run([sys.executable, "-c", code], check=True, env=env, timeout=300)
     entries = list((tmp_path / "jax").iterdir())
     assert entries, "no compiled program was cached"
+    assert list((tmp_path / "programs").glob("*.stablehlo")), "no traced program was kept (sim.executables)"
 
 
 def test_a_run_continues_exactly_from_its_final_state_and_controller_state():
