@@ -16,7 +16,8 @@ Layers, lowest first (a module may import from its own layer and the ones below)
                       drivers, reproduce (both phases per creature, the Table 1 report) and
                       audit (a gait re-scored under nudges), modes (a run's gaits grouped);
                       render draws scenes, scores and traces it is handed
-    cli, studio       the applications: the command line, and the web studio
+    cli, studio, gym  the applications: the command line, the web studio, and Gymnasium
+                      environments (sanlab.gym)
 
 Every import counts, including those inside functions and under TYPE_CHECKING: a lazy import is
 still a dependency. Every module of the package must belong to a layer, so a new top-level
@@ -42,7 +43,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
     ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
-    ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",)}),
+    ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",), "gym": ("sanlab.gym",)}),
 ]
 SIDE_BY_SIDE = {"search and render"}
 EXACT = {"sanlab"}  # the package itself, not everything under it

@@ -1,0 +1,321 @@
+"""What both environments share: one creature compiled once, a batch of rows stepped by the
+simulator's own functions inside one compiled program, and the metric scored on the host by
+``sanlab.metrics.scores``, the function an evaluation is scored with.
+
+A row is one copy of the creature. The program for a step is the body of a rollout's loop
+(``sanlab.sim.rollout._batched``: ``prepare``, ``sense``, the metric's ``update``, ``advance``)
+applied ``frame_skip`` times, then the metric's ``finish`` and the observation of the new
+state; the row's state and the metric's accumulator stay on the devices between calls, and one
+packed array per call comes back to the host. Three things make its arithmetic bit for bit the
+arithmetic of a rollout (checked by ``tests/gym``):
+
+- the model is an argument of the program, never a constant folded into it;
+- each device holds at least two rows (XLA compiles a batch of one as scalar code, whose
+  rounding differs in the last bit, and the simulated creature is chaotic);
+- on CPUs the steps are fenced with the same runtime-true flag as a rollout's
+  (``sanlab.sim.dynamics._barrier``).
+
+So a controller driven through an environment reproduces its evaluation's unperturbed member
+(``sanlab.evaluate.ensemble``: member 0) exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from sanlab.creature import Creature, load
+from sanlab.creature.spec import LinearActuator
+from sanlab.evaluate.ensemble import Ensemble
+from sanlab.evaluate.resolution import Servos
+from sanlab.gait import check_params
+from sanlab.metrics import Metric, MetricAcc, scores
+from sanlab.sim.model import Model
+
+OBSERVATIONS = ("bits", "state")
+ACTIONS = ("target", "activation")
+VELOCITY_LIMIT = 1e4  # |qd| beyond this counts as blown up, as at the end of a rollout
+
+
+def resolve(creature: str | Creature | None, path: str | None) -> Creature:
+    """The creature an environment simulates: ``creature`` (a built-in name, a file path or a
+    ``Creature``) or ``path`` (a creature file), exactly one of them. Raises ValueError when
+    both or neither are given, ``sanlab.creature.CreatureError`` (a ValueError, one line
+    naming the file) for an unknown name or a bad file."""
+    if (creature is None) == (path is None):
+        raise ValueError("give a creature (a built-in name, a .toml path or a Creature) or path= (a creature file), not both"
+                         if creature is not None else "give path= (a creature file) or creature= (a built-in name)")
+    if isinstance(creature, Creature):
+        return creature
+    src = path if path is not None else creature
+    if not isinstance(src, str):
+        raise ValueError(f"creature: expected a built-in name, a .toml path or a Creature, got {type(src).__name__}")
+    return load(src)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """An environment's options (see ``sanlab.gym.env.SanlabEnv``), checked."""
+
+    observation: str = "bits"
+    action: str = "target"
+    frame_skip: int = 1
+    terminate_on_fall: bool = True
+    reset_noise_scale: float = 0.0
+
+    def __post_init__(self):
+        if self.observation not in OBSERVATIONS:
+            raise ValueError(f"observation: expected one of {list(OBSERVATIONS)}, got {self.observation!r}")
+        if self.action not in ACTIONS:
+            raise ValueError(f"action: expected one of {list(ACTIONS)}, got {self.action!r}")
+        if isinstance(self.frame_skip, bool) or not isinstance(self.frame_skip, (int, np.integer)) or self.frame_skip < 1:
+            raise ValueError(f"frame_skip: expected an integer >= 1, got {self.frame_skip!r}")
+        if not (isinstance(self.reset_noise_scale, (int, float)) and not isinstance(self.reset_noise_scale, bool) and math.isfinite(self.reset_noise_scale)
+                and self.reset_noise_scale >= 0):
+            raise ValueError(f"reset_noise_scale: expected a number >= 0, got {self.reset_noise_scale!r}")
+        object.__setattr__(self, "frame_skip", int(self.frame_skip))
+        object.__setattr__(self, "reset_noise_scale", float(self.reset_noise_scale))
+
+
+class Core:
+    """``rows`` copies of ``spec`` on ``devices`` (``len(devices)`` divides ``rows``, each holds
+    at least two), scored by ``metric`` (default: the creature file's) over ``seconds``
+    (default: the file's evaluation time).
+
+    overrides: {``sanlab.sim.Params`` field: array}, e.g. a tuned gait's ``params.model``
+    (``sanlab.gait.Gait.model``). Raises ValueError for a bad metric, duration, dtype or
+    override (``sanlab.gait.check_params``), a creature without sensors or actuators, a
+    duration shorter than one environment step."""
+
+    def __init__(self, spec: Creature, settings: Settings, rows: int, devices: tuple, *, metric: str | None = None,
+                 seconds: float | None = None, dtype: str = "float32", overrides: dict | None = None):
+        import jax
+        import jax.numpy as jnp
+
+        from sanlab import sim
+
+        if dtype not in ("float32", "float64"):
+            raise ValueError(f"dtype: expected float32 or float64, got {dtype!r}")
+        if not spec.actuators:
+            raise ValueError(f"creature {spec.name!r} has no actuators: nothing to act on")
+        if not spec.sensors and settings.observation == "bits":
+            raise ValueError(f"creature {spec.name!r} has no sensors: use observation='state'")
+        self.spec = spec
+        self.settings = settings
+        self.metric = Metric.for_creature(spec, metric)
+        if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
+                                    or not math.isfinite(seconds) or seconds <= 0):
+            raise ValueError(f"seconds: expected a duration > 0 (s), got {seconds!r}")
+        self.seconds = float(spec.evaluation.seconds if seconds is None else seconds)
+        if overrides:
+            check_params(spec, {"model": overrides})  # one line naming a bad field, as for a stored gait
+        model = sim.compile_creature(spec, dtype)
+        if overrides:
+            # as Gait.model applies a stored gait's overrides
+            model = model.with_params(**{k: jnp.asarray(np.asarray(v), model.dtype) for k, v in overrides.items()})
+        self.model: Model = model
+        self.dtype = np.dtype(model.dtype)
+        self.dt = float(model.structure.dt)  # s, the simulator's step
+        self.sim_steps = int(round(self.seconds / self.dt))  # what a rollout of this duration runs (sanlab.sim.rollout)
+        self.max_steps = self.sim_steps // settings.frame_skip
+        if self.max_steps < 1:
+            raise ValueError(f"seconds: {self.seconds:g} s is shorter than one environment step "
+                             f"({settings.frame_skip} x {self.dt:g} s)")
+        st = model.structure
+        self.n_sensors, self.n_actuators, self.ndof = len(spec.sensors), len(spec.actuators), st.ndof
+        self.act_min = np.asarray(model.params.act_min, np.float64)
+        self.act_max = np.asarray(model.params.act_max, np.float64)
+        self.act_names = [a.name for a in spec.actuators]
+        self.act_units = ["m" if isinstance(a, LinearActuator) else "rad" for a in spec.actuators]
+        self.unresolved = bool(Servos.of(spec).unresolved(np.asarray(model.params.act_ks), np.asarray(model.params.act_kd), self.dt))
+        self.q0 = np.asarray(model.params.q0)
+        self.rows = int(rows)
+        self.devices = tuple(devices)
+        if self.rows % len(self.devices) or self.rows < 2 * len(self.devices):
+            raise ValueError(f"rows: {rows} rows cannot be spread over {len(self.devices)} devices two or more each")
+        fence = self.devices[0].platform == "cpu"  # as a rollout decides it (sanlab.sim.rollout)
+        self._seat = st.plane == "vertical" and bool(st.contacts)
+        self._mesh, self._step, self._restart = _programs(self.metric, settings.frame_skip, fence, self._seat, self.devices)
+        shard = jax.sharding.NamedSharding(self._mesh, jax.sharding.PartitionSpec("b"))
+        whole = jax.sharding.NamedSharding(self._mesh, jax.sharding.PartitionSpec())
+        self._model_dev = jax.device_put(model, whole)
+        self._one = jax.device_put(np.ones((), self.dtype), whole)
+        blank = jax.eval_shape(lambda m: _blank(m, self.metric), model)
+        self._carry = jax.device_put(jax.tree_util.tree_map(lambda x: np.zeros((self.rows, *x.shape), x.dtype), blank), shard)
+
+    # ---- spaces' numbers, and actions -----------------------------------------------------
+
+    def activations(self, action: Any, n: int) -> np.ndarray:
+        """Actions [n, A] (targets in the actuators' units, or activations in [0, 1]) ->
+        activations [rows, A] in the model's dtype, the padding rows copying the last real one.
+        Raises ValueError naming the first actuator whose value is outside its range (or not a
+        number), or a wrong shape."""
+        A = self.n_actuators
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"action: expected {A} numbers per environment, got {type(action).__name__}") from None
+        if n == 1 and a.shape == (A,):
+            a = a[None]
+        if a.shape != (n, A):
+            raise ValueError(f"action: expected shape {(A,) if n == 1 else (n, A)} ({A} actuators), got {a.shape}")
+        lo, hi = (self.act_min, self.act_max) if self.settings.action == "target" else (np.zeros(A), np.ones(A))
+        bad = ~(np.isfinite(a) & (a >= lo) & (a <= hi))
+        if bad.any():
+            r, k = np.argwhere(bad)[0]
+            unit = self.act_units[k] if self.settings.action == "target" else "activation"
+            where = f"action[{r}, {k}]" if n > 1 else f"action[{k}]"
+            raise ValueError(f"{where} (actuator {self.act_names[k]!r}): {a[r, k]!r} is outside its range "
+                             f"[{lo[k]:.9g}, {hi[k]:.9g}] {unit}")
+        if self.settings.action == "target":
+            # float64 throughout, so that any float32 activation (a SAN's) survives the trip to a
+            # target and back exactly, and the step sees the activation the controller gave
+            a = (a - self.act_min) / (self.act_max - self.act_min)
+        u = np.clip(a, 0.0, 1.0).astype(self.dtype)
+        if n < self.rows:
+            u = np.concatenate([u, np.repeat(u[-1:], self.rows - n, axis=0)])
+        return u
+
+    def targets(self, u: Any) -> np.ndarray:
+        """Activations u [..., A] in [0, 1] -> the actions of this environment's action space
+        (targets in the actuators' units, float64; or u itself)."""
+        u = np.asarray(u, np.float64)
+        if self.settings.action == "activation":
+            return u
+        return self.act_min + u * (self.act_max - self.act_min)
+
+    # ---- starts ---------------------------------------------------------------------------
+
+    def start_q(self, rng: np.random.Generator | None) -> tuple[np.ndarray, bool]:
+        """(start coordinates [D], re-seat on the ground): the creature file's start, or with
+        ``reset_noise_scale`` s > 0 a start drawn as one perturbed member of the robust ensemble
+        (``sanlab.evaluate.ensemble``: each free tree's COM moved by N(0, s mm), every angle by
+        N(0, 0.5 s deg), clipped at 3 sigma), its key drawn from ``rng``."""
+        s = self.settings.reset_noise_scale
+        if s == 0 or rng is None:
+            return self.q0.copy(), False
+        key = tuple(int(k) for k in rng.integers(0, 2**62, 2))
+        dq, _ = Ensemble(members=2, pose=1e-3 * s, angle=0.5 * s).draws(self.model.structure, key, len(self.spec.links))
+        return (self.q0.astype(np.float64) + dq[1]).astype(self.dtype), self._seat
+
+    # ---- the programs ---------------------------------------------------------------------
+
+    def restart(self, mask: np.ndarray, q: np.ndarray, seat: np.ndarray) -> np.ndarray:
+        """Start the rows where ``mask`` [rows] from coordinates q [rows, D] (re-seated on the
+        ground where ``seat``), at rest, their metric restarted; every row's packed
+        observation [rows, K] comes back."""
+        args = (np.asarray(mask, bool), np.asarray(q, self.dtype), np.asarray(seat, bool))
+        self._carry, out = self._restart(self._model_dev, self._carry, *args, self._one)
+        return np.asarray(out)
+
+    def step(self, u: np.ndarray) -> np.ndarray:
+        """Every row ``frame_skip`` simulator steps on with activations u [rows, A]; their packed
+        observations [rows, K] come back."""
+        # a NumPy argument: the program places it (an explicit device_put costs ~0.1 ms a call)
+        self._carry, out = self._step(self._model_dev, self._carry, u, self._one)
+        return np.asarray(out)
+
+    # ---- unpacking on the host ------------------------------------------------------------
+
+    def bits(self, out: np.ndarray) -> np.ndarray:
+        return out[:, : self.n_sensors].astype(np.int8)
+
+    def q(self, out: np.ndarray) -> np.ndarray:
+        return out[:, self.n_sensors : self.n_sensors + self.ndof]
+
+    def qd(self, out: np.ndarray) -> np.ndarray:
+        return out[:, self.n_sensors + self.ndof : self.n_sensors + 2 * self.ndof]
+
+    def com(self, out: np.ndarray) -> np.ndarray:
+        """The centre of mass (x, y) [rows, 2] of each row's current state (m)."""
+        k = self.n_sensors + 2 * self.ndof
+        return out[:, k + 6 : k + 8].astype(np.float64)
+
+    def score(self, out: np.ndarray) -> dict[str, np.ndarray]:
+        """``sanlab.metrics.scores`` of each row's episode so far: what an evaluation ending at
+        this state would score (the same float32 arithmetic on the same numbers)."""
+        a = out[:, self.n_sensors + 2 * self.ndof :]
+        acc = MetricAcc._make([(a[:, 0], a[:, 1]), a[:, 2], a[:, 3], a[:, 4], a[:, 5] > 0, (a[:, 6], a[:, 7]), a[:, 8]])
+        return scores(self.metric, acc, a[:, 9] > 0, self.seconds, self.spec.world.plane)
+
+
+def _blank(model, metric: Metric):
+    """One row's (state, accumulator), for its shapes."""
+    from sanlab.sim.dynamics import make_state
+
+    s = make_state(model)
+    return s, metric.init(model, s)
+
+
+def _observe(model, s, acc, gate):
+    """A row's packed observation: bits [S], q [D], qd [D] (M^-1 p of this state), then the
+    accumulator's numbers and whether the state is finite (as a rollout's end judges it)."""
+    import jax.numpy as jnp
+
+    from sanlab.sim.dynamics import prepare, sense
+
+    fr = prepare(model, s, gate)
+    bits = sense(model, fr, s.t)
+    dtype = s.q.dtype
+    qd = jnp.stack([x + jnp.zeros((), dtype) for x in fr.qd]) if fr.qd else s.qd
+    finite = jnp.all(jnp.isfinite(s.q)) & jnp.all(jnp.abs(qd) < VELOCITY_LIMIT) & jnp.all(jnp.isfinite(s.p))
+    nums = [acc.p0[0], acc.p0[1], acc.y0, acc.hop, acc.pursuit, acc.fell, acc.p[0], acc.p[1], acc.deepest, finite]
+    tail = jnp.stack([jnp.asarray(x).astype(dtype) for x in nums])
+    return jnp.concatenate([bits.astype(dtype), s.q, qd, tail])
+
+
+@lru_cache(maxsize=32)
+def _programs(metric: Metric, frame_skip: int, fence: bool, seat: bool, devices: tuple):
+    """(mesh, step, restart): the compiled programs over ``devices``, each device stepping its
+    own contiguous share of the rows with nothing crossing devices (as ``sanlab.sim.rollout``
+    does it, and for the same reason: no collective can wait on a slow device)."""
+    import jax
+    import jax.numpy as jnp
+    from jax.sharding import PartitionSpec as P
+
+    from sanlab.sim.dynamics import advance, make_state, prepare, seat_on_ground, sense
+
+    mesh = jax.sharding.Mesh(np.array(devices), ("b",))
+    B, R = P("b"), P()
+
+    def step_local(model, carry, u, one):
+        gate = (one > 0) if fence else None
+
+        def row(s, acc, uu):
+            def sub(_, c):
+                s, acc = c
+                fr = prepare(model, s, gate)
+                bits = sense(model, fr, s.t)
+                acc = metric.update(model, acc, s, fr, bits, uu)
+                s, _depth = advance(model, fr, s, uu)
+                return s, acc
+
+            c = sub(0, (s, acc)) if frame_skip == 1 else jax.lax.fori_loop(0, frame_skip, sub, (s, acc))
+            s, acc = c
+            acc = metric.finish(model, acc, s)
+            return (s, acc), _observe(model, s, acc, gate)
+
+        state, acc = carry
+        return jax.vmap(row)(state, acc, u)
+
+    def restart_local(model, carry, mask, q, seat_mask, one):
+        gate = (one > 0) if fence else None
+
+        def row(s, acc, m, qq, seat_row):
+            if seat:
+                qq = jnp.where(seat_row, seat_on_ground(model, qq), qq)
+            s0 = make_state(model, qq)
+            acc0 = metric.init(model, s0)
+            s, acc = jax.tree_util.tree_map(lambda a, b: jnp.where(m, a, b), (s0, acc0), (s, acc))
+            return (s, acc), _observe(model, s, acc, gate)
+
+        state, acc = carry
+        return jax.vmap(row)(state, acc, mask, q, seat_mask)
+
+    step = jax.jit(jax.shard_map(step_local, mesh=mesh, in_specs=(R, B, B, R), out_specs=B, check_vma=False))
+    restart = jax.jit(jax.shard_map(restart_local, mesh=mesh, in_specs=(R, B, B, B, B, R), out_specs=B, check_vma=False))
+    return mesh, step, restart
