@@ -19,10 +19,24 @@ each of these is reported in one line, as a warning when it looks wrong:
 - ``sensors``: sensors that never turn on, or never turn off, in the drop or the sweeps (those
   the actuators move: touch, joint-angle and length sensors; tilt sensors, angle sensors on a
   root and eyes depend on the body's attitude or the follow point, and are not judged, nor is
-  a touch sensor on the body that stays off: it touches once the body lies down).
+  a touch sensor on the body that stays off: it touches once the body lies down);
+- ``at rest``: whether any sensor is on in the drop. A SAN has no bias (``sanlab.san``: each
+  node integrates a weighted sum of the sensors and of the nodes' outputs, which all start at
+  0), so while every sensor is off every sum is 0, no node ever turns on and every actuator is
+  driven to the middle of its range: the drop *is* what every SAN does, and a creature none of
+  whose sensors turns on in it can never move, whatever the search tries.
+  :func:`at_rest` tells the same without simulating, where the start pose can tell.
+
+The ground's damping ratio is judged from the contact law N = max(0, k d - c v)
+(``sanlab.sim.dynamics``): the ground pushes and never pulls, so an overdamped contact (damping
+ratio above 1: beyond critical for the mass each contact carries) only means that landings do
+not bounce, which is fine (it is what real ground does); an underdamped one rings down a
+little. Only the extremes are warnings: a ratio below 0.02 bounces, and one above 20 stops a
+landing dead and lets a contact settle into its sag only over c/k seconds, like mud.
 
 Warnings, never errors: a creature may mean to float or to fall. :func:`warnings` is the short
-form a command that starts a run can print once.
+form a command that starts a run can print once; :func:`static` the findings that need no
+simulation.
 """
 
 from __future__ import annotations
@@ -34,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from sanlab.creature import geometry
-from sanlab.creature.spec import AngleSensor, AngularActuator, Creature, EyeSensor, TiltSensor
+from sanlab.creature.spec import AngleSensor, AngularActuator, Creature, EyeSensor, LengthSensor, TiltSensor, TouchSensor
 
 SECONDS = 2.0  # the drop (and each sweep: one cycle of every actuator through its range)
 FPS = 100.0  # frames recorded per second
@@ -43,15 +57,18 @@ STRENGTH_BAND = (1 / 20, 20.0)  # strength / gravity load outside it: an order-o
 FLOAT_TOLERANCE = 0.01  # m above the ground before a start pose "floats"
 SINK_TOLERANCE = 0.01  # m below the ground before a link without a contact there "sinks"
 SAG_LIMIT = 0.02  # m of static sag before the ground is "too soft"
-DAMPING_BAND = (0.02, 20.0)  # the ground's damping ratio outside it: bouncing or glue
+DAMPING_BAND = (0.02, 20.0)  # the ground's damping ratio outside it: bouncing, or mud
 REST_SPEED = 0.02  # m/s: the centre of mass at rest at the end of the second
 SWEEPS = 4  # runs with the actuators sweeping their ranges (different phases), besides the drop
+TOUCH_TOLERANCE = 0.005  # m: a contact this close to its tree's lowest one is taken to rest on the ground
+PATH_POSES = 9  # poses from the start pose to the servos' mid targets, both ends included (at_rest)
 
 
 @dataclass(frozen=True)
 class Finding:
     """One line of the report: ``check`` (start, sinking, ground, standing, strength, radians,
-    sensors), whether it is a ``warning``, the ``message`` and its numbers (SI units)."""
+    resolution, sensors, at rest), whether it is a ``warning``, the ``message`` and its numbers
+    (SI units)."""
 
     check: str
     warning: bool
@@ -154,6 +171,143 @@ def strength(spec: Creature) -> list[Finding]:
     return out
 
 
+NO_BIAS = ("a SAN has no bias (each node sums weights times its inputs, all 0 here), so no node turns on, every "
+           "actuator holds the middle of its range and no controller can ever move the creature")
+FIX = ("add a sensor that is on at the start, e.g. a \"straight\" angle sensor whose range contains a joint's start "
+       "angle ({ type = \"angle\", link = ..., min_deg = -10, max_deg = 10 } on a joint that starts at 0), or a touch "
+       "sensor on a contact it stands on")
+
+
+def _wrap(a: float) -> float:
+    """``a`` wrapped to [-pi, pi), as the simulator's sensors see angles."""
+    return a - 2 * math.pi * math.floor((a + math.pi) / (2 * math.pi))
+
+
+def _ground_height(spec: Creature, x: float) -> float | None:
+    """The terrain's height at x (m), or None for rough terrain (its sum of sinusoids lives in the
+    compiled model)."""
+    t = spec.world.terrain
+    if t.kind == "flat":
+        return 0.0
+    if t.kind == "slope":
+        return math.tan(t.angle) * x
+    if t.kind == "hill":
+        half = t.width / 2
+        return t.height * (1 + math.cos(math.pi * (x - t.center) / half)) / 2 if abs(x - t.center) < half else 0.0
+    return None
+
+
+def _tree_of(spec: Creature) -> dict[str, str]:
+    """Each link's root (parents come before children)."""
+    root: dict[str, str] = {}
+    for link in spec.links:
+        root[link.name] = root[link.parent] if link.parent is not None else link.name
+    return root
+
+
+def _on_in_pose(spec: Creature, frames: dict) -> list[bool | None]:
+    """Each sensor's value in the pose ``frames`` (as :func:`geometry.link_frames` gives), True or
+    False, or None where the pose cannot tell (a touch sensor on rough terrain)."""
+    by_name = {link.name: link for link in spec.links}
+    root = _tree_of(spec)
+    falls = spec.world.gravity > 0
+    lowest: dict[str, float] = {}  # per tree: the gap below its lowest contact (m)
+    gaps: dict[tuple[str, int], float | None] = {}
+    for link in spec.links:
+        for k, p in enumerate(link.contacts):
+            x, y = geometry.transform(frames[link.name], p)
+            h = _ground_height(spec, x)
+            gaps[(link.name, k)] = None if h is None else y - h
+            if h is not None:
+                lowest[root[link.name]] = min(lowest.get(root[link.name], math.inf), y - h)
+    out: list[bool | None] = []
+    for s in spec.sensors:
+        if isinstance(s, TouchSensor):
+            if spec.world.plane != "vertical":
+                out.append(True)  # every contact rests on the floor
+                continue
+            gap, tree = gaps[(s.link, s.contact)], by_name[root[s.link]]
+            if gap is None:
+                out.append(None)
+            elif falls and not tree.fixed:  # it falls (or is lifted) onto its lowest contacts
+                out.append(gap <= lowest[tree.name] + TOUCH_TOLERANCE or gap <= 0)
+            else:
+                out.append(gap <= 0)
+        elif isinstance(s, (AngleSensor, TiltSensor)):
+            link = by_name[s.link]
+            a = frames[s.link][2]
+            if isinstance(s, AngleSensor) and link.parent is not None:
+                a -= frames[link.parent][2]
+            out.append(s.min <= _wrap(a) <= s.max)
+        elif isinstance(s, EyeSensor):
+            follow = spec.world.follow
+            assert follow is not None  # the loader demands a follow path of a creature with eyes
+            tx, ty = follow.points[0]  # where the follow point starts
+            ex, ey = geometry.transform(frames[s.at.link], s.at.at)
+            if s.axis is not None:
+                (x0, y0, _), (x1, y1, _) = frames[s.axis[0]], frames[s.axis[1]]
+                ax = (x1 - x0, y1 - y0)
+            else:
+                ax = (math.cos(frames[s.at.link][2]), math.sin(frames[s.at.link][2]))
+            dx, dy = tx - ex, ty - ey
+            a = math.atan2(ax[0] * dy - ax[1] * dx, ax[0] * dx + ax[1] * dy)
+            out.append(s.min <= a <= s.max)
+        else:
+            assert isinstance(s, LengthSensor)
+            pa = geometry.transform(frames[s.a.link], s.a.at)
+            pb = geometry.transform(frames[s.b.link], s.b.at)
+            out.append(s.min <= math.dist(pa, pb) <= s.max)
+    return out
+
+
+def _path_to_mid(spec: Creature) -> list[dict]:
+    """The poses from the file's start pose to the one with every angular servo's joint at its
+    mid target (the rest of the pose as the file starts it), :data:`PATH_POSES` of them."""
+    mid = {a.joint: (a.min + a.max) / 2 for a in spec.actuators if isinstance(a, AngularActuator)}
+    poses = []
+    for i in range(PATH_POSES):
+        f = i / (PATH_POSES - 1)
+        q: list[float] = []
+        for link in spec.links:
+            if link.parent is None:
+                if link.dofs:
+                    q += [link.position[0], link.position[1], link.angle][: link.dofs]
+            else:
+                q.append(link.angle + f * (mid[link.name] - link.angle) if link.name in mid else link.angle)
+        poses.append(geometry.link_frames(spec.links, q))
+    return poses
+
+
+def at_rest(spec: Creature) -> list[Finding]:
+    """Without simulating: whether any sensor is on in the start pose or on the way to the
+    servos' mid targets (the pose every SAN drives the creature to while its sensors are off; see
+    the module docstring). A warning when none is, which the simulation (:func:`simulate`)
+    settles for sure: the pose is the file's, before the creature settles; a touch sensor counts
+    as on when its contact is within 5 mm of its tree's lowest. Nothing is said of a creature
+    with linear actuators (where their mid targets put it needs a simulation), of one on rough
+    terrain whose touch sensors decide, or of one whose eyes watch a follow point that moves
+    (it may come into view however still the creature is)."""
+    if any(not isinstance(a, AngularActuator) for a in spec.actuators) or _watches(spec):
+        return []
+    if not spec.sensors:
+        return [Finding("at rest", True, f"sensors at rest: it has no sensors, and {NO_BIAS}; {FIX}", {"on": []})]
+    values = [_on_in_pose(spec, frames) for frames in _path_to_mid(spec)]
+    if any(v is None for pose in values for v in pose):
+        return []
+    on = [s.name for i, s in enumerate(spec.sensors) if any(pose[i] for pose in values)]
+    if on:
+        return [Finding("at rest", False, f"sensors at rest: {', '.join(on[:4])}{', ...' * (len(on) > 4)} on in the start "
+                        "pose or on the way to the servos' mid targets: a SAN has an input to act on", {"on": on})]
+    return [Finding("at rest", True, "sensors at rest: none is on in the start pose, nor on the way to the servos' mid "
+                    f"targets (sanlab check --simulate tells for sure); {NO_BIAS}; {FIX}", {"on": []})]
+
+
+def static(spec: Creature) -> list[Finding]:
+    """Every finding that needs no simulation: :func:`strength`, :func:`resolution`,
+    :func:`radian_ranges` and :func:`at_rest`."""
+    return [*strength(spec), *resolution(spec), *radian_ranges(spec), *at_rest(spec)]
+
+
 # -- simulating ------------------------------------------------------------------------------------
 
 
@@ -198,6 +352,7 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -
     out += resolution(spec)
     out += radian_ranges(spec)
     out += _sensors(spec, bits)
+    out.append(_at_rest(spec, bits[0]))
     return out
 
 
@@ -221,8 +376,11 @@ def resolution(spec: Creature) -> list[Finding]:
                 "every evaluation is flagged non-finite (raise its kd, lower its ks, or lower dt)"),
                 {"omega_dt": float(omega[j] * spec.dt), "zeta": float(zeta[j])}))
     if not out:
-        out.append(Finding("resolution", False, f"servos: the step resolves every one (largest omega dt "
-                                                f"{float(np.max(omega * spec.dt)):.2g}, or overdamped)"))
+        rings = zeta < 1.0  # an overdamped servo does not ring: the step follows it whatever its omega dt
+        how = (f"largest omega dt {float(np.max(omega[rings] * spec.dt)):.2g} rad per step of those that ring, at most "
+               f"{OMEGA_DT:g}" + ("; the others are overdamped and do not ring" if not rings.all() else "")
+               if rings.any() else "every one is overdamped: none rings")
+        out.append(Finding("resolution", False, f"servos: the step resolves every one ({how})"))
     return out
 
 
@@ -293,15 +451,23 @@ def _ground(spec: Creature, P: dict) -> list[Finding]:
     zeta = g.damping / (2 * math.sqrt(g.stiffness * mass / n))
     values = {"sag_m": sag, "contacts": n, "damping_ratio": zeta}
     text = (f"ground: static sag {sag * 1000:.2g} mm on {n} contact point{'s' * (n != 1)}, damping ratio {zeta:.3g} "
-            f"(stiffness {g.stiffness:g} N/m, damping {g.damping:g} N s/m)")
+            f"(stiffness {g.stiffness:g} N/m, damping {g.damping:g} N s/m, {mass / n:.3g} kg on each contact)")
     lo, hi = DAMPING_BAND
     if sag > SAG_LIMIT:
         return [Finding("ground", True, text + ": too soft for this creature (raise world.ground.stiffness)", values)]
     if zeta < lo:
         return [Finding("ground", True, text + ": it bounces (raise world.ground.damping)", values)]
     if zeta > hi:
-        return [Finding("ground", True, text + ": overdamped, landings stick (lower world.ground.damping)", values)]
-    return [Finding("ground", False, text, values)]
+        return [Finding("ground", True, text + f": far overdamped, a landing is stopped dead and a contact takes c/k = "
+                        f"{g.damping / g.stiffness:.2g} s to settle into its sag, like mud (lower world.ground.damping)",
+                        values)]
+    if zeta >= 1:  # the contact law never pulls (N = max(0, k d - c v)): no bounce, and no glue either
+        return [Finding("ground", False, text + ": overdamped (beyond critical for the mass on each contact), so "
+                        "landings do not bounce; fine: the ground pushes and never pulls, so it holds no foot that lifts",
+                        values)]
+    swing = math.exp(-math.pi * zeta / math.sqrt(1 - zeta * zeta))
+    return [Finding("ground", False, text + f": underdamped, a landing rings down (each swing {swing:.0%} of the one "
+                    "before) and settles", values)]
 
 
 def _standing(spec: Creature, P: dict, t: Any) -> Finding:
@@ -383,6 +549,26 @@ def _sensors(spec: Creature, bits: np.ndarray) -> list[Finding]:
                            (f" (not judged: {', '.join(skipped)}, which sense the body's attitude or the follow point)"
                             if skipped else "")))
     return out
+
+
+def _watches(spec: Creature) -> bool:
+    """Whether an eye sensor watches a follow point that moves."""
+    follow = spec.world.follow
+    return follow is not None and follow.speed > 0 and any(isinstance(s, EyeSensor) for s in spec.sensors)
+
+
+def _at_rest(spec: Creature, bits: np.ndarray) -> Finding:
+    """Whether any sensor turns on in the drop (``bits`` [F, S]): see the module docstring."""
+    on = [s.name for i, s in enumerate(spec.sensors) if bits[:, i].any()]
+    if on:
+        return Finding("at rest", False, f"sensors at rest: {', '.join(on[:4])}{', ...' * (len(on) > 4)} on in the drop "
+                       "(servos at mid targets): a SAN has an input to act on", {"on": on})
+    if _watches(spec):
+        return Finding("at rest", False, "sensors at rest: none is on in the drop, but its eyes watch a follow point that "
+                       "moves: a SAN has an input once the point comes into view", {"on": []})
+    what = "none turns on in the drop" if spec.sensors else "it has no sensors"
+    return Finding("at rest", True, f"sensors at rest: {what} with the servos at their mid targets, which is what "
+                   f"every SAN does while its sensors are off; {NO_BIAS}; {FIX}", {"on": []})
 
 
 def warnings(spec: Creature, dtype: str = "float32") -> list[str]:

@@ -1,8 +1,9 @@
 """Mutated inputs for the fuzz tests, as Hypothesis strategies: creature files derived from the
 built-ins (and, in ``tests/library``, gait exports derived from a valid one), mutated the way a
 careless or hostile user would: values of the wrong type or container, numbers that overflow or
-vanish, deep nesting, odd keys (newlines, escape sequences), deleted, added and duplicated
-fields, and raw-text damage (truncation, stray lines).
+vanish (integers too large for a float, or for Python to read), deep nesting, odd keys (newlines,
+escape sequences), names with spaces around them, deleted, added and duplicated fields, and
+raw-text damage (truncation, stray lines).
 
 The tests run a bounded, seeded number of examples; a larger campaign, with counts of each
 outcome, is ``python -m tests.fuzz --creatures 20000`` (see :func:`main`).
@@ -29,10 +30,11 @@ FIELDS = sorted(
 NUMBERS = [
     0, 1, -1, 2, 7, 40, 2**31, 2**63 - 1, 2**64, -(2**70), 10**30, 0.0, -0.0, 0.5, -3.5, 1e-300, 1e-12, 1e-9, 1e-5,
     1e5, 1e6, 1e7, 1e12, 3.5e38, 1e39, 1e200, -1e200, math.inf, -math.inf, math.nan,
+    10**309, -(10**400),  # integers too large for a float: compared exactly, never converted (issue 33)
 ]
 STRINGS = [
     "", " ", "touch", "angle", "tilt", "eye", "length", "angular", "linear", "segment", "polygon", "point", "flat",
-    "hill", "rough", "slope", "vertical", "horizontal", "distance", "pursuit", "forward", "L1", "L2", "body", "S1",
+    "hill", "rough", "slope", "vertical", "horizontal", "distance", "pursuit", "forward", "L1", "L2", " L2", "body ", "S1",
     "x" * 10_000, "\x1b[2J\x1b[H", "a\nb", "\u202e", "\x9b31m", "\x00", "café", "../../etc/passwd",
 ]
 KEYS = FIELDS + ["mas", "nmae", "a\nb", "\x1b[31mred", "", " ", "type\n", "1", "é"]
@@ -117,6 +119,7 @@ def _lines(text: str, draw) -> str:
             "[[links]]", "[[sensors]]", "[world]", "[world.ground]", "[evaluation]", "[san]", "[[actuators]]",
             'name = "\\u001b[2J"', '"a\\nb" = 1', "dt = 1e-9", "hidden = 1000000", "stiffness = 1e12", "x = 1e39",
             "type = [\"touch\"]", "mass = {}", "points = [[1e200, 0], [0, 1e200]]", "[[links.points]]", "= 3",
+            "mass = 1" + "0" * 309, "x = " + "1" * 5000, "mass = 0x" + "f" * 4000,  # beyond a float; beyond int()
         ]))
         return "\n".join(lines[:i] + [line] + lines[i:]) + "\n"
     if op == "delete" and lines:

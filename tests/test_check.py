@@ -1,14 +1,16 @@
 """``sanlab check --simulate`` (sanlab.check, issue 11 item 2): the warnings it gives on three
-deliberately broken files, none on the built-ins, and its JSON."""
+deliberately broken files, none on the built-ins, and its JSON; a creature no SAN can move
+(every sensor off at rest) and what the ground's damping ratio means (issue 33)."""
 
 from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from sanlab.check import radian_ranges, simulate, strength, warnings
+from sanlab.check import _ground, at_rest, radian_ranges, simulate, static, strength, warnings
 from sanlab.cli import app
 from sanlab.creature import builtin_names, load, loads
 from tests.helpers import BASE, DATA
@@ -43,8 +45,9 @@ def test_a_weak_servo_is_seen():
     ("radians", {"strength": "467 times stronger", "radians": "look like radians"}),
     ("buried", {"start": "contact 1 of link arm starts 26.3 cm below the ground",
                 "sinking": "link hub goes"}),
-    ("floating", {"start": "floats 15 cm above the ground", "ground": "overdamped",
-                  "strength": "times weaker", "sensors": "sensor far_out (angle) never turns on"}),
+    ("floating", {"start": "floats 15 cm above the ground", "ground": "far overdamped, a landing is stopped dead",
+                  "strength": "times weaker", "sensors": "sensor far_out (angle) never turns on",
+                  "at rest": "sensors at rest: none turns on in the drop"}),
 ])  # fmt: skip
 def test_three_broken_files(name, expected):
     found = warned(simulate(load(str(DATA / f"{name}.toml"))))
@@ -65,9 +68,10 @@ def test_check_simulate_json():
     r = runner.invoke(app, ["check", str(DATA / "floating.toml"), "--simulate", "--json"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
-    assert out["ok"] and out["name"] == "floating" and out["warnings"] == 4
+    assert out["ok"] and out["name"] == "floating" and out["warnings"] == 5
     checks = {c["check"] for c in out["checks"] if c["warning"]}
-    assert checks == {"start", "ground", "strength", "sensors"}
+    assert checks == {"start", "ground", "strength", "sensors", "at rest"}
+    assert next(c for c in out["checks"] if c["check"] == "at rest")["on"] == []
     start = next(c for c in out["checks"] if c["check"] == "start")
     assert start["gap_m"] == pytest.approx(0.15) and start["link"] == "leg"
 
@@ -86,7 +90,8 @@ def test_check_simulate_prints_one_line_per_finding():
     lines = r.stdout.splitlines()
     assert "simulated (two seconds, servos at mid targets, then sweeping): 3 warnings" in lines
     marked = [ln.strip() for ln in lines if ln.startswith("  ok ") or ln.startswith("  warning ")]
-    assert len(marked) == 9 and sum(ln.startswith("warning ") for ln in marked) == 3, marked
+    assert len(marked) == 10 and sum(ln.startswith("warning ") for ln in marked) == 3, marked
+    assert any(ln.startswith("ok      sensors at rest: foot on in the drop") for ln in marked)
     assert any(ln.startswith("ok      servos: the step resolves every one") for ln in marked)
     assert any(ln.startswith("warning actuator hip: min_deg, max_deg = [-0.8, 0.8] look like radians") for ln in marked)
     assert any(ln.startswith("ok      start: rests on the ground") for ln in marked)
@@ -105,3 +110,140 @@ def test_a_bad_file_is_refused_before_any_simulation(tmp_path):
     assert r.exit_code == 2 and r.stdout == "", r.output
     assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.startswith(f"{bad}: links[0].name: expected a name"), r.stderr
+
+
+# A three-segment snake lying straight, its servos centred on straight, with only "bent" angle
+# sensors: every one is off at rest, so every SAN holds it still (issue 33: 200 SANs, all 0.000).
+SNAKE = """\
+name = "snake"
+
+[[links]]
+name = "head"
+mass = 0.1
+shape = "segment"
+points = [[0, 0], [0.2, 0]]
+
+[[links]]
+name = "mid"
+mass = 0.1
+shape = "segment"
+points = [[0, 0], [-0.2, 0]]
+contacts = [[-0.2, 0]]
+parent = "head"
+
+[[links]]
+name = "tail"
+mass = 0.1
+shape = "segment"
+points = [[0, 0], [-0.2, 0]]
+contacts = [[-0.2, 0]]
+parent = "mid"
+anchor = [-0.2, 0]
+
+[[sensors]]
+name = "mid_left"
+type = "angle"
+link = "mid"
+min_deg = 20
+max_deg = 180
+
+[[sensors]]
+name = "mid_right"
+type = "angle"
+link = "mid"
+min_deg = -180
+max_deg = -20
+
+[[sensors]]
+name = "tail_left"
+type = "angle"
+link = "tail"
+min_deg = 20
+max_deg = 180
+
+[[actuators]]
+type = "angular"
+joint = "mid"
+min_deg = -40
+max_deg = 40
+ks = 0.01
+kd = 0.001
+
+[[actuators]]
+type = "angular"
+joint = "tail"
+min_deg = -40
+max_deg = 40
+ks = 0.01
+kd = 0.001
+"""
+STRAIGHT = SNAKE + """
+[[sensors]]
+name = "tail_straight"
+type = "angle"
+link = "tail"
+min_deg = -10
+max_deg = 10
+"""
+
+
+def test_a_creature_whose_sensors_are_all_off_at_rest_is_seen_without_simulating():
+    (f,) = at_rest(loads(SNAKE, "snake.toml"))
+    assert f.warning and f.check == "at rest" and f.values == {"on": []}
+    assert "none is on in the start pose, nor on the way to the servos' mid targets" in f.message
+    assert "a SAN has no bias" in f.message and 'a "straight" angle sensor' in f.message
+    assert "\n" not in f.message and f.message.isprintable()
+    assert any(x.check == "at rest" and x.warning for x in static(loads(SNAKE, "snake.toml")))
+    (ok,) = at_rest(loads(STRAIGHT, "snake.toml"))  # the fix the message gives
+    assert not ok.warning and ok.values == {"on": ["tail_straight"]}
+    # on the way to the mid targets: centred servos on a joint that starts bent at 30 deg
+    bent = SNAKE.replace('parent = "mid"\n', 'parent = "mid"\nangle_deg = 30\n', 1)
+    assert at_rest(loads(bent, "snake.toml"))[0].values == {"on": ["tail_left"]}
+    assert at_rest(loads(SNAKE.split("[[sensors]]")[0] + SNAKE[SNAKE.index("[[actuators]]"):], "s.toml"))[0].message \
+        .startswith("sensors at rest: it has no sensors")
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_no_built_in_is_still_at_rest_without_simulating(name):
+    """Every built-in has a sensor on at rest, or (linear actuators, moving eyes) is not judged."""
+    assert not [f.message for f in static(load(name)) if f.warning]
+
+
+def test_the_simulated_check_says_no_san_can_move_it_and_how_to_fix_it():
+    found = {f.check: f for f in simulate(loads(SNAKE, "snake.toml"), seconds=1.0)}
+    f = found["at rest"]
+    assert f.warning and f.values == {"on": []}
+    assert f.message.startswith("sensors at rest: none turns on in the drop with the servos at their mid targets, "
+                                "which is what every SAN does while its sensors are off")
+    assert "a SAN has no bias" in f.message and "add a sensor that is on at the start" in f.message
+    straight = {f.check: f for f in simulate(loads(STRAIGHT, "snake.toml"), seconds=1.0)}["at rest"]
+    assert not straight.warning and "tail_straight" in straight.values["on"]
+
+
+def _ground_line(damping: float, depth=(0.0004, 0.0004, 0.0, 0.0)):
+    spec = loads(BASE + f"\n[world.ground]\ndamping = {damping}\n")  # 0.2 kg on two touching contacts
+    (f,) = _ground(spec, {"depth": np.asarray(depth, float)[None, None, :]})
+    return f
+
+
+def test_an_overdamped_ground_is_called_fine_and_says_what_it_means():
+    f = _ground_line(300.0)  # 300 / (2 sqrt(50000 x 0.1)) = 2.1
+    assert not f.warning and f.values["damping_ratio"] == pytest.approx(300 / (2 * (50000 * 0.1) ** 0.5))
+    assert "overdamped (beyond critical for the mass on each contact), so landings do not bounce; fine" in f.message
+    assert "0.1 kg on each contact" in f.message
+    under = _ground_line(20.0)  # 0.14
+    assert not under.warning and "underdamped, a landing rings down (each swing 64% of the one before)" in under.message
+    mud = _ground_line(10000.0)  # 71
+    assert mud.warning and "far overdamped, a landing is stopped dead and a contact takes c/k = 0.2 s" in mud.message
+    bouncy = _ground_line(0.5)
+    assert bouncy.warning and "it bounces (raise world.ground.damping)" in bouncy.message
+
+
+def test_the_servos_line_says_which_servos_ring():
+    """"or overdamped" left the reader to guess: the line now says whether any servo rings."""
+    from sanlab.check import resolution
+
+    (b,) = resolution(load("bounder"))
+    assert not b.warning and b.message == "servos: the step resolves every one (every one is overdamped: none rings)"
+    (c,) = resolution(load("cart"))
+    assert not c.warning and "rad per step of those that ring, at most 1" in c.message

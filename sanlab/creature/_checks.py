@@ -40,11 +40,22 @@ def printable(s: str) -> str:
     return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in s)
 
 
+def _digits(v: int) -> str:
+    """How many decimal digits ``v`` has, without writing it out (Python refuses to write an
+    integer of more than 4300 digits, and takes quadratic time to write a long one)."""
+    n = abs(v)
+    if n.bit_length() <= 14_000:  # about 4200 digits: exact
+        return str(len(str(n)))
+    return f"about {int(n.bit_length() * math.log10(2)) + 1}"
+
+
 def _show(v: Any) -> str:
     if v is _MISSING:
         return "nothing"
     if isinstance(v, bool):
         return "true" if v else "false"
+    if isinstance(v, int) and v.bit_length() > 190:  # more digits (about 58) than a message shows
+        return f"an integer of {_digits(v)} digits"
     if isinstance(v, dict):
         return "a table"
     if isinstance(v, list) and len(v) > 20:
@@ -55,6 +66,8 @@ def _show(v: Any) -> str:
         s = repr(v)
     except RecursionError:
         return "a deeply nested value"
+    except ValueError:  # it holds an integer of more than 4300 digits, which Python will not write
+        return "a value holding an integer too long to print"
     return s if len(s) <= 60 else s[:57] + "..."
 
 
@@ -73,7 +86,10 @@ def _num(what: str, ok: Callable[[float], bool] = lambda x: True, unit: str = ""
     full = what + _unit(unit)
 
     def check(v: Any) -> float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not ok(v):
+        # an int is exact and may be far beyond a float's range (1 followed by 309 zeros): it is
+        # compared as an int, and converted only once it is known to be within the bound
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (isinstance(v, float) and not math.isfinite(v)) \
+                or not ok(v):
             raise _Bad(full)
         if abs(v) > bound:
             raise _Bad(f"{what} of magnitude at most {bound:g}{_unit(unit)}")
@@ -132,9 +148,11 @@ def text(limit: int) -> Check:
 
 
 def nonempty(v: Any) -> str:
-    """A name: printable, not blank, at most spec.MAX_NAME characters."""
-    if not isinstance(v, str) or not v.strip() or len(v) > MAX_NAME or not v.isprintable():
-        raise _Bad(f"a name (printable, not blank, at most {MAX_NAME} characters)")
+    """A name: printable, not blank, without spaces around it, at most spec.MAX_NAME characters.
+    Surrounding spaces are refused rather than stripped: "L2" and " L2" would otherwise be two
+    names that print alike, or, stripped, a reference that matches a name the file never wrote."""
+    if not isinstance(v, str) or not v.strip() or len(v) > MAX_NAME or not v.isprintable() or v != v.strip():
+        raise _Bad(f"a name (printable, not blank, no spaces around it, at most {MAX_NAME} characters)")
     return v
 
 

@@ -9,6 +9,7 @@ cannot disagree about one. Built-in creatures and files by path: ``files.py``.
 from __future__ import annotations
 
 import re
+import sys
 import tomllib
 from pathlib import Path
 
@@ -108,10 +109,22 @@ def loads(text: str, source: str = "<string>") -> Creature:
         ) from None
     except RecursionError:  # tomllib recurses once per level of nested arrays and inline tables
         raise CreatureError(f"{shown}: expected valid TOML, got arrays or tables nested too deep to read") from None
+    except ValueError:  # not a TOMLDecodeError: int() refuses a decimal integer of more than 4300 digits
+        raise CreatureError(f"{shown}: {_long_integer(text)}: expected valid TOML, got an integer of more than "
+                            f"{sys.get_int_max_str_digits()} digits") from None
     try:
         return _creature(_Table(shown, "", data, TOP), _stem(source))
     except RecursionError:  # a deeply nested value that parsed, met where a number was expected
         raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
+
+
+def _long_integer(text: str) -> str:
+    """Where (``line N``) the first decimal integer too long for Python's int() is, or "TOML"."""
+    limit = sys.get_int_max_str_digits()
+    for m in re.finditer(r"[0-9][0-9_]*", text):  # linear: each run of digits is looked at once
+        if limit and len(m.group()) - m.group().count("_") > limit:
+            return f"line {text.count(chr(10), 0, m.start()) + 1}"
+    return "TOML"
 
 
 def _creature(t: _Table, default_name: str) -> Creature:

@@ -18,8 +18,11 @@ from typing import Any
 from sanlab.library.errors import LibraryError
 
 _RUN_REF = re.compile(r"[0-9a-f]+")
-_GAIT_ID = re.compile(r"([0-9a-f]+)(?:/(\d+)|#(\d+))")
-_PERMANENT = re.compile(r"[0-9a-f]+#\d+")
+# ASCII digits only: ``\d`` would also match other scripts' digits ("3fa1c2d0/" and an Arabic-Indic one read as rank 1)
+_GAIT_ID = re.compile(r"([0-9a-f]+)(?:/([0-9]+)|#([0-9]+))")
+_PERMANENT = re.compile(r"[0-9a-f]+#[0-9]+")
+MAX_DIGITS = 18  # of a rank or an index: an int64 in SQLite, and int() never meets a huge one
+_SHAPE = re.compile(r"([^\s/#]+)(?:/[0-9]+|#[0-9]+)")  # a gait id's form, whatever its run part
 
 
 def parse_gait_id(gait_id: Any) -> tuple[str, int | None, int | None]:
@@ -27,9 +30,17 @@ def parse_gait_id(gait_id: Any) -> tuple[str, int | None, int | None]:
     set. Raises LibraryError for anything else."""
     m = _GAIT_ID.fullmatch(gait_id.strip().lower()) if isinstance(gait_id, str) else None
     if m is None:
+        shape = _SHAPE.fullmatch(gait_id.strip()) if isinstance(gait_id, str) else None
+        if shape is not None:  # RUN/RANK or RUN#IDX in form, with a run part that is no run id
+            bad = sorted({ch for ch in shape.group(1).lower() if ch not in "0123456789abcdef"})
+            raise LibraryError(f"malformed gait id {gait_id!r}: its run part {shape.group(1)!r} has {', '.join(map(repr, bad))}, "
+                               "which no run id has (run ids are hexadecimal: 0-9 and a-f, e.g. 3fa1c2d0)")
         raise LibraryError(f"malformed gait id {gait_id!r}: expected RUN/RANK (e.g. 3fa1c2d0/1, "
                            "1 = best) or RUN#IDX (e.g. 3fa1c2d0#17)")
     run_ref, rank, idx = m.group(1), m.group(2), m.group(3)
+    if len(rank or idx) > MAX_DIGITS:
+        raise LibraryError(f"malformed gait id {gait_id[:40]!r}{'...' * (len(gait_id) > 40)}: "
+                           f"expected {'a rank' if rank is not None else 'an index'} of at most {MAX_DIGITS} digits")
     if rank is not None:
         if int(rank) < 1:
             raise LibraryError(f"malformed gait id {gait_id!r}: ranks start at 1 (the best)")

@@ -50,6 +50,9 @@ from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.sparse import SymMatrix, add, axpy, mul, neg, sub
 
 Vec = tuple[Any, Any]
+# A gradient row: {dof: coefficient}, or on the articulated route an articulated.BodyRow; the
+# step's elements take either (``Any``: the union would need every consumer to say so)
+Row = Any
 
 
 class State(NamedTuple):
@@ -79,11 +82,13 @@ class Frame(NamedTuple):
     depth: list  # per contact: penetration (m, > 0 when touching); horizontal plane: 1.0
     terrain: list  # per contact: (h, dh/dx) of the ground under it
     qd: list  # per dof velocity q'_n = M_n^-1 p_n (state coordinates)
+    # The fields below are None until the step has computed them (``Any``: every reader runs after
+    # that, and pyright cannot follow it)
     gate: Any = None  # unbatched runtime-true boolean that fences XLA fusion (see _barrier)
-    com: list | None = None  # per link: centre of mass, world
-    S: dict | None = None  # per rotational link of a free tree: (sum over its subtree of m (c - X_k)) / m_tree
+    com: Any = None  # list, per link: centre of mass, world
+    S: Any = None  # dict, per rotational link of a free tree: (sum over its subtree of m (c - X_k)) / m_tree
     M: Any = None  # mass matrix M(q_n), tree coordinates: a SymMatrix, or articulated.Bodies
-    u: list | None = None  # per dof velocity in tree coordinates (root origins, angle rates)
+    u: Any = None  # list, per dof velocity in tree coordinates (root origins, angle rates)
 
 
 # ---------------------------------------------------------------- kinematics
@@ -135,14 +140,14 @@ def jacobian(st: Structure, fr: Frame, i: int, p: Vec) -> dict:
     return J
 
 
-def _rot_row(st: Structure, i: int) -> dict:
+def _rot_row(st: Structure, i: int) -> Row:
     """Row of ones over the rotational dofs that turn link i (its absolute angle's gradient)."""
     if st.articulated:
         return articulated.rotation_row(i)
     return {st.links[k].dof_rot: 1.0 for k in st.links[i].chain if st.links[k].dof_rot >= 0}
 
 
-def _project(J: dict, n: Vec) -> dict:
+def _project(J: dict, n: Vec) -> Row:
     """Row g = J^T n (how each dof moves the point along n)."""
     if isinstance(J, articulated.BodyPoint):
         return articulated.project(J, n)
@@ -575,7 +580,9 @@ def sense(model: Model, fr: Frame, t) -> Any:
     st, p = model.structure, model.params
     dtype = p.q0.dtype
     out = []
-    target = follow_point(model, t) if st.follow else None
+    # None only without a follow path, and then there is no eye sensor to read it (the loader
+    # demands a path of a creature with eyes)
+    target: Any = follow_point(model, t) if st.follow else None
     for s, (kind, link, idx) in enumerate(st.sensors):
         if kind == "touch":
             on = fr.depth[idx] > 0 if st.plane == "vertical" else True

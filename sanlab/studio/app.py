@@ -31,11 +31,13 @@ web site open in the same browser cannot drive the studio.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import logging
 import os
 import secrets
 import shutil
+import sys
 import tempfile
 import threading
 import time
@@ -62,6 +64,7 @@ LOOPBACK_NAMES = ["127.0.0.1", "localhost", "::1", "[::1]"]
 MAX_MESSAGE = 1 << 20  # bytes of one WebSocket message (an uploaded creature file fits easily)
 LIVE_LEAD = 0.3  # s of simulated time live mode may run ahead of the wall clock (the page's buffer)
 PROGRESS_EVERY = 0.2  # s between two progress pushes of one job
+MAX_INT = (1 << 63) - 1  # the largest integer argument a request may carry
 
 _NO = object()
 
@@ -104,6 +107,8 @@ def parse(text: Any) -> tuple[Any, str, dict]:
         msg = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as e:
         raise BadRequest(f"not JSON: {getattr(e, 'msg', 'too deeply nested')} at character {getattr(e, 'pos', 0)}") from None
+    except ValueError:  # not a JSONDecodeError: int() refuses a number of more than 4300 digits
+        raise BadRequest(f"not JSON this server reads: a number of more than {sys.get_int_max_str_digits()} digits") from None
     if not isinstance(msg, dict):
         raise BadRequest(f"expected a JSON object like {{\"id\": 1, \"op\": \"runs\"}}, got {type(msg).__name__}")
     rid = msg.get("id")
@@ -126,6 +131,8 @@ def parse(text: Any) -> tuple[Any, str, dict]:
         if isinstance(v, bool) or not isinstance(v, types):
             want = " or ".join("an integer" if t is int else "a number" if t is float else "a string" for t in types)
             raise _Bad(rid, f"{op}: {k!r} must be {want}, not {json.dumps(v)[:40]}")
+        if isinstance(v, int) and not -MAX_INT <= v <= MAX_INT:  # beyond any count, seed or coordinate (and a float)
+            raise _Bad(rid, f"{op}: {k!r} must be an integer of magnitude below 2^63, not one of {len(str(abs(v)))} digits")
     return rid, op, args
 
 
@@ -430,6 +437,53 @@ class Studio:
         raise StudioError(f"unknown op {op!r}")  # parse() lets none through
 
 
+class RefusedRequests:
+    """ASGI middleware: a response the server can no longer send is dropped, not a traceback.
+
+    When a request's body is malformed (a chunked POST with a bad chunk size, say), uvicorn
+    answers 400 itself, logs one line ("Invalid HTTP request received.") and closes the
+    connection, while the application, already started on the request's headers, still sends
+    its own response; h11 then raises (LocalProtocolError) inside the application's ``send``,
+    and uvicorn logs "Exception in ASGI application" with the whole traceback. Here such a
+    ``send`` is swallowed (logged at debug level), every later one of the same response is
+    skipped (the client already has its answer), and the request then waits, a second at most,
+    for the connection's close to reach it, so that uvicorn does not log the unfinished response
+    as an error either."""
+
+    def __init__(self, app: Any):
+        self.app = app
+
+    async def __call__(self, scope: dict, receive: Callable, send: Callable) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        dropped = False
+
+        async def guarded(message: dict) -> None:
+            nonlocal dropped
+            if dropped:
+                return
+            try:
+                await send(message)
+            except Exception as e:  # the connection cannot take it: uvicorn answered already
+                dropped = True
+                log.debug("dropped the response to %s %s: %s: %s", scope.get("method"), scope.get("path"),
+                          type(e).__name__, e)
+
+        await self.app(scope, receive, guarded)
+        if dropped:
+            await _closed(receive, 1.0)
+
+
+async def _closed(receive: Callable, timeout: float) -> None:
+    """Read a request's messages until the server says the client is gone, ``timeout`` s at most."""
+    deadline = time.monotonic() + timeout
+    with contextlib.suppress(Exception):
+        while (left := deadline - time.monotonic()) > 0:
+            if (await asyncio.wait_for(receive(), left)).get("type") == "http.disconnect":
+                return
+
+
 def create_app(service: Service, *, poll: float = 1.0, local_only: bool = True) -> Starlette:
     """The ASGI application over ``service``. ``local_only``: serve only requests addressed to
     a loopback name (set it when listening on a loopback address)."""
@@ -498,7 +552,7 @@ def create_app(service: Service, *, poll: float = 1.0, local_only: bool = True) 
             watcher.cancel()
             studio.close()
 
-    middleware = []
+    middleware = [Middleware(RefusedRequests)]
     if local_only:
         middleware.append(Middleware(TrustedHostMiddleware, allowed_hosts=LOOPBACK_NAMES))
     app = Starlette(

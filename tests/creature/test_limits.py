@@ -145,7 +145,7 @@ def test_the_built_ins_are_within_the_limits():
 
 
 def test_long_names_are_refused():
-    assert f"links[0].name: expected a name (printable, not blank, at most {MAX_NAME} characters)" in error(
+    assert f"links[0].name: expected a name (printable, not blank, no spaces around it, at most {MAX_NAME} characters)" in error(
         BASE.replace('name = "L1"', 'name = "' + "x" * 100_000 + '"', 1))
     assert "description: expected one line of printable text, at most 500 characters" in error(
         'description = "' + "y" * 100_000 + '"\n' + BASE)
