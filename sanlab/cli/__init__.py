@@ -1,7 +1,8 @@
 """The ``sanlab`` command line: this module only composes the commands, one module per group.
 
 ``creatures`` (check, creatures), ``simulate``, ``search``, ``library`` (runs, show, export,
-import), ``modes``, ``tune``, ``audit``, ``reproduce``, ``render``, ``studio`` (the web studio, an optional extra);
+import), ``modes``, ``tune``, ``audit``, ``reproduce``, ``render``, ``mjcf`` (import-mjcf, export-mjcf: MuJoCo
+models in and out), ``studio`` (the web studio, an optional extra);
 ``_common`` holds what they share (``fail``, the options, opening the library, the progress bar).
 Heavy imports (JAX, the drawing libraries, the web stack) stay inside the commands that need them,
 so that ``sanlab check`` starts fast; commands that simulate call :func:`sanlab.configure` first.
@@ -20,7 +21,7 @@ from typing import Annotated, Any
 import typer
 
 from sanlab import __version__
-from sanlab.cli import audit, creatures, library, modes, render, reproduce, search, simulate, studio, tune
+from sanlab.cli import audit, creatures, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
 
 app = typer.Typer(
     help="Discover how planar creatures can move with sensor-actuator networks.",
@@ -131,6 +132,8 @@ app.command()(audit.audit)
 app.command()(reproduce.reproduce)
 app.command()(render.render)
 app.command()(studio.studio)
+app.command("import-mjcf")(mjcf.import_mjcf)
+app.command("export-mjcf")(mjcf.export_mjcf)
 
 
 

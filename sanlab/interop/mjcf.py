@@ -1,8 +1,9 @@
 """Export a sanlab ``Creature`` as an MJCF model, so that MuJoCo can check the simulator.
 
-The one copy of the converter: the MuJoCo tests (``tests/sim/test_mujoco.py``) and
-``benchmarks/mujoco_route.py`` both use it. It needs only NumPy (and mujoco to *load* the result,
-:func:`load`); it never imports JAX. Export only: nothing reads MJCF into sanlab.
+The one copy of the converter: the MuJoCo tests (``tests/sim/test_mujoco.py``),
+``benchmarks/mujoco_route.py`` and ``sanlab export-mjcf`` use it. It needs only NumPy (and mujoco
+to *load* the result, :func:`load`); it never imports JAX. The other way, MJCF into a creature
+file, is ``sanlab.interop.mjcf_import``.
 
 Conventions (vertical plane only):
 
@@ -24,7 +25,18 @@ Conventions (vertical plane only):
   ``inertiafromgeom="false"``: geoms carry no mass.
 * Joint springs become joint ``stiffness`` / ``springref`` / ``damping``; angular actuators
   become ``motor`` actuators (gear 1 on the joint) when asked for, so a PD law computed outside
-  writes its torque into ``data.ctrl``.
+  writes its torque into ``data.ctrl``, or ``position`` actuators (``servos``: kp = ks, kv = kd,
+  ctrlrange the target range, so ``data.ctrl`` is the target angle and MuJoCo runs sanlab's PD law
+  T = ks (ctrl - q) - kd q').
+* ``limits``: a joint limit becomes the hinge's ``range`` (MuJoCo's own soft limit, not sanlab's
+  stop stiffness and damping).
+* ``sensors``: the SAN's binary sensors as MuJoCo's, named as in the spec: a ``touch`` sensor on a
+  ``site`` at the contact point (a site sits at every contact point), a ``jointpos`` for an angle
+  sensor (and for a tilt sensor on a root, whose absolute angle is its hinge), each with its
+  on-range in a comment; eye and length sensors and tilt sensors on jointed links have no MuJoCo
+  counterpart and are only named in a comment (:func:`unexported`).
+* ``outline``: each link's outline as visual geoms (capsules along its edges; no mass, no
+  collisions), so that the model can be looked at in MuJoCo's viewer.
 * Ground (optional): a plane and one small sphere per sanlab contact point, centred on the point.
   The plane sits at z = -radius, so a sphere touches it exactly when its centre, the sanlab
   contact point, reaches z = 0 (sanlab's ground), whatever the link's orientation. Spheres collide
@@ -41,11 +53,12 @@ from __future__ import annotations
 import math
 from typing import Any
 from xml.sax.saxutils import quoteattr
+from xml.sax.saxutils import unescape as xml_unescape
 
 import numpy as np
 
 from sanlab.creature.geometry import link_frames
-from sanlab.creature.spec import AngularActuator, Creature
+from sanlab.creature.spec import AngleSensor, AngularActuator, Creature, TiltSensor, TouchSensor
 
 CONTACT_RADIUS = 1.0e-3  # m, radius of the spheres standing in for contact points
 
@@ -85,16 +98,31 @@ def to_mjcf(
     solimp: tuple[float, ...] | None = None,
     motors: bool = False,
     cone: str = "pyramidal",
+    servos: bool = False,
+    sensors: bool = False,
+    limits: bool = False,
+    outline: bool = False,
+    keyframe: bool = False,
+    comment: str | None = None,
 ) -> str:
     """MJCF text of ``spec`` (see the module docstring for the conventions).
 
     dt: time step (default: the spec's). integrator: MuJoCo's integrator ("Euler" is semi-implicit
     Euler, the same scheme as sanlab's for smooth forces). ground: add the plane and contact
     spheres (otherwise no geom collides). friction: Coulomb coefficient of the contacts (default:
-    the spec's ground friction). solref / solimp: MuJoCo's soft-contact parameters of the ground
-    contacts (default: MuJoCo's). motors: one ``motor`` actuator per angular actuator, in spec
-    order, named after it.
+    the spec's ground friction, and a link's own where it has one). solref / solimp: MuJoCo's
+    soft-contact parameters of the ground contacts (default: MuJoCo's). motors: one ``motor`` actuator per angular actuator, in spec
+    order, named after it. servos: one ``position`` actuator per angular actuator instead (kp = ks
+    N m/rad, kv = kd N m s/rad, ctrlrange = its target range in rad). sensors: the spec's sensors
+    as MuJoCo sensors, a site at every contact point. limits: joint limits as hinge ranges.
+    outline: the links' outlines as visual geoms. keyframe: a ``<key name="start">`` holding the
+    spec's start pose (qpos = 0 is the straight pose at the origin; ``mj_resetDataKeyframe`` or the
+    viewer's "Load key" starts from the creature's own). comment: a line for an XML comment under
+    the root element. Raises NotImplementedError for what has no counterpart (see the checks below)
+    and ValueError for motors and servos together.
     """
+    if motors and servos:
+        raise ValueError("motors and servos: expected one kind of actuator, got both")
     if spec.world.plane != "vertical":
         raise NotImplementedError("only the vertical plane maps onto MuJoCo's x-z plane")
     if spec.springs or any(a.kind != "angular" for a in spec.actuators):
@@ -110,9 +138,13 @@ def to_mjcf(
     for link in spec.links:
         children.setdefault(link.parent, []).append(link)
 
+    # A link's own friction (its forward coefficient; MuJoCo's is isotropic) goes on its spheres,
+    # and the plane gets the smallest of all, since MuJoCo takes the larger of the two geoms'.
+    own = {link.name: link.friction.forward for link in spec.links if link.friction is not None and friction is None}
+    mu_plane = min([mu, *own.values()])
     geom_attr = f'type="sphere" size="{_f(contact_radius)}" contype="1" conaffinity="0"'
     if ground:
-        geom_attr += f' condim="3" friction="{_vec(mu, 0.005, 0.0001)}"'
+        geom_attr += ' condim="3" friction="{mu}"'
         if solref is not None:
             geom_attr += f' solref="{_vec(*solref)}"'
         if solimp is not None:
@@ -146,6 +178,8 @@ def to_mjcf(
                     f' stiffness="{_f(sp.stiffness)}" springref="{_f(sp.rest)}"'
                     f' damping="{_f(sp.damping)}"'
                 )
+            if limits and link.limit is not None:
+                extra += f' limited="true" range="{_vec(link.limit.min, link.limit.max)}"'
             joint(ind, link.name + ":joint", hinge, extra)
         inertia = max(float(link.inertia), 1e-12)
         lines.append(
@@ -155,16 +189,28 @@ def to_mjcf(
         if ground:
             for k, c in enumerate(link.contacts):
                 gname = quoteattr(f"{link.name}:c{k}")
-                lines.append(f'{ind}  <geom name={gname} pos="{_vec(c[0], 0, c[1])}" {geom_attr}/>')
+                attr = geom_attr.replace("{mu}", _vec(own.get(link.name, mu), 0.005, 0.0001))
+                lines.append(f'{ind}  <geom name={gname} pos="{_vec(c[0], 0, c[1])}" {attr}/>')
+        if sensors:
+            for k, c in enumerate(link.contacts):  # a touch sensor counts contacts inside its site
+                sname = quoteattr(f"{link.name}:c{k}")
+                lines.append(f'{ind}  <site name={sname} pos="{_vec(c[0], 0, c[1])}" size="{_f(2 * contact_radius)}"/>')
+        if outline:
+            for a, b in _edges(link):
+                lines.append(f'{ind}  <geom type="capsule" fromto="{_vec(a[0], 0, a[1], b[0], 0, b[1])}" '
+                             f'size="{_f(edge_radius)}" contype="0" conaffinity="0" group="1" rgba="0.8 0.6 0.4 1"/>')
         for child in children.get(link.name, []):
             body(child, depth + 1)
         lines.append(f"{ind}</body>")
 
+    edge_radius = _edge_radius(spec)
     for root in children.get(None, []):
         body(root, 2)
 
-    out = [
-        f"<mujoco model={quoteattr(spec.name)}>",
+    out = [f"<mujoco model={quoteattr(spec.name)}>"]
+    if comment:
+        out.append(f"  <!-- {_comment(comment)} -->")
+    out += [
         '  <compiler angle="radian" inertiafromgeom="false" autolimits="true"/>',
         f'  <option timestep="{_f(dt)}" integrator="{integrator}" '
         f'gravity="0 0 {_f(-spec.world.gravity)}" cone="{cone}"/>',
@@ -173,19 +219,101 @@ def to_mjcf(
     if ground:
         out.append(
             f'    <geom name="ground" type="plane" size="0 0 1" pos="0 0 {_f(-contact_radius)}" '
-            f'contype="0" conaffinity="1" condim="3" friction="{_vec(mu, 0.005, 0.0001)}"/>'
+            f'contype="0" conaffinity="1" condim="3" friction="{_vec(mu_plane, 0.005, 0.0001)}"/>'
         )
     out += lines
     out.append("  </worldbody>")
-    if motors and spec.actuators:
+    if (motors or servos) and spec.actuators:
         out.append("  <actuator>")
         for a in spec.actuators:
             assert isinstance(a, AngularActuator)  # checked above: linear ones are refused
             jname = quoteattr(a.joint + ":joint")
-            out.append(f'    <motor name={quoteattr(a.name)} joint={jname} gear="1"/>')
+            if motors:
+                out.append(f'    <motor name={quoteattr(a.name)} joint={jname} gear="1"/>')
+            else:
+                out.append(f'    <position name={quoteattr(a.name)} joint={jname} kp="{_f(a.ks)}" kv="{_f(a.kd)}" '
+                           f'ctrlrange="{_vec(a.min, a.max)}"/>')
         out.append("  </actuator>")
+    if sensors and spec.sensors:
+        out += ["  <sensor>", *_sensor_lines(spec), "  </sensor>"]
+    if keyframe:
+        start = dict(zip(joint_names(spec), initial_q(spec)))
+        written = [n for line in lines if (n := _joint_name(line)) is not None]  # MuJoCo's qpos order
+        out += ["  <keyframe>", f'    <key name="start" qpos="{_vec(*(start[n] for n in written))}"/>', "  </keyframe>"]
     out.append("</mujoco>")
     return "\n".join(out) + "\n"
+
+
+def _joint_name(line: str) -> str | None:
+    """The name of the joint a line of :func:`to_mjcf`'s body text declares, if it declares one."""
+    line = line.strip()
+    if not line.startswith("<joint name="):
+        return None
+    quote = line[len("<joint name=")]
+    end = line.index(quote, len("<joint name=") + 1)
+    return xml_unescape(line[len("<joint name=") + 1:end], {"&quot;": '"', "&apos;": "'"})
+
+
+def _comment(text: str) -> str:
+    """``text`` safe inside an XML comment (which cannot hold "--") on one line."""
+    text = " ".join(text.split())
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return text.rstrip("-")
+
+
+def _edges(link) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """The edges of a link's outline (a segment's one, a polygon's closed ring; none for a point)."""
+    pts = list(link.shape.points)
+    if len(pts) < 2:
+        return []
+    if len(pts) == 2:
+        return [(pts[0], pts[1])]
+    return [(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+
+
+def _edge_radius(spec: Creature) -> float:
+    """Radius of the outline's capsules (m): 1% of the creature's extent, at least 1 mm."""
+    pts = [p for link in spec.links for p in link.shape.points] or [(0.0, 0.0)]
+    extent = float(np.ptp(np.asarray(pts, float), axis=0).max()) if len(pts) > 1 else 0.0
+    return max(0.01 * extent, 1e-3)
+
+
+def _joint_of(spec: Creature, name: str) -> str:
+    """The MuJoCo joint holding link ``name``'s rotation (a root's hinge, else its joint)."""
+    return f"{name}:angle" if spec.link(name).parent is None else f"{name}:joint"
+
+
+def _sensor_lines(spec: Creature) -> list[str]:
+    out = []
+    for s in spec.sensors:
+        name = quoteattr(s.name)
+        if isinstance(s, TouchSensor):
+            out.append(f"    <!-- {_comment(f'{s.name}: on while contact {s.contact} of {s.link} touches the ground')} -->")
+            out.append(f"    <touch name={name} site={quoteattr(f'{s.link}:c{s.contact}')}/>")
+        elif isinstance(s, AngleSensor) or (isinstance(s, TiltSensor) and spec.link(s.link).parent is None):
+            what = "joint angle" if spec.link(s.link).parent is not None else "absolute angle"
+            on = f"{s.name}: on while the {what} of {s.link} is in [{math.degrees(s.min):.6g}, {math.degrees(s.max):.6g}] deg"
+            out.append(f"    <!-- {_comment(on)} -->")
+            out.append(f"    <jointpos name={name} joint={quoteattr(_joint_of(spec, s.link))}/>")
+        else:
+            out.append(f"    <!-- {_comment(f'{s.name} ({s.kind}): no MuJoCo sensor; not exported')} -->")
+    return out
+
+
+def unexported(spec: Creature) -> list[str]:
+    """What ``to_mjcf(..., ground=True, sensors=True)`` leaves out, one line each: eye and length
+    sensors and tilt sensors on jointed links (no MuJoCo sensor), and anisotropic friction (MuJoCo's
+    is isotropic: the forward coefficient is written)."""
+    out = [f"sensor {s.name} ({s.kind}): no MuJoCo counterpart, left out (named in a comment)"
+           for s in spec.sensors
+           if not isinstance(s, (TouchSensor, AngleSensor)) and not (isinstance(s, TiltSensor) and spec.link(s.link).parent is None)]
+    for link in spec.links:
+        f = link.friction
+        if f is not None and not (f.forward == f.backward == f.lateral):
+            out.append(f"link {link.name}: anisotropic friction ({f.forward:g} forward, {f.backward:g} backward, "
+                       f"{f.lateral:g} lateral) written as {f.forward:g} (MuJoCo's is isotropic)")
+    return out
 
 
 def qpos_index(spec: Creature, mjmodel) -> np.ndarray:
