@@ -44,6 +44,7 @@ def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: st
             "controller": int(i),
             "score": float(s.score[i]),
             "distance_m": float(s.distance_m[i]),
+            "dx_m": float(s.dx_m[i]) if np.isfinite(s.dx_m[i]) else None,  # m, signed, along x
             "speed_cm_s": float(s.speed_cm_s[i]),
             "fell": bool(s.fell[i]),
             "finite": not bool(s.nonfinite[i]),

@@ -81,7 +81,9 @@ def test_check_json_without_simulating():
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
     assert (out["name"], out["links"], out["dofs"], out["hidden"]) == ("bounder", 5, 7, 8)
-    assert out["sensors"] == {"touch": 2, "angle": 6} and "checks" not in out
+    assert out["sensors"] == {"touch": 2, "angle": 6}
+    # the checks that need no simulation (no JAX): all clear for a built-in
+    assert {c["check"] for c in out["checks"]} == {"strength", "resolution", "radians", "at rest"} and out["warnings"] == 0
 
 
 def test_check_simulate_prints_one_line_per_finding():

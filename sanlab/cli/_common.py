@@ -79,6 +79,15 @@ def dump_json(obj: Any) -> str:
     return json.dumps(_finite(obj), indent=2, allow_nan=False)
 
 
+def record(name: str, fields: dict) -> dict:
+    """``fields`` as the ``--json`` record ``name``: its first field ``"schema":
+    "sanlab/<name>/1"`` names the JSON Schema it follows (``sanlab/schemas/<name>.json``, ``sanlab.cli._schemas``,
+    documented in docs/json.md); the number goes up when a field changes meaning or goes away."""
+    from sanlab.cli._schemas import schema_id
+
+    return {"schema": schema_id(name), **fields}
+
+
 def _finite(obj: Any) -> Any:
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
@@ -345,11 +354,12 @@ ARROWS = {"+x": "→", "-x": "←", None: " "}
 
 
 def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
-    """The run's ``n`` best gaits as the rows ``--json`` prints: gait id, score, speed (cm/s),
-    the signed displacement along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the
-    run did not store it), flags (``audit``: the stored audit's verdict, "robust",
-    "resolution-dependent", "undecided" or "not reproduced", and ``resolution_dependent`` and
-    ``reproduced`` from it; null when it was never audited; see ``sanlab audit``), encoding."""
+    """The run's ``n`` best gaits as the rows ``--json`` prints (the gait row of
+    ``sanlab/schemas/gait-row.json``): gait id, score, speed (cm/s), the signed displacement
+    along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the run did not store it),
+    flags (``verdict``: the stored audit's, "robust", "resolution-dependent", "undecided" or
+    "not reproduced", and ``flagged``, ``resolution_dependent`` and ``reproduced`` from it; null
+    when it was never audited; see ``sanlab audit``), encoding."""
     audits = lib.audits(run_id)
     rows = []
     for rank, e in enumerate(lib.top(run_id, n), 1):
@@ -358,7 +368,8 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
         rows.append({
             "gait": f"{run_id}/{rank}", "score": e.score, "speed_cm_s": e.speed_cm_s, "dx_m": dx,
             "direction": direction(dx), "fell": e.fell, "nonfinite": e.nonfinite,
-            "audit": audits[e.idx].verdict if e.idx in audits else None,
+            "verdict": audits[e.idx].verdict if e.idx in audits else None,
+            "flagged": audits[e.idx].flagged if e.idx in audits else None,
             "resolution_dependent": audits[e.idx].resolution_dependent if e.idx in audits else None,
             "reproduced": audits[e.idx].reproduced if e.idx in audits else None, "encoding": e.encoding,
         })
@@ -374,8 +385,8 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
                                           ("not reproduced", r.get("reproduced") is False),
                                           ("resolution-dependent", r.get("resolution_dependent")),
-                                          ("audit undecided", r.get("audit") == "undecided"),
-                                          ("audited: robust", r.get("audit") == "robust")) if on)
+                                          ("audit undecided", r.get("verdict") == "undecided"),
+                                          ("audited: robust", r.get("verdict") == "robust")) if on)
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
@@ -396,7 +407,6 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
     """What a search prints under its table: where the run is stored, how many controllers fell
     or went non-finite, whether it repeats earlier runs (their ids), and the next commands with
     the real ids (show, render, tune)."""
-    db_opt = "" if db == "sanlab.db" else f" --db {db}"
     if tally:
         console.print(f"stored in {safe(db)} as run {run_id}: {tally['evaluated']} controllers, {tally['fell']} fell, "
                       f"{tally['nonfinite']} non-finite (scored 0)")
@@ -405,8 +415,16 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
                       "file, settings and seed: the same results); change --seed for new controllers")
     if rows:
         best = rows[0]["gait"]
-        console.print(f"next: sanlab show {best}{safe(db_opt)}    sanlab render {best} -o best.png{safe(db_opt)}    "
-                      f"sanlab tune {best}{safe(db_opt)}    sanlab audit {best}{safe(db_opt)}", soft_wrap=True)
+        print_next(db, [f"sanlab show {best}", f"sanlab render {best} -o best.png", f"sanlab tune {best}",
+                        f"sanlab audit {best}"])
+
+
+def print_next(db: str, commands: list[str]) -> None:
+    """The "next:" line under a command's output: ``commands`` (each given ``--db`` when the
+    library is not the default one), four spaces apart, never wrapped inside a command."""
+    db_opt = "" if db == "sanlab.db" else f" --db {db}"
+    if commands:
+        console.print("next: " + "    ".join(f"{safe(c)}{safe(db_opt)}" for c in commands), soft_wrap=True)
 
 
 class ProgressBar:
@@ -448,15 +466,16 @@ class ProgressBar:
 
 def print_static_warnings(spec, creature: str) -> None:
     """The warnings of `sanlab check` that need no simulation (angle ranges that look like
-    radians, actuators too weak or too strong for their load, servos the step cannot resolve), once, on stderr; the simulated
+    radians, actuators too weak or too strong for their load, servos the step cannot resolve,
+    sensors all off at rest), once, on stderr; the simulated
     ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
     `sanlab check --simulate`."""
     from rich.console import Console
 
-    from sanlab.check import radian_ranges, resolution, strength
+    from sanlab.check import at_rest, radian_ranges, resolution, strength
 
     err = Console(stderr=True)  # stdout stays the table, or the JSON
-    found = [f.message for f in (*radian_ranges(spec), *strength(spec), *resolution(spec)) if f.warning]
+    found = [f.message for f in (*radian_ranges(spec), *strength(spec), *resolution(spec), *at_rest(spec)) if f.warning]
     for message in found:
         err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
     if found:

@@ -3,7 +3,6 @@ say whether their speed distribution survives (``sanlab.audit``)."""
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Annotated
 
@@ -12,7 +11,7 @@ from rich import box
 from rich.table import Table
 
 from sanlab import configure
-from sanlab.cli._common import DbOpt, JsonOpt, console, fail, library_call, open_library
+from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record
 
 
 def audit(
@@ -69,7 +68,7 @@ def audit(
             typer.echo("interrupted; nothing of this selection was stored: run the same command again", err=True)
             raise typer.Exit(130) from None
         if as_json:
-            typer.echo(json.dumps(sel, indent=2))
+            typer.echo(dump_json(sel))
         return
     top = top or 1
     if "/" in target or "#" in target:
@@ -82,18 +81,31 @@ def audit(
                                                            max_members=max_members, log=log), g)
                for g in gaits]
     if as_json:
-        typer.echo(json.dumps([{"gait": a.gait_id, "flagged": a.flagged, "worst": a.worst if a.worst != float("inf") else None,
-                                **a.to_json()} for a in results], indent=2))
+        typer.echo(dump_json([audit_record(a) for a in results]))
         return
+    print_audits(results, threshold)
+
+
+def audit_record(a) -> dict:
+    """One :class:`sanlab.audit.Audit` as the ``audit`` record of ``--json``."""
+    return record("audit", {"gait": a.gait_id, "verdict": a.verdict, "flagged": a.flagged,
+                            "resolution_dependent": a.resolution_dependent, "reproduced": a.reproduced,
+                            "worst": a.worst if math.isfinite(a.worst) else None,
+                            **{k: v for k, v in a.to_json().items() if k not in ("verdict", "resolution_dependent", "reproduced")}})
+
+
+def print_audits(results: list, threshold: float) -> None:
+    """The audit table (and what its flags mean) of ``results`` (:class:`sanlab.audit.Audit`)."""
     names = list(results[0].speeds) if results else []
-    # borderless and wrapping: the columns fit 80 characters, a narrower terminal wraps cells
-    # rather than cutting off the verdict
+    # borderless, and every cell at most 11 characters a line (a verdict or an interval on lines
+    # of its own): the columns fit 80 characters, piped output included; a narrower terminal
+    # folds cells rather than cutting off the verdict ("resoluti…")
     table = Table(title="audit: mean speed (cm/s) of the audit's perturbed starts under each nudge, "
                         "its change and 95 % interval",
-                  box=box.SIMPLE_HEAD, collapse_padding=True, pad_edge=False)
+                  box=box.SIMPLE_HEAD, padding=(0, 0), show_edge=False)
     table.add_column("gait", no_wrap=True)
     for name in ("stored", "rescored", "at dt", *names, "verdict"):
-        table.add_column(name)
+        table.add_column(name, overflow="fold")
     for a in results:
         cells = [shift_cell(a.speeds[n], a.shifts[n]) for n in names]
         table.add_row(a.gait_id, f"{a.stored_cm_s:.1f}", f"{a.nominal_cm_s:.1f}",
@@ -119,25 +131,27 @@ def shift_cell(speed: float, sh) -> str:
 
 
 def verdict_cell(verdict: str, needed: int | None = None) -> str:
+    """The verdict in colour, on lines of at most 11 characters ("resolution-" over
+    "dependent"), so that a table of 80 columns never has to cut it."""
     if verdict == "robust":
         return "[green]robust[/green]"
     if verdict == "undecided":
-        return "[yellow]undecided[/yellow]" + (f" (~{needed} members)" if needed else "")
-    return f"[red]{verdict}[/red]"
+        return "[yellow]undecided[/yellow]" + (f"\n(~{needed}\nmembers)" if needed else "")
+    return f"[red]{verdict.replace('-', '-' + chr(10)).replace(' ', chr(10))}[/red]"
 
 
 def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16,
                       members: int = 32, max_members: int = 256) -> dict:
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
-    ``quiet``; returns its JSON summary ({"run", "robust_gait", "trial", "speed_cm_s", "worst",
+    ``quiet``; returns its JSON summary, the ``selection`` record ({"schema", "run_id", "robust_gait", "trial", "speed_cm_s", "worst",
     "candidates": [...]})."""
     from sanlab.audit import combine, rung_name, select_robust
 
     sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top, members=members, max_members=max_members)
     c = sel.chosen
-    out = {"run": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
+    out = record("selection", {"run_id": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
            "speed_cm_s": None if c is None else c.nominal_cm_s, "worst": None if c is None else c.worst,
-           "threshold": threshold, "candidates": [x.to_json() for x in sel.candidates]}
+           "threshold": threshold, "candidates": [x.to_json() for x in sel.candidates]})
     if quiet:
         return out
     names = list(sel.candidates[0].speeds) if sel.candidates else []
@@ -145,7 +159,7 @@ def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet
                         "(mean cm/s; change and 95 % interval)", box=box.SIMPLE_HEAD, collapse_padding=True,
                   pad_edge=False)
     for name in ("trial", "chain score", "held out", "at dt", *names, "verdict"):
-        table.add_column(name)
+        table.add_column(name, overflow="fold")
     for x in sel.candidates:
         mark = verdict_cell(x.verdict)
         if x.confirmed is not None:

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from sanlab.cli._common import CreatureArg, DtypeOpt, JsonOpt, check_dtype, console, dump_json, load_or_exit, safe
+from sanlab.cli._common import CreatureArg, DtypeOpt, JsonOpt, check_dtype, console, dump_json, load_or_exit, record, safe
 from sanlab.creature import Creature, builtin_names
 
 
@@ -26,10 +26,10 @@ def _sizes(c: Creature) -> dict[str, int]:
 
 def _summary(c: Creature, where: str) -> dict:
     counts = lambda items: dict(Counter(x.kind for x in items))
-    return {"ok": True, "name": c.name, "description": c.description, "source": where, "plane": c.world.plane,
+    return record("check", {"ok": True, "name": c.name, "description": c.description, "source": where, "plane": c.world.plane,
             "links": len(c.links), "dofs": c.dofs, "sensors": counts(c.sensors), "actuators": counts(c.actuators),
             "springs": len(c.springs), "hidden": c.n_hidden, "dt": c.dt, "metric": c.evaluation.metric,
-            "direction": c.evaluation.direction, "seconds": c.evaluation.seconds}
+            "metric_direction": c.evaluation.direction, "seconds": c.evaluation.seconds})
 
 
 def check(
@@ -53,8 +53,12 @@ def check(
         with console.status("compiling and dropping the creature...", spinner="dots") if not as_json \
                 else contextlib.nullcontext():
             findings = drop(c, dtype=dtype)
-        out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
-        out["warnings"] = sum(f.warning for f in findings)
+    else:
+        from sanlab.check import static  # no JAX: plain `check` stays fast
+
+        findings = static(c)
+    out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
+    out["warnings"] = sum(f.warning for f in findings)
     if as_json:
         typer.echo(dump_json(out))
         return
@@ -79,8 +83,9 @@ def check(
     console.print(grid)
     if findings:
         n = sum(f.warning for f in findings)
-        console.print(f"[bold]simulated[/bold] (two seconds, servos at mid targets, then sweeping): "
-                      f"{n} warning{'s' * (n != 1)}")
+        head = "[bold]simulated[/bold] (two seconds, servos at mid targets, then sweeping)" if simulate \
+            else "[bold]checked without simulating[/bold] (--simulate says more)"
+        console.print(f"{head}: {n} warning{'s' * (n != 1)}")
         for f in findings:
             mark = "[yellow]warning[/yellow]" if f.warning else "[green]ok[/green]     "
             console.print(f"  {mark} {safe(f.message)}", soft_wrap=True)
@@ -89,12 +94,12 @@ def check(
 def creatures(as_json: JsonOpt = False) -> None:
     """List the built-in creatures."""
     loaded = {name: load_or_exit(name)[0] for name in builtin_names()}
-    rows = [{"name": n, **_sizes(c), "description": c.description} for n, c in loaded.items()]
+    rows = [record("creature-entry", {"name": n, **_sizes(c), "description": c.description}) for n, c in loaded.items()]
     if as_json:
         typer.echo(dump_json(rows))
         return
     table = Table("name", "links", "sensors", "actuators", "hidden", "description")
     for r in rows:
-        sizes = (str(v) for k, v in r.items() if k not in ("name", "description"))
+        sizes = (str(v) for k, v in r.items() if k not in ("schema", "name", "description"))
         table.add_row(safe(r["name"]), *sizes, safe(r["description"]))
     console.print(table)

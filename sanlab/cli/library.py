@@ -23,7 +23,9 @@ from sanlab.cli._common import (
     open_library,
     output_file,
     print_distribution,
+    print_next,
     print_top,
+    record,
     safe,
     top_rows,
     warn,
@@ -61,7 +63,7 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
             warn(f"{db}: run {r.run_id} is damaged ({lib.damage(r.run_id)}); the other runs are intact "
                  "(export what you need with `sanlab export`, or restore the file from a backup)")
     if as_json:
-        typer.echo(dump_json([{k: v for k, v in r.items() if k != "progress"} for r in rows]))
+        typer.echo(dump_json([record("run-entry", {k: v for k, v in r.items() if k != "progress"}) for r in rows]))
         return
     table = Table("run", "kind", "creature", "status", "progress", "created")
     for r in rows:
@@ -86,7 +88,7 @@ def show(
     gait: its parameters in the creature file's units beside the file's own."""
     lib = open_library(db, readonly=True)
     if "/" in target or "#" in target:
-        _show_gait(lib, target, network, as_json)
+        _show_gait(lib, target, network, as_json, db)
         return
     run = library_call(lib.get_run, target)
     if by_mode:
@@ -98,21 +100,24 @@ def show(
     if network:
         if not rows:
             raise fail(f"run {run.run_id} has no evaluations yet")
-        _show_gait(lib, rows[0]["gait"], True, as_json)
+        _show_gait(lib, rows[0]["gait"], True, as_json, db)
         return
     metric = run.params.get("metric", "?")
     if as_json:
-        out = {"run_id": run.run_id, "kind": run.kind, "creature": run.creature, "status": run.status,
-               "evaluated": library_call(lib.count, run.run_id), "params": run.params,
-               "score_unit": SCORE_UNITS.get(metric), "top": rows}
+        out = record("run", {"run_id": run.run_id, "kind": run.kind, "creature": run.creature, "status": run.status,
+                             "evaluated": library_call(lib.count, run.run_id), "params": run.params,
+                             "score_unit": SCORE_UNITS.get(metric), "top": rows})
         typer.echo(dump_json(out))
         return
     print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {metric}", SCORE_UNITS.get(metric, ""))
     if run.kind == "search":  # a tuning's stored gaits (its result, a selection) are no distribution
         print_distribution(library_call(lib.scores, run.run_id))
+    if rows:
+        best = rows[0]["gait"]
+        print_next(db, [f"sanlab show {best}", f"sanlab render {best}", f"sanlab tune {best}", f"sanlab audit {best}"])
 
 
-def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None:
+def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str = "sanlab.db") -> None:
     """One gait: score, speed, direction, flags, its parameters in file units (and weights)."""
     from sanlab.gait import Gait
     from sanlab.tuned import file_values, network_table
@@ -127,14 +132,14 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
     values = file_values(gait)
     audit = library_call(lib.audit, ev.gait_id)
     flagged = audit is not None and audit.flagged
-    summary = {"gait": ev.gait_id, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
+    summary = record("gait", {"gait": ev.gait_id, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
                "score": ev.score, "score_unit": SCORE_UNITS.get(gait.metric), "speed_cm_s": ev.speed_cm_s,
                "dx_m": dx if isinstance(dx, (int, float)) else None, "direction": direction(dx),
                "fell": ev.fell, "nonfinite": ev.nonfinite, "encoding": ev.encoding, "parameters": values,
-               "audit": None if audit is None else {"verdict": audit.verdict,
+               "audit": None if audit is None else {"verdict": audit.verdict, "flagged": audit.flagged,
                                                      "resolution_dependent": audit.resolution_dependent,
-                                                     "reproduced": audit.reproduced, "created": audit.created,
-                                                     "result": audit.result}}
+                                                     "reproduced": audit.reproduced, "worst": audit.worst,
+                                                     "created": audit.created, "result": audit.result}})
     if network:
         summary["network"] = network_table(gait)
     if as_json:
@@ -152,6 +157,9 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool) -> None
     _print_values(values)
     if network:
         _print_network(summary["network"])
+    gid = ev.gait_id
+    audit_next = [f"sanlab audit {gid}"] if audit is None else []  # audited: its verdict is in the flags already
+    print_next(db, [f"sanlab render {gid}", f"sanlab tune {gid}", *audit_next, f"sanlab export {gid}"])
 
 
 def _print_values(values: dict) -> None:

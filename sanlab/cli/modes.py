@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, safe
+from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record, safe
 
 if TYPE_CHECKING:
     from sanlab.modes import Mode
@@ -49,8 +49,8 @@ def modes(
         raise fail(f"run {run.run_id} has no behaviour descriptors (stored before sanlab computed them); "
                    f"`sanlab modes {run.run_id} --rescore` evaluates its useful gaits again for them")
     if as_json:
-        typer.echo(dump_json({"run_id": run.run_id, "creature": run.creature, "min_score": threshold,
-                              "without_descriptors": missing, "modes": [m.to_json() for m in found]}))
+        typer.echo(dump_json(record("modes", {"run_id": run.run_id, "creature": run.creature, "min_score": threshold,
+                                              "without_descriptors": missing, "modes": [m.to_json() for m in found]})))
         return
     if missing:
         console.print(f"{missing} useful controllers were stored without descriptors and are left out")

@@ -39,6 +39,7 @@ from sanlab.cli._common import (
     fail,
     open_library,
     output_file,
+    record,
     safe,
 )
 from sanlab.creature import printable
@@ -194,7 +195,7 @@ def render(
     finally:
         lib.close()
     line = info.pop("line")
-    typer.echo(dump_json(info) if as_json else line)
+    typer.echo(dump_json(record("render", info)) if as_json else line)
 
 
 def _render_gait(lib: Library, target: str, out: str | None, seconds: float | None, fps: float,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
@@ -25,6 +24,7 @@ from sanlab.cli._common import (
     check_render_dir,
     check_run_args,
     console,
+    dump_json,
     ensemble_or_exit,
     fail,
     library_call,
@@ -34,6 +34,7 @@ from sanlab.cli._common import (
     print_distribution,
     print_static_warnings,
     print_top,
+    record,
     refuse_with_resume,
     top_rows,
 )
@@ -140,13 +141,15 @@ def search(
         render_into(lib, [run_id], render_dir, top, quiet=as_json)
     run = lib.get_run(run_id)
     stats = archive_stats(lib, run_id)
+    metric = run.settings.metric or ""
     if as_json:
-        out = {"run_id": run_id, "evaluated": lib.count(run_id), "top": rows}
+        out = record("search", {"run_id": run_id, "creature": run.creature, "metric": metric,
+                                "score_unit": SCORE_UNITS.get(metric), "evaluated": lib.count(run_id),
+                                "tally": lib.tally(run_id), "top": rows})
         if stats is not None:
             out["archive"] = stats
-        typer.echo(json.dumps(out, indent=2))
+        typer.echo(dump_json(out))
         return
-    metric = run.settings.metric or ""
     print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {metric}",
               SCORE_UNITS.get(metric, ""))
     print_distribution(lib.scores(run_id))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Annotated
 
 import typer
@@ -11,6 +10,7 @@ from rich.table import Table
 
 from sanlab import configure
 from sanlab.cli._common import (
+    ARROWS,
     CreatureArg,
     DtFactorsOpt,
     DtJitterOpt,
@@ -19,10 +19,27 @@ from sanlab.cli._common import (
     check_dtype,
     check_run_args,
     console,
+    direction,
+    dump_json,
     ensemble_or_exit,
     load_or_exit,
     print_static_warnings,
+    record,
 )
+from sanlab.creature.spec import SCORE_UNITS
+
+
+def report_record(rep: dict, top: int) -> dict:
+    """``sanlab.engine_report.simulate_random``'s report as the ``simulate`` record: the rows in
+    the gait rows' words (``dx_m`` and ``direction``, ``nonfinite``), the counts as search's
+    ``tally``, the best ``top`` rows."""
+    rows = [{"controller": r["controller"], "score": r["score"], "speed_cm_s": r["speed_cm_s"], "dx_m": r.get("dx_m"),
+             "direction": direction(r.get("dx_m")), "fell": r["fell"], "nonfinite": not r["finite"]} for r in rep["top"]]
+    tally = {"evaluated": len(rows), "fell": sum(r["fell"] for r in rows), "nonfinite": sum(r["nonfinite"] for r in rows)}
+    keep = ("creature", "controllers", "seconds", "seed", "dtype", "metric")
+    return record("simulate", {**{k: rep[k] for k in keep}, "score_unit": SCORE_UNITS.get(rep["metric"]),
+                               **{k: rep[k] for k in ("ensemble", "devices", "wall_s", "steps_per_s")},
+                               "tally": tally, "top": rows[:top]})
 
 
 def simulate(
@@ -50,19 +67,21 @@ def simulate(
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:
         rep = simulate_random(c, controllers, seconds, seed, dtype, ens)
-    rep["top"] = rep["top"][:top]
+    rep = report_record(rep, top)
     if as_json:
-        typer.echo(json.dumps(rep, indent=2))
+        typer.echo(dump_json(rep))
         return
-    table = Table("rank", "controller", "score", "distance (m)", "speed (cm/s)", "flags")
+    unit = rep["score_unit"]
+    table = Table("rank", "controller", f"score ({unit})" if unit else "score", "dx (m)", "speed (cm/s)", "flags")
     for r, row in enumerate(rep["top"], 1):
-        flags = ", ".join(f for f, on in (("fell", row["fell"]), ("non-finite", not row["finite"])) if on)
-        table.add_row(str(r), str(row["controller"]), f"{row['score']:.3f}", f"{row['distance_m']:.3f}",
-                      f"{row['speed_cm_s']:.1f}", flags or "-")
+        flags = ", ".join(f for f, on in (("fell", row["fell"]), ("non-finite", row["nonfinite"])) if on)
+        dx = "-" if row["dx_m"] is None else f"{row['dx_m']:+.3f}"
+        table.add_row(str(r), str(row["controller"]), f"{row['score']:.3f}", dx,
+                      f"{ARROWS[row['direction']]} {row['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
     console.print(
         f"{rep['controllers']} random SANs x {rep['seconds']:g} s on [bold]{escape(c.name)}[/bold], "
         f"metric {rep['metric']}, ensemble of {rep['ensemble']}: "
         f"{rep['steps_per_s'] / 1e6:.3g} M creature-steps/s on {rep['devices']} "
-        f"({rep['wall_s']:.1f} s incl. compile), {rep['non_finite']} non-finite"
+        f"({rep['wall_s']:.1f} s incl. compile), {rep['tally']['fell']} fell, {rep['tally']['nonfinite']} non-finite"
     )

@@ -3,7 +3,6 @@ trial committed as it is decided; ``--resume`` finishes interrupted ones."""
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Annotated
 
@@ -12,6 +11,7 @@ from rich.table import Table
 
 from sanlab import configure
 from sanlab.cli._common import (
+    ARROWS,
     MAX_BATCH,
     AddressOpt,
     BackendOpt,
@@ -27,10 +27,14 @@ from sanlab.cli._common import (
     check_render_dir,
     check_seed,
     console,
+    direction,
+    dump_json,
     ensemble_or_exit,
     fail,
     library_call,
     open_library,
+    print_next,
+    record,
     refuse_with_resume,
 )
 
@@ -116,15 +120,20 @@ def tune(
         raise fail(f"tune: {e}") from None
     except LibraryError as e:
         raise fail(str(e)) from None
-    rows = [{"gait": r.gait, "tuned_gait": r.tuned_gait, "before": r.before, "after": r.after, "trials": r.trials,
-             "accepted": r.accepted}
-            for r in results]
+    def stored_dx(gait_id: str):
+        dx = (library_call(lib.gait, gait_id).extra or {}).get("dx_m")
+        return dx if isinstance(dx, (int, float)) and not isinstance(dx, bool) else None
+
+    dxs = [(stored_dx(r.gait), stored_dx(r.tuned_gait)) for r in results]  # (start, tuned): the arrows
+    rows = [record("tuning", {"gait": r.gait, "tuned_gait": r.tuned_gait, "run_id": r.run_id, "before": r.before,
+                              "after": r.after, "direction": direction(dx[1]), "trials": r.trials, "accepted": r.accepted})
+            for r, dx in zip(results, dxs)]
     if select:
         from sanlab.cli.audit import select_and_report
 
         try:
             for row, r in zip(rows, results):
-                row["robust"] = library_call(lambda run_id: select_and_report(lib, run_id, limit, quiet=True), r.run_id)
+                row["selection"] = library_call(lambda run_id: select_and_report(lib, run_id, limit, quiet=True), r.run_id)
         except KeyboardInterrupt:
             cmds = "; ".join(f"sanlab audit {r.run_id}{select_opts} --db {db}" for r in results)
             typer.echo(f"interrupted during the selection; every tuned gait is stored ({', '.join(r.tuned_gait for r in results)}). "
@@ -135,17 +144,18 @@ def tune(
 
         render_into(lib, [r.run_id for r in results], render_dir, 1, quiet=as_json)
     if as_json:
-        typer.echo(json.dumps(rows[0] if len(rows) == 1 and top is None else rows, indent=2))
+        typer.echo(dump_json(rows))  # always a list, one element per chain (one gait: a list of one)
         return
     table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
-    for r in results:
+    for r, (dx0, dx1) in zip(results, dxs):  # the arrow: which way along x the stored gait moved (→ +x, ← -x)
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
-                      f"{r.before['speed_cm_s']:.1f}", f"{r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
+                      f"{ARROWS[direction(dx0)]} {r.before['speed_cm_s']:.1f}",
+                      f"{ARROWS[direction(dx1)]} {r.after['speed_cm_s']:.1f}", f"{r.accepted}/{r.trials}")
     console.print(table)
     from sanlab.audit import rung_name
 
     for row, r in zip(rows, results) if select else ():
-        sel = row["robust"]
+        sel = row["selection"]
         n = len(sel["candidates"])
         if sel["robust_gait"] is None:
             console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within {100 * limit:g} % at "
@@ -159,3 +169,7 @@ def tune(
                   "gait these differ from the stored score, and 'after' can be below 'before'; `sanlab audit` "
                   "says how far such a score can be trusted" + (", and `--select` finds the best that survives." if not select
                                                                 else "; a robust tuned gait is the one to quote."))
+    best = next((row["selection"]["robust_gait"] for row in rows if row.get("selection", {}).get("robust_gait")), None) \
+        or rows[0]["tuned_gait"]
+    print_next(db, [f"sanlab show {best}", f"sanlab render {best}",
+                    f"sanlab audit {best}" if not select else f"sanlab export {best}"])

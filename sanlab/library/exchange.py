@@ -13,6 +13,7 @@ written as null. An import refuses any other field (a misspelt optional one woul
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -50,9 +51,12 @@ def validate_gait(data: Any) -> dict:
     """``data`` if it is a well-formed exported gait; a LibraryError naming the first fault."""
     if not isinstance(data, dict):
         raise LibraryError(f"not a sanlab gait: expected a JSON object, got {type(data).__name__}")
+    if "format" not in data or data["format"] is None:
+        raise LibraryError(f"not a sanlab gait: it has no \"format\" field (an exported gait has \"format\": "
+                           f"\"{GAIT_FORMAT}\"; write one with `sanlab export`)")
     if data.get("format") != GAIT_FORMAT:
-        shown = repr(data.get("format")) if isinstance(data.get("format"), (str, type(None))) else type(data["format"]).__name__
-        raise LibraryError(f"not a sanlab gait: 'format' is {shown[:60]}, expected {GAIT_FORMAT!r}")
+        shown = repr(data["format"]) if isinstance(data["format"], str) else json.dumps(data["format"])
+        raise LibraryError(f"not a sanlab gait: \"format\" is {shown[:60]}, expected {GAIT_FORMAT!r}")
     version = data.get("version")
     if not isinstance(version, int) or isinstance(version, bool) or version < 1:
         raise LibraryError(f"bad sanlab gait: 'version' must be a positive integer, "

@@ -21,7 +21,7 @@ _RUN_REF = re.compile(r"[0-9a-f]+")
 # ASCII digits only: ``\d`` would also match other scripts' digits ("3fa1c2d0/" and an Arabic-Indic one read as rank 1)
 _GAIT_ID = re.compile(r"([0-9a-f]+)(?:/([0-9]+)|#([0-9]+))")
 _PERMANENT = re.compile(r"[0-9a-f]+#[0-9]+")
-MAX_DIGITS = 18  # of a rank or an index: an int64 in SQLite, and int() never meets a huge one
+MAX_DIGITS = 30  # of a rank or an index: past an int64 a rank is simply not found; int() never meets a huge one
 _SHAPE = re.compile(r"([^\s/#]+)(?:/[0-9]+|#[0-9]+)")  # a gait id's form, whatever its run part
 
 

@@ -54,9 +54,9 @@ def test_creatures_json():
     rows = {row["name"]: row for row in json.loads(r.stdout)}
     from sanlab.creature import load
 
-    assert rows["cart"] == {"name": "cart", "links": 2, "sensors": 6, "actuators": 1, "hidden": 5,
-                            "description": load("cart").description}
-    assert {k: v for k, v in rows["bounder"].items() if k != "description"} == \
+    assert rows["cart"] == {"schema": "sanlab/creature-entry/1", "name": "cart", "links": 2, "sensors": 6, "actuators": 1,
+                            "hidden": 5, "description": load("cart").description}
+    assert {k: v for k, v in rows["bounder"].items() if k not in ("schema", "description")} == \
         dict(name="bounder", links=5, sensors=8, actuators=4, hidden=8)
     assert all(isinstance(row["description"], str) and row["description"] for row in rows.values())
     r = runner.invoke(app, ["creatures"])

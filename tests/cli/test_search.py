@@ -85,7 +85,8 @@ def test_search_json_has_the_documented_shape(tmp_path):
     r = subprocess.run(SANLAB + ["search", "cart", "-n", "20", "--seconds", "0.5", "--db", db, "--json"],
                        capture_output=True, text=True, check=True)
     out = json.loads(r.stdout)
-    assert set(out) == {"run_id", "evaluated", "top"} and out["evaluated"] == 20
+    assert set(out) == {"schema", "run_id", "creature", "metric", "score_unit", "evaluated", "tally", "top"}
+    assert out["schema"] == "sanlab/search/1" and out["evaluated"] == out["tally"]["evaluated"] == 20
     first = out["top"][0]
     assert {"gait", "score", "speed_cm_s", "fell", "encoding", "dx_m", "direction"} <= set(first)
     for row in out["top"]:  # the signed displacement is stored with every evaluation

@@ -21,8 +21,9 @@ def test_tune_cli_json(bounder_run):
     # on held-out draws, which may fall below the start's)
     r = subprocess.run(SANLAB + ["tune", f"{run_id}/1", "--method", "sga", "--trials", "5", "--batch", "64",
                                  "--ensemble", "1", "--db", str(db), "--json"], capture_output=True, text=True, check=True)
-    out = json.loads(r.stdout)
-    assert set(out) == {"gait", "tuned_gait", "before", "after", "trials", "accepted"}
+    [out] = json.loads(r.stdout)  # always a list, one element per chain
+    assert set(out) == {"schema", "gait", "tuned_gait", "run_id", "before", "after", "direction", "trials", "accepted"}
+    assert out["schema"] == "sanlab/tuning/1" and out["tuned_gait"] == f"{out['run_id']}#0"
     assert 0 <= out["accepted"] <= out["trials"]
     assert out["trials"] == 5 and out["after"]["score"] >= out["before"]["score"]
     assert set(out["before"]) == {"score", "speed_cm_s"}
@@ -50,7 +51,7 @@ def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     again = subprocess.run(SANLAB + ["audit", tuned_run, "--select", "--threshold", "0.2", "--db", str(db), "--json"],
                            capture_output=True, text=True, check=True)
     sel = json.loads(again.stdout)
-    assert sel["run"] == tuned_run and sel["threshold"] == 0.2
+    assert sel["run_id"] == tuned_run and sel["threshold"] == 0.2
     assert sel["candidates"] and sel["candidates"][0]["trial"] == -1
     with Library(str(db)) as lib:
         assert lib.selection(tuned_run)["settings"]["threshold"] == 0.2
@@ -110,10 +111,10 @@ def test_an_interrupted_tuning_resumes_to_the_uninterrupted_result(bounder_run, 
         assert f"--resume {run.run_id}" in err and "Traceback" not in err
         assert run.status == "interrupted"
     # the same chain named twice (in full and by a prefix) is resumed once
-    resumed = json.loads(subprocess.run(SANLAB + ["tune", "--resume", run.run_id, "--resume", run.run_id[:6], "--db",
-                                                  str(db), "--json"], capture_output=True, text=True, check=True).stdout)
-    expected = json.loads(subprocess.run(SANLAB + args + ["--db", str(ref), "--json"], capture_output=True, text=True,
-                                         check=True).stdout)
+    [resumed] = json.loads(subprocess.run(SANLAB + ["tune", "--resume", run.run_id, "--resume", run.run_id[:6], "--db",
+                                                    str(db), "--json"], capture_output=True, text=True, check=True).stdout)
+    [expected] = json.loads(subprocess.run(SANLAB + args + ["--db", str(ref), "--json"], capture_output=True, text=True,
+                                           check=True).stdout)
     assert resumed["before"] == expected["before"] and resumed["after"] == expected["after"]
     assert resumed["trials"] == expected["trials"] == 64
     with Library(str(db)) as a, Library(str(ref)) as b:
