@@ -18,8 +18,8 @@ from importlib import resources
 from typing import Any
 
 VERSION = 1
-RECORDS = ("audit", "check", "creature-entry", "gait", "gait-row", "modes", "render", "run", "run-entry", "search",
-           "selection", "simulate", "tuning")
+RECORDS = ("audit", "check", "creature-entry", "gait", "gait-row", "mjcf-import", "modes", "render", "run", "run-entry",
+           "search", "selection", "simulate", "tuning")
 
 
 def schema_id(name: str) -> str:

@@ -31,6 +31,7 @@ from sanlab.cli._common import (
     safe,
     warn,
 )
+from sanlab.cli._schemas import schema_id
 from sanlab.creature import CreatureError, builtin_names, loads
 
 NEEDS_MUJOCO = "needs the mujoco package: pip install mujoco (or pip install 'sanlab[gym]')"
@@ -64,7 +65,7 @@ def import_mjcf(
         with output_file(out, "--out") as path, open(path, "w", encoding="utf-8") as f:
             f.write(text)
     if as_json:
-        summary = {"source": os.path.abspath(model), "out": os.path.abspath(out) if out else None, "name": spec.name,
+        summary = {"schema": schema_id("mjcf-import"), "source": os.path.abspath(model), "out": os.path.abspath(out) if out else None, "name": spec.name,
                    "links": len(spec.links), "dofs": spec.dofs, "sensors": len(spec.sensors),
                    "actuators": len(spec.actuators), "warnings": warnings}
         if not out:

@@ -12,6 +12,7 @@ import tomllib
 
 import pytest
 
+from sanlab.cli import _schemas
 from sanlab.creature import load
 from tests.helpers import ROOT, SANLAB
 
@@ -42,6 +43,7 @@ def test_import_prints_the_creature_file_and_one_warning_line_each(tmp_path):
     w = _run("import-mjcf", GYM["hopper"], "-o", str(out), "--json")
     assert w.returncode == 0, w.stderr
     summary = json.loads(w.stdout)
+    _schemas.validate(summary, "mjcf-import")  # the JSON vocabulary's record (docs/json.md)
     assert out.read_text() == r.stdout  # the same file, written whole
     assert summary["links"] == 4 and summary["actuators"] == 3 and summary["warnings"] == [x[len("warning: "):] for x in lines]
     assert load(str(out)).name == "hopper"
