@@ -32,6 +32,7 @@ import hashlib
 import os
 import pickle
 import threading
+from collections import OrderedDict
 from functools import cache
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
@@ -42,7 +43,8 @@ from sanlab._jax import cache_dir
 
 MAX_BYTES = 1024**3  # the directory's size cap; an entry is 0.1-1 MB for the paper's creatures
 _SOURCE: str | None = None
-_loaded: dict[tuple, Any] = {}
+MAX_LOADED = 64  # programs kept in memory, as sim.rollout keeps its traced ones (an LRU: each holds an executable)
+_loaded: "OrderedDict[tuple, Any]" = OrderedDict()
 _lock = threading.Lock()
 
 
@@ -158,13 +160,15 @@ def call(config: tuple, jitted: Callable, args: tuple) -> Any:
         return jitted(*args)
     leaves, tree = jax.tree_util.tree_flatten(args)
     mem = (config, tree, tuple((getattr(x, "shape", None), str(getattr(x, "dtype", ""))) for x in leaves))
-    program = _loaded.get(mem)
-    if program is None:
-        with _lock:
-            program = _loaded.get(mem)
-            if program is None:
-                program = _obtain(config, jitted, args)
-                _loaded[mem] = program
+    with _lock:
+        program = _loaded.get(mem)
+        if program is None:
+            program = _obtain(config, jitted, args)
+            _loaded[mem] = program
+            while len(_loaded) > MAX_LOADED:
+                _loaded.popitem(last=False)
+        else:
+            _loaded.move_to_end(mem)
     if program is _UNSTABLE:
         return jitted(*args)
     return jax.tree_util.tree_unflatten(program.out_tree, program.run(*leaves))

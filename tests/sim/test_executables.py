@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections import OrderedDict
 from pathlib import Path
 
 import jax
@@ -22,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture
 def store(tmp_path, monkeypatch):
     monkeypatch.setattr(executables, "directory", lambda: tmp_path)
-    monkeypatch.setattr(executables, "_loaded", {})
+    monkeypatch.setattr(executables, "_loaded", OrderedDict())
     monkeypatch.delenv("SANLAB_NO_COMPILE_CACHE", raising=False)
     return tmp_path
 
@@ -39,7 +40,7 @@ def test_a_program_is_stored_then_loaded_without_tracing(store, bounder, monkeyp
     first = sim.rollout(m, san, p, steps=400)
     files = list(store.glob("*.stablehlo"))
     assert len(files) == 1
-    monkeypatch.setattr(executables, "_loaded", {})  # as a fresh process would be
+    monkeypatch.setattr(executables, "_loaded", OrderedDict())  # as a fresh process would be
 
     def no_trace(*a):
         raise AssertionError("traced again")
@@ -121,3 +122,12 @@ def test_a_second_process_loads_the_program(tmp_path):
     first, second = run(), run()
     assert first == second  # the same result, and no new program stored by the second process
     assert int(first[1]) >= 2  # the rollout and the seating of the cart on the ground
+
+
+def test_programs_in_memory_are_bounded_least_recently_used_first(store, monkeypatch):
+    monkeypatch.setattr(executables, "MAX_LOADED", 2)
+    fs = {k: jax.jit(lambda x, k=k: x + k) for k in (1, 2, 3)}
+    x = (np.zeros(2, np.float32),)
+    for k in (1, 2, 1, 3):  # 2 is the least recently used when 3 arrives
+        np.testing.assert_array_equal(executables.call((f"add{k}",), fs[k], x), np.full(2, k))
+    assert [m[0] for m in executables._loaded] == [("add1",), ("add3",)]
