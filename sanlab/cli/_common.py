@@ -451,10 +451,16 @@ class ProgressBar:
         )
         self._task: Any = None
 
+    def waiting(self, description: str, total: int | None = None) -> None:
+        """Show ``description`` before the first report: a first batch can take a minute (its
+        compile, on a creature's first run), and a bar at 0/N with no word looked stuck."""
+        if self._task is None:
+            self._task = self.progress.add_task(description, total=total, rate=0.0, best=0.0)
+
     def update(self, description: str, completed: int, total: int, rate: float, best: float) -> None:
         if self._task is None:
             self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
-        self.progress.update(self._task, completed=completed, rate=rate, best=best)
+        self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate, best=best)
 
     def __enter__(self) -> ProgressBar:
         self.progress.__enter__()

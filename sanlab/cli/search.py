@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from sanlab import configure
 from sanlab.cli._common import (
@@ -117,10 +118,13 @@ def search(
         label = f"search {p.run_id}"
         if p.stats:
             label += f" (coverage {p.stats['coverage']:.0%}, QD {p.stats['qd_score']:.3g})"
+        if p.evaluated == 0:  # a creature's first run compiles here, for up to a minute: say so
+            label += ": first batch (compiled first, on a creature's first run)"
         bar.update(label, p.evaluated, p.total, p.rate, p.best)
 
     try:
         with bar:
+            bar.waiting(f"search {escape(creature)}: starting" if creature else "resuming")
             run_id = library_call(
                 lambda: run_search(
                     lib, text, where, controllers=controllers, seconds=seconds, seed=seed,
