@@ -83,15 +83,19 @@ def sanlab_route(batch: int, steps: int, repeats: int) -> tuple[float, float]:
     return rate, compile_s
 
 
-def cached_start(batch: int) -> float:
-    """Seconds from a fresh interpreter to a first result, with a warm persistent cache."""
+def fresh_processes(code: str, n: int) -> list[float]:
+    """The last number printed by ``code`` in ``n`` fresh interpreters in turn, sharing one new
+    cache directory (so the first starts cold and the others warm)."""
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, SANLAB_CACHE=cache, PYTHONPATH=str(ROOT))
         env.pop("SANLAB_NO_COMPILE_CACHE", None)
-        code = START.format(batch=batch)
-        run = lambda: float(subprocess.run([sys.executable, "-c", code], env=env, check=True,
-                                           capture_output=True, text=True).stdout.split()[-1])
-        cold, warm = run(), run()
+        return [float(subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True,
+                                     text=True).stdout.split()[-1]) for _ in range(n)]
+
+
+def cached_start(batch: int) -> float:
+    """Seconds from a fresh interpreter to a first result, with a warm persistent cache."""
+    cold, warm = fresh_processes(START.format(batch=batch), 2)
     print(f"start-up to first result: {cold:.1f} s with an empty cache, {warm:.1f} s with a warm one")
     return warm
 
@@ -115,14 +119,8 @@ def replay(name: str = "bounder") -> float:
     """Seconds of one 6 s replay at batch 1 recorded at 30 fps (what render, the studio's playback
     and check --simulate do), in a fresh process after JAX's import, with an empty cache and then a
     warm one (the persistent XLA cache and the traced programs of sanlab.sim.executables)."""
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, SANLAB_CACHE=cache, PYTHONPATH=str(ROOT))
-        env.pop("SANLAB_NO_COMPILE_CACHE", None)
-        code = REPLAY.format(name=name)
-        run = lambda: float(subprocess.run([sys.executable, "-c", code], env=env, check=True,
-                                           capture_output=True, text=True).stdout.split()[-1])
-        cold = run()
-        warm = min(run(), run())
+    cold, *warm_runs = fresh_processes(REPLAY.format(name=name), 3)
+    warm = min(warm_runs)
     print(f"replay: {name}, 6 s at batch 1, 30 fps: {cold:.1f} s with an empty cache, {warm:.2f} s with a warm one "
           "(compile_creature + rollout, after import)")
     return warm
