@@ -22,7 +22,8 @@ import numpy as np
 
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
 MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
-_ENCODING = re.compile(r"san1-(\d+)-(\d+)-(\d+)-([A-Za-z0-9_-]+)")
+# ASCII digits only (``\d`` matches other scripts' digits too), at most 9 each: sizes, not numbers
+_ENCODING = re.compile(r"san1-([0-9]{1,9})-([0-9]{1,9})-([0-9]{1,9})-([A-Za-z0-9_-]+)")
 
 
 class SanParams(NamedTuple):

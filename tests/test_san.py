@@ -164,6 +164,11 @@ def test_encoding_rejects_other_topologies_and_garbage():
         bounder.decode(text)
     with pytest.raises(ValueError, match="expected an encoding"):
         bounder.decode("hello")
+    ascii_sizes = bounder.encode(bounder.random_weights(0, 0))
+    for odd in (ascii_sizes.replace("san1-8-", "san1-\u0668-", 1),  # an Arabic-Indic eight
+                ascii_sizes.replace("san1-8-", "san1-" + "8" * 5000 + "-", 1)):  # past int()'s limit
+        with pytest.raises(ValueError, match="expected an encoding"):
+            bounder.decode(odd)
     with pytest.raises(ValueError):
         bounder.pack(np.full((12, 20), 3))
 
