@@ -3,11 +3,11 @@
 Importing this module registers, with Gymnasium's registry, one environment per built-in
 creature and one for any creature file:
 
-    import gymnasium
-    import sanlab.gym                                                # registers the ids below
-    env = gymnasium.make("sanlab/Bounder-v0")
-    env = gymnasium.make("sanlab/Creature-v0", path="my.toml")
-    envs = gymnasium.make_vec("sanlab/Bounder-v0", num_envs=64, vectorization_mode="vector_entry_point")
+    >>> import gymnasium
+    >>> import sanlab.gym                                            # registers the ids below
+    >>> env = gymnasium.make("sanlab/Bounder-v0")
+    >>> env = gymnasium.make("sanlab/Creature-v0", path="my.toml")
+    >>> envs = gymnasium.make_vec("sanlab/Bounder-v0", num_envs=64, vectorization_mode="vector_entry_point")
 
 or, without importing it first, Gymnasium's module-prefix form, which imports it:
 ``gymnasium.make("sanlab.gym:sanlab/Bounder-v0")``.

@@ -6,6 +6,9 @@ from __future__ import annotations
 from functools import cache
 from typing import Any
 
+import jax.numpy as jnp
+import numpy as np
+
 from sanlab.creature.spec import Creature
 from sanlab.sim import executables
 from sanlab.sim.dynamics import seat_on_ground
@@ -33,5 +36,7 @@ def compile_creature(spec: Creature, dtype: Any = "float32", articulated: bool |
     if spec.world.plane == "vertical" and model.structure.contacts:
         # compiled and stored, not run op by op: that took 0.4-0.7 s of every replay's start
         q0 = executables.call(("seat_on_ground",), _seat(), (model, model.params.q0))
-        model = model.with_params(q0=q0)
+        # uncommitted, as every other parameter is: a committed leaf would be another jit cache
+        # entry for every compiled program that takes this model
+        model = model.with_params(q0=jnp.asarray(np.asarray(q0)))
     return model
