@@ -27,6 +27,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -57,7 +58,7 @@ def pool_of(space, size: int = 64) -> list:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("--num-envs", type=int, default=256, help="sub-environments of each vector environment")
     ap.add_argument("--seconds", type=float, default=6.0, help="wall time each environment is stepped for in all (s)")
     ap.add_argument("--rounds", type=int, default=3, help="turns the environments take (each keeps its best)")
@@ -90,7 +91,8 @@ def main() -> None:
         e.reset(seed=0)
         for a in pool[:4]:
             e.step(a)
-    core = vec.unwrapped.core
+    mine: Any = vec.unwrapped  # sanlab's vector env: its core and dt are not VectorEnv attributes
+    core = mine.core
     print(f"made and warmed up in {time.perf_counter() - t0:.1f} s (sanlab vector: {core.rows} rows on "
           f"{len(core.devices)} device(s))")
     # the four take turns, --rounds times, each keeping its best round: a load that comes and
@@ -100,7 +102,8 @@ def main() -> None:
         for i, ((_, e, vector), pool) in enumerate(zip(envs, pools, strict=True)):
             rate, steps = timed(e, vector, args.seconds / args.rounds, pool)
             best[i], total[i] = max(best[i], rate), total[i] + steps
-    dts = [vec.unwrapped.dt, envs[1][1].unwrapped.envs[0].unwrapped.dt, one.unwrapped.dt, envs[3][1].unwrapped.dt]
+    unwrapped: list[Any] = [vec.unwrapped, envs[1][1].unwrapped.envs[0].unwrapped, one.unwrapped, envs[3][1].unwrapped]
+    dts = [u.dt for u in unwrapped]
     rows = [(name, rate, steps, dt) for (name, _, _), rate, steps, dt in zip(envs, best, total, dts, strict=True)]
     for _, e, _ in envs:
         e.close()
