@@ -34,7 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-OURS = ("dynamics.py", "articulated.py", "san.py", "metrics.py")
+OURS = ("dynamics.py", "array_step.py", "articulated.py", "san.py", "metrics.py")
 
 
 def _section(text: str, head: str) -> list[str]:
@@ -187,6 +187,9 @@ def main() -> None:
     print(f"{'share':>6} {'kernels/step':>13}  source")
     for where, ns in sorted(by_line.items(), key=lambda kv: -kv[1])[:a.top]:
         print(f"{100 * ns / total:5.1f}% {line_calls[where] / a.steps:13.1f}  {where}")
+    if os.environ.get("SANLAB_PROFILE_KERNELS"):
+        for name, ns in sorted(spent.items(), key=lambda kv: -kv[1])[:15]:
+            print(f"  kernel {name}: {100 * ns / total:.1f}% {calls[name] / a.steps:.1f}/step")
     print("by phase of the step:")
     for phase, ns in sorted(by_phase.items(), key=lambda kv: -kv[1]):
         print(f"{100 * ns / total:5.1f}% {phase_calls[phase] / a.steps:13.1f}  {phase}")
