@@ -13,9 +13,11 @@ save the library, a run grid and live steering there.
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import subprocess
+import tempfile
 
 import pytest
 from studio_helpers import DATA, QD_SEARCH, SEARCH
@@ -41,10 +43,19 @@ def install_chromium() -> str:
             pytest.fail(message)
         pytest.skip(message)
     env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
-    for cmd in (["apt-get", "update", "-q"], ["apt-get", "install", "-y", "-q", "chromium"]):
-        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
-        if done.returncode != 0:
-            pytest.fail(f"{' '.join(cmd)} failed:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}")
+    # one install at a time: xdist runs the browser test files in different workers, and a second
+    # apt-get beside the first fails on dpkg's lock (seen in a full run); the second waits here,
+    # then finds chromium installed
+    with open(os.path.join(tempfile.gettempdir(), "sanlab-chromium-install.lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        path = chromium_path()
+        if path:
+            return path
+        wait = ["-o", "DPkg::Lock::Timeout=600"]  # another apt-get of the machine's own
+        for cmd in (["apt-get", *wait, "update", "-q"], ["apt-get", *wait, "install", "-y", "-q", "chromium"]):
+            done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
+            if done.returncode != 0:
+                pytest.fail(f"{' '.join(cmd)} failed:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}")
     path = chromium_path()
     if not path:
         pytest.fail(f"{how} succeeded but no chromium is on PATH")
