@@ -220,6 +220,7 @@ def selected(tmp_path_factory):
     return path, res, sel
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_chain_is_rebuilt_from_its_trace(selected):
     import numpy as np
 
@@ -235,6 +236,7 @@ def test_the_chain_is_rebuilt_from_its_trace(selected):
         assert best[1] == pytest.approx(tuned.extra["chain_best"])
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(selected):
     from sanlab.audit import audit
 
@@ -258,6 +260,7 @@ def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(select
         assert abs(again.speeds[name] - stored.speed_cm_s) <= 0.15 * stored.speed_cm_s  # the bar
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, tmp_path, monkeypatch):
     import shutil
     import sqlite3
@@ -297,6 +300,7 @@ def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, tmp_p
         assert remade.chosen == sel.chosen and lib.gait(sel.gait_id).speed_cm_s == pytest.approx(sel.chosen.nominal_cm_s)
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_audit_select_command(selected, tmp_path):
     import shutil
 

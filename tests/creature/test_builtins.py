@@ -97,6 +97,7 @@ def test_200_random_networks_stay_finite_for_6_s(name):
     assert float(np.max(r.max_depth)) < 0.02  # penetration stays around a centimetre or less
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("name", NAMES)
 def test_a_small_search_finds_a_gait_that_moves(name, tmp_path):
     """Phase 1 in miniature: 64 random networks, 6 s each (the cart 192: about 2 % of its random

@@ -279,6 +279,7 @@ def test_bad_runs_are_flagged_not_fatal():
     assert list(np.asarray(r.finite)) == [True, False]
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_persistent_compile_cache_is_written(tmp_path):
     code = (
         "from sanlab import creature, sim; import jax.numpy as jnp;"

@@ -19,6 +19,7 @@ def gait_id(library, which: str) -> str:
     return f"{library['cart']}/1" if which == "cart" else str(library["fish"])
 
 
+@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("which", ["cart", "fish"])
 def test_live_chunks_continue_the_run_as_one_rollout_would(library, which):
     """CHUNKS live chunks, each continuing from the state the last one left, give the frames of
