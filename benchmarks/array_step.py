@@ -302,11 +302,6 @@ def _tree_xy(tb: Tables, f):
     return _take(fp, tb.tree_dx), _take(fp, tb.tree_dy)  # [T, B]
 
 
-def to_tree(tb, S, v):
-    T = _turn(tb, S)
-    return v + _place(tb, (_mv(tb.dof_tree_mask, T[0] * v), _mv(tb.dof_tree_mask, T[1] * v)), v.shape[0])
-
-
 def from_tree(tb, S, u):
     T = _turn(tb, S)
     return u - _place(tb, (_mv(tb.dof_tree_mask, T[0] * u), _mv(tb.dof_tree_mask, T[1] * u)), u.shape[0])
