@@ -54,6 +54,15 @@ class Row:
     audit: dict | None = None  # the tuned gait's stored audit (``sanlab.audit.Audit.to_json``) and verdict
     resumed: bool = False  # some of its work was stored by an earlier call
     robust: dict | None = None  # the audited selection (``_select``); None: not made
+    seed: int = 0
+    chains: int = 1  # phase-2 chains the trials were spread over (the top ``chains`` phase-1 gaits)
+    tracking: dict | None = None  # the pursuit creatures' ``tracking`` result
+
+    @property
+    def robust_speed(self) -> float:
+        """The speed to quote (cm/s): the audited selection's; 0 where no rung kept its speed
+        (no robust gait) or no selection was made."""
+        return float((self.robust or {}).get("speed") or 0.0)
 
 
 def useful_fraction(lib, run_id: str, spec, seconds: float) -> float:
@@ -156,24 +165,32 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
                       ensemble=ens), False
 
 
-def _tune(lib: Library, text: str, parent: str, seed: int, trials: int, ens: Ensemble) -> tuple[str, bool]:
-    """Phase 2 of one creature's best gait: (tuned gait id, whether an earlier call had stored some of it)."""
+def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, ens: Ensemble) -> tuple[list[str], bool]:
+    """Phase 2 of one creature: ``trials`` annealing trials on each gait of ``parents`` (the
+    search's best first), as parallel chains 0, 1, ...: (the tuned gait id of each chain, whether
+    an earlier call had stored some of it)."""
     from sanlab.search.tune import tune
 
-    def wanted(run: Run) -> bool:
-        s = run.settings
-        return (isinstance(s, TuneSettings) and run.parent_gait == parent and s.method == "sa" and s.trials == trials
-                and s.seed == seed and s.chain == 0 and not s.morphology and s.terrain == "flat"
-                and s.batch == TUNE_BATCH and s.ensemble == ens and (run.dtype or "float32") == "float32")
+    def wanted(i: int):
+        def ok(run: Run) -> bool:
+            s = run.settings
+            return (isinstance(s, TuneSettings) and run.parent_gait == parents[i] and s.method == "sa"
+                    and s.trials == trials and s.seed == seed and s.chain == i and not s.morphology
+                    and s.terrain == "flat" and s.batch == TUNE_BATCH and s.ensemble == ens
+                    and (run.dtype or "float32") == "float32")
+        return ok
 
-    run = _earlier(lib, "tune", text, seed, wanted)
-    if run is not None and run.status == "done":
-        return f"{run.run_id}#0", True
-    if run is not None:
-        [res] = tune(lib, resume=[run.run_id])
-        return res.tuned_gait, True
-    [res] = tune(lib, [parent], method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens)
-    return res.tuned_gait, False
+    found = [_earlier(lib, "tune", text, seed, wanted(i)) for i in range(len(parents))]
+    runs = [r for r in found if r is not None]
+    if len(runs) == len(parents):
+        todo = [r.run_id for r in runs if r.status != "done"]
+        if todo:
+            tune(lib, resume=todo)
+        return [f"{r.run_id}#0" for r in runs], True
+    # the chains are created together before the first trial, so a partial set is a crash
+    # between two creations: start all of them again (their random streams depend on the chain)
+    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens)
+    return [r.tuned_gait for r in res], False
 
 
 def _audit(lib: Library, gait_id: str, run: bool = True) -> tuple[dict | None, bool]:
@@ -208,48 +225,92 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
 
 
+def parse_seeds(text: str) -> list[int]:
+    """"0-4" -> [0, 1, 2, 3, 4]; "0,2,7" -> [0, 2, 7]; "3" -> [3] (ranges and lists mix: "0-2,9").
+    Raises ValueError naming what was expected."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        lo, dash, hi = part.partition("-")
+        if not lo.strip().isdecimal() or not lo.strip().isascii() or (dash and not (hi.strip().isdecimal()
+                                                                                    and hi.strip().isascii())):
+            raise ValueError(f"seeds: expected seeds like 0-4 or 0,2,7, got {text!r}")
+        first, last = int(lo), int(hi) if dash else int(lo)
+        if last < first or last - first >= 1000:
+            raise ValueError(f"seeds: expected a range low-high with low <= high (at most 1000 seeds), got {part!r}")
+        seeds += [k for k in range(first, last + 1) if k not in seeds]
+    return seeds
+
+
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
-              log=print, ensemble: int | Ensemble = 8, audit: bool = True) -> str:
-    """Run the paper's budget on each creature, every score over an ensemble (``ensemble``: a
-    number of members, scored as searches score by default, ``default_ensemble``, or an
-    :class:`Ensemble`), and audit each tuned gait (``audit=False``: only a stored audit is
-    shown); returns the Markdown report.
+              log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
+              top: int = 1) -> str:
+    """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
+    every score over an ensemble (``ensemble``: a number of members, scored as searches score by
+    default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
+    (``audit=False``: only a stored audit is shown); returns the Markdown report, which for
+    several seeds opens with the median, min and max over seeds of each creature's robust tuned
+    speed.
+
+    Phase 2 spends ``trials`` annealing trials per creature: on the best phase-1 gait, or with
+    ``top`` K > 1 spread over the K best as parallel chains of ``trials // K`` trials each (§5.3:
+    "takes the best SAN controllers found in phase 1"); the row then quotes the chain with the
+    best robust speed.
 
     Resumable: what ``lib`` already holds from an earlier call with the same arguments (a
     finished search, tuning run or audit) is reused, and an interrupted search or tuning run
     continues (see the module docstring). Raises LibraryError and ValueError as ``run_search``
-    and ``tune`` do; KeyboardInterrupt leaves every stored evaluation in the library."""
+    and ``tune`` do, ValueError when ``trials // top`` is 0; KeyboardInterrupt leaves every
+    stored evaluation in the library."""
+    seeds = [seed] if seeds is None else list(seeds)
+    if top < 1 or trials // top < 1:
+        raise ValueError(f"top: expected 1 <= top <= trials ({trials}), got {top}")
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []
     extras: dict = {}
     t_all = time.perf_counter()
-    for name in creatures:
-        t0 = time.perf_counter()
-        spec = load(name)
-        seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
-        text, where = read_source(name)
-        run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens)
-        best = lib.top(run_id, 1)[0]
-        tuned_id, tuned_before = _tune(lib, text, best.gait_id, seed, trials, ens)
-        tuned = lib.gait(tuned_id)
-        report, audited = _audit(lib, tuned.gait_id, run=audit)
-        robust, selected = _select(lib, tuned.gait_id.split("#")[0], run=audit)
-        shown = robust["gait"] if robust and robust["gait"] else tuned_id  # the gait the report stands on
-        wall = time.perf_counter() - t0
-        counts = (len(spec.links), len(spec.sensors), len(spec.actuators), spec.n_hidden)
-        paper = TABLE1[name].speed_cm_s if name in TABLE1 else None
-        rows.append(Row(name, counts, paper, run_id, best.speed_cm_s, tuned.speed_cm_s, tuned_id,
-                        useful_fraction(lib, run_id, spec, seconds), wall, spec.evaluation.metric, report,
-                        searched or tuned_before or audited or selected, robust))
-        log(f"{name}: {best.speed_cm_s:.1f} -> {tuned.speed_cm_s:.1f} cm/s, audit: {_verdict(report)}, "
-            f"robust: {_robust(robust)} ({wall:.0f} s)")
-        if spec.evaluation.metric == "pursuit":
-            extras.setdefault("tracking", {})[name] = tracking(lib, run_id, shown)
-        if name == "bounder":
-            extras["robustness"] = robustness(lib, shown)
-            extras["robustness_gait"] = shown
-    return markdown(rows, extras, seed, controllers, trials, time.perf_counter() - t_all, ens)
+    for sd in seeds:
+        for name in creatures:
+            row = _creature(lib, name, sd, controllers, trials, ens, audit, top)
+            rows.append(row)
+            log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
+                f"robust: {_robust(row.robust)} ({row.wall:.0f} s)")
+            if name == "bounder":
+                shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
+                extras.setdefault("robustness", {})[sd] = (shown, robustness(lib, shown))
+    return markdown(rows, extras, seeds, controllers, trials, time.perf_counter() - t_all, ens, top)
+
+
+def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
+              top: int) -> Row:
+    """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed."""
+    t0 = time.perf_counter()
+    spec = load(name)
+    seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
+    text, where = read_source(name)
+    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens)
+    best = lib.top(run_id, top)
+    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens)
+    stored = searched or tuned_before
+    chains = []
+    for tid in tuned_ids:
+        report, audited = _audit(lib, tid, run=audit)
+        robust, selected = _select(lib, tid.split("#")[0], run=audit)
+        stored = stored or audited or selected
+        chains.append((lib.gait(tid), report, robust))
+    # the row stands on the chain with the best robust speed (the chain best where none has one)
+    tuned, report, robust = max(chains, key=lambda c: ((c[2] or {}).get("speed") or 0.0, c[0].score))
+    counts = (len(spec.links), len(spec.sensors), len(spec.actuators), spec.n_hidden)
+    paper = TABLE1[name].speed_cm_s if name in TABLE1 else None
+    row = Row(name, counts, paper, run_id, best[0].speed_cm_s, tuned.speed_cm_s, tuned.gait_id,
+              useful_fraction(lib, run_id, spec, seconds), 0.0, spec.evaluation.metric, report, stored, robust,
+              seed=seed, chains=len(tuned_ids))
+    if spec.evaluation.metric == "pursuit":
+        shown = robust["gait"] if robust and robust["gait"] else tuned.gait_id
+        row.tracking = tracking(lib, run_id, shown)
+    row.wall = time.perf_counter() - t0
+    return row
 
 
 def _verdict(audit: dict | None) -> str:
@@ -301,21 +362,9 @@ def _scoring(ens: Ensemble) -> str:
             f"at {steps} in turn (the tuned gait's on a held-out ensemble); ")
 
 
-def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials: int, total: float,
-             ensemble: int | Ensemble = 8) -> str:
-    import jax
-
-    from sanlab import __version__
-
-    dev = jax.devices()
+def _table(rows: list[Row]) -> list[str]:
+    """One seed's table: a row per creature."""
     lines = [
-        "# Table 1, reproduced",
-        "",
-        f"sanlab {__version__}, seed {seed}, {controllers} random SANs per creature (6 s; 30 s for the fish "
-        f"and the crawler), then {trials} simulated-annealing trials on the best; "
-        + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min.",
-        "",
         "| creature | links | sensors | actuators | hidden | Table 1 speed (cm/s) | sanlab best random (cm/s) "
         "| after tuning (cm/s) | tuned gait nudged (cm/s) | audit | robust tuned gait (cm/s) | useful random SANs "
         "| tuned gait | wall time |",
@@ -328,7 +377,76 @@ def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials:
             f"| {_nudged(r.audit)} | {_verdict(r.audit)} | {_robust(r.robust)} | {100 * r.useful:.1f} % | {_gaits(r)} "
             f"| {r.wall:.0f} s{' (resumed)' if r.resumed else ''} |"
         )
-    lines += ["", "Speeds are those of the centre of mass: net displacement over the evaluation time.",
+    return lines
+
+
+def _tracking_ratio(r: Row) -> float | None:
+    """Mean distance to the follow point of the row's gait over that of the median random SAN."""
+    if not r.tracking:
+        return None
+    return r.tracking["best"]["mean_distance_m"] / max(1e-12, r.tracking["median random"]["mean_distance_m"])
+
+
+def summary(rows: list[Row], seeds: list[int]) -> list[str]:
+    """The table over seeds: per creature, the median, min and max of the robust tuned speed
+    (a seed without a robust gait counts 0), each seed's, how many meet Table 1, the verdicts of
+    the chain bests' audits, the tracking ratio and the wall time."""
+    from sanlab.audit import DEPENDENT, NOT_REPRODUCED, ROBUST, UNDECIDED
+
+    lines = ["| creature | Table 1 speed (cm/s) | robust tuned speed, median (cm/s) | min | max | per seed (cm/s) "
+             "| seeds at Table 1 speed | audits of the tuned gaits | tracking: distance ratio, median | wall time |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    names = list(dict.fromkeys(r.creature for r in rows))
+    for name in names:
+        mine = sorted((r for r in rows if r.creature == name), key=lambda r: seeds.index(r.seed))
+        speeds = np.array([r.robust_speed for r in mine])
+        paper = mine[0].paper_speed
+        met = "-" if paper is None else f"{int((speeds >= paper).sum())} of {len(mine)}"
+        verdicts = [(r.audit or {}).get("verdict") or "not audited" for r in mine]
+        tally = " · ".join(f"{v} {verdicts.count(v)}" for v in (ROBUST, UNDECIDED, DEPENDENT, NOT_REPRODUCED, "not audited") if verdicts.count(v))
+        ratios = [x for x in (_tracking_ratio(r) for r in mine) if x is not None]
+        track = f"{float(np.median(ratios)):.2f}" if ratios else "-"
+        lines.append(
+            f"| {name} | {'U' if paper is None else f'{paper:g}'} | {float(np.median(speeds)):.1f} | {speeds.min():.1f} "
+            f"| {speeds.max():.1f} | {' · '.join(f'{x:.1f}' for x in speeds)} | {met} | {tally} | {track} "
+            f"| {sum(r.wall for r in mine) / 60:.1f} min{' (resumed)' if any(r.resumed for r in mine) else ''} |")
+    return lines
+
+
+def markdown(rows: list[Row], extras: dict, seeds: list[int] | int, controllers: int, trials: int, total: float,
+             ensemble: int | Ensemble = 8, top: int = 1) -> str:
+    """The report: for several seeds the table over seeds first, then each seed's table, the
+    tracking (§6) and the bounder's robustness (§6.2) sections."""
+    import jax
+
+    from sanlab import __version__
+
+    seeds = [seeds] if isinstance(seeds, int) else list(seeds)
+    dev = jax.devices()
+    which = f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {', '.join(map(str, seeds))}"
+    phase2 = (f"then {trials} simulated-annealing trials on the best" if top == 1 else
+              f"then {trials} simulated-annealing trials spread over the best {top} ({trials // top} each, "
+              f"as parallel chains; each row quotes the chain with the best robust speed)")
+    lines = [
+        "# Table 1, reproduced",
+        "",
+        f"sanlab {__version__}, {which}, {controllers} random SANs per creature (6 s; 30 s for the fish "
+        f"and the crawler), {phase2}; "
+        + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
+        + f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min.",
+        "",
+    ]
+    if len(seeds) > 1:
+        lines += [f"## Over {len(seeds)} seeds", ""] + summary(rows, seeds) + [
+            "", "*Robust tuned speed*: each seed's audited selection (below); a seed where no rung of the "
+            "climb kept its speed counts 0 cm/s. *Audits of the tuned gaits*: the verdicts of the chain bests "
+            "(before the selection). *Tracking*: the mean distance to the follow point of the quoted gait over "
+            "that of the seed's median random SAN (the goal: below 1/3).", ""]
+    for sd in seeds:
+        if len(seeds) > 1:
+            lines += [f"## Seed {sd}", ""]
+        lines += _table([r for r in rows if r.seed == sd]) + [""]
+    lines += ["Speeds are those of the centre of mass: net displacement over the evaluation time.",
               "", "*Tuned gait nudged*: the mean speed of the audit's 32 perturbed starts with the step halved "
               "and quartered and in float64 (`sanlab audit`). *Audit*: *robust* when, for every nudge, the bootstrap "
               "interval (95 % over the three) of the relative change of the mean speed lies inside ±10 %; "
@@ -345,20 +463,23 @@ def markdown(rows: list[Row], extras: dict, seed: int, controllers: int, trials:
               "", "A random SAN *moved usefully* when the run stayed finite, the creature did not fall, and it "
               "travelled at least 10 % of its Table 1 speed (at least 2 cm/s); for the fish and the crawler, when "
               "its pursuit score was at least 10 % of the distance the follow point travelled."]
-    if "tracking" in extras:
+    tracked = [r for r in rows if r.tracking]
+    if tracked:
         lines += ["", "## Tracking (§6)", "",
-                  "| creature | controller | mean distance to the follow point (m) | pursuit score (m) |",
-                  "|---|---|---|---|"]
-        for name, res in extras["tracking"].items():
-            for label, v in res.items():
-                lines.append(f"| {name} | {label} (`{v['gait']}`) | {v['mean_distance_m']:.3f} | {v['pursuit']:.3f} |")
+                  "| creature | seed | controller | mean distance to the follow point (m) | pursuit score (m) |",
+                  "|---|---|---|---|---|"]
+        for r in tracked:
+            for label, v in (r.tracking or {}).items():
+                lines.append(f"| {r.creature} | {r.seed} | {label} (`{v['gait']}`) | {v['mean_distance_m']:.3f} "
+                             f"| {v['pursuit']:.3f} |")
     if "robustness" in extras:
         lines += ["", "## Robustness (§6.2): the tuned flat-ground bounder gait on other ground", "",
-                  f"Gait `{extras.get('robustness_gait', '?')}`.", "",
-                  "| ground | time (s) | distance (m, ensemble median) | fell |", "|---|---|---|---|"]
-        for name, v in extras["robustness"].items():
-            lines.append(f"| {name} | {v['seconds']:g} | {v['distance_m']:.2f} | {'yes' if v['fell'] else 'no'} |")
+                  "| seed | gait | ground | time (s) | distance (m, ensemble median) | fell |", "|---|---|---|---|---|---|"]
+        for sd, (gait, res) in extras["robustness"].items():
+            for name, v in res.items():
+                lines.append(f"| {sd} | `{gait}` | {name} | {v['seconds']:g} | {v['distance_m']:.2f} "
+                             f"| {'yes' if v['fell'] else 'no'} |")
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["TABLE1", "reproduce", "markdown"]
+__all__ = ["TABLE1", "reproduce", "markdown", "summary", "parse_seeds"]

@@ -28,8 +28,10 @@ from sanlab.creature.table1 import TABLE1
 def reproduce(
     creatures: Annotated[str | None, typer.Option(help="Comma-separated names (default: all of Table 1 that are built in).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
+    seeds: Annotated[str | None, typer.Option(help="Several seeds (0-4, 0,2,7): the report opens with the median, min and max over them.")] = None,
     controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
-    trials: Annotated[int, typer.Option(min=1, help="Annealing trials on each best gait (the paper: 1000).")] = 1000,
+    trials: Annotated[int, typer.Option(min=1, help="Annealing trials per creature (the paper: 1000).")] = 1000,
+    top: Annotated[int, typer.Option(min=1, help="Spread the trials over the top K phase-1 gaits, as parallel chains of trials/K each (paper §5.3).")] = 1,
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
     dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
@@ -43,16 +45,29 @@ def reproduce(
     from sanlab.reproduce import reproduce as run
 
     ens = ensemble_or_exit(ensemble, dt_factors)
+    from sanlab.reproduce import parse_seeds
+
+    if seeds is not None and seed != 0:
+        raise fail("give --seed or --seeds, not both")
+    try:
+        seed_list = parse_seeds(seeds) if seeds is not None else [seed]
+    except ValueError as e:
+        raise fail(f"--seeds {safe(seeds)}: {str(e).removeprefix('seeds: ')}") from None
+    if trials // top < 1:
+        raise fail(f"--top {top}: expected at most --trials ({trials}), so that each chain has a trial")
+    if top > controllers:
+        raise fail(f"--top {top}: expected at most --controllers ({controllers}), the gaits phase 1 keeps")
 
     names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
     for n in names:  # every argument checked before the first run is created
-        check_run_args(load_or_exit(n)[0], controllers=controllers, trials=trials, seed=seed)
+        for sd in seed_list:
+            check_run_args(load_or_exit(n)[0], controllers=controllers, trials=trials // top, seed=sd, top=top)
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
     lib = open_library(db, create=True)
     try:
-        report = library_call(lambda: run(lib, names, seed=seed, controllers=controllers, trials=trials,
-                                          log=lambda s: console.print(s), ensemble=ens, audit=audit))
+        report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
+                                          log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None
