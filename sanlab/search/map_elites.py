@@ -7,7 +7,9 @@ in generations of ``problem.generation`` controllers: those of the first tenth o
 least one generation) are random SANs, as phase 1's (§5.2); each later one is an elite of the
 archive with a few of its integer weights changed (each by +-1 or redrawn in [-2, 2]), the
 elite picked with a chance proportional to 1 / (1 + the filled cells around its own), so the
-archive's frontier is pushed more often than its crowded middle. A generation is inserted into
+archive's frontier is pushed more often than its crowded middle; half of them are first moved
+along the line towards a second elite picked the same way (:func:`line`, the line step of
+Iso+LineDD), which steps where elites differ rather than anywhere. A generation is inserted into
 the archive, in index order, once all its scores are in.
 
 Exact resumption: controller ``idx`` draws its parent and its mutation from a stream of its own
@@ -37,6 +39,8 @@ if TYPE_CHECKING:
 STREAM = 0x4D45  # names MAP-Elites' own random streams ("ME")
 INITIAL_SHARE = 0.1  # of the budget: random SANs before any mutation
 MEAN_CHANGES = 2.0  # weights changed per mutation, on average (at least one)
+LINE_SHARE = 0.5  # of the mutants: first moved along the line to a second elite (Iso+LineDD)
+LINE_SIGMA = 0.5  # the line step's spread, in units of the two elites' difference
 
 
 class MapElites:
@@ -121,6 +125,9 @@ class MapElites:
         k = rng.choice(len(chance), p=chance)
         parent = elites["solution"][k].astype(np.int8).reshape(p.san.n_nodes, p.san.n_inputs)
         self._parents[idx] = int(elites["idx"][k])
+        if LINE_SHARE > 0 and len(chance) > 1 and rng.random() < LINE_SHARE:
+            other = elites["solution"][rng.choice(len(chance), p=chance)].astype(np.int8)
+            parent = line(parent, other.reshape(parent.shape), rng)
         return Candidate(idx, mutate(parent, rng), None, search_key(p.seed, idx))
 
     def _choice(self) -> tuple[dict, np.ndarray]:
@@ -280,6 +287,17 @@ def mutate(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         else:
             flat[j] = rng.integers(WEIGHT_MIN, WEIGHT_MAX + 1)
     return w
+
+
+def line(weights: np.ndarray, other: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``weights`` moved along the line to ``other`` (both [N, I] integer weights): w + t (other - w),
+    t ~ Normal(0, LINE_SIGMA), rounded and kept in [-2, 2]; the line part of Iso+LineDD
+    (Vassiliades & Mouret 2018, "Discovering the elite hypervolume by leveraging interspecies
+    correlation"), which steps where two elites differ rather than anywhere."""
+    t = rng.normal(0.0, LINE_SIGMA)
+    w = np.asarray(weights, np.float64)
+    moved = np.rint(w + t * (np.asarray(other, np.float64) - w))
+    return np.clip(moved, WEIGHT_MIN, WEIGHT_MAX).astype(np.int8)
 
 
 def rebuild(grid: Grid, solution_dim: int, evaluations: Sequence[Evaluation], decode, generation: int,

@@ -13,7 +13,7 @@ import pytest
 
 from sanlab.library import Library
 from sanlab.search.base import Grid
-from sanlab.search.map_elites import mutate, parse_grid, rebuild, resolve
+from sanlab.search.map_elites import line, mutate, parse_grid, rebuild, resolve
 from tests.helpers import SANLAB, interruptible, rows_in
 
 
@@ -29,6 +29,23 @@ def test_a_mutant_changes_a_few_weights_and_stays_in_range():
     np.testing.assert_array_equal(mutate(w, np.random.default_rng(5)), mutate(w, np.random.default_rng(5)))
     edge = np.full((1, 1), 2, np.int8)  # +-1 at the bound moves inwards, never out
     assert all(mutate(edge, np.random.default_rng(s))[0, 0] in (-2, -1, 0, 1, 2) for s in range(50))
+
+
+def test_the_line_step_moves_only_where_two_elites_differ():
+    rng = np.random.default_rng(0)
+    a = np.random.default_rng(1).integers(-2, 3, (6, 9)).astype(np.int8)
+    b = a.copy()
+    b[0, :4] = [2, -2, 2, -2]  # the elites differ in at most these four weights
+    same = a == b
+    moved = 0
+    for _ in range(200):
+        c = line(a, b, rng)
+        assert c.shape == a.shape and c.dtype == np.int8 and c.min() >= -2 and c.max() <= 2
+        np.testing.assert_array_equal(c[same], a[same])  # no step where the elites agree
+        moved += int(np.any(c != a))
+    assert 0 < moved < 200  # small steps round to no change, larger ones move
+    np.testing.assert_array_equal(line(a, a, np.random.default_rng(3)), a)
+    np.testing.assert_array_equal(line(a, b, np.random.default_rng(4)), line(a, b, np.random.default_rng(4)))
 
 
 def test_the_grid_option_and_its_errors():
