@@ -601,15 +601,19 @@ def main() -> None:
         cstate = jax.vmap(lambda c, san=san: san.init(c, model))(cp)
         engine, arrays = _rollouts(model, san)
         best = {}
-        for f in (engine, arrays):
+        first = {}
+        for name, f in (("engine", engine), ("arrays", arrays)):
+            t0 = time.perf_counter()
             jax.block_until_ready(f(cp, state, cstate, 10))
+            first[name] = time.perf_counter() - t0
         for _ in range(3):
             for name, f in (("engine", engine), ("arrays", arrays)):
                 t0 = time.perf_counter()
                 jax.block_until_ready(f(cp, state, cstate, a.steps))
                 best[name] = min(best.get(name, 1e9), (time.perf_counter() - t0) / a.steps * 1e6)
         print(f"{a.creature} batch {B}: engine {best['engine']:.1f} us/step, arrays {best['arrays']:.1f} us/step, "
-              f"arrays/engine speed {best['engine'] / best['arrays']:.2f} x")
+              f"arrays/engine speed {best['engine'] / best['arrays']:.2f} x; first call (trace + compile) "
+              f"engine {first['engine']:.1f} s, arrays {first['arrays']:.1f} s")
     jax.config.update("jax_enable_x64", True)
     print("float64, one step against sanlab.sim.dynamics:")
     agreement(["bounder", "cart", "walker", "luxo", "twolink", "threelink", "fourlink", "star"])
