@@ -22,7 +22,7 @@ def _rows(text: str) -> dict[str, list[str]]:
 def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_path):
     out, db = tmp_path / "t1.md", tmp_path / "t1.db"
     subprocess.run(SANLAB + ["reproduce", "--creatures", "twolink,fish", "--controllers", "8", "--trials", "16",
-                             "--seed", "3", "--ensemble", "1", "--no-audit", "--out", str(out), "--db", str(db)], check=True, capture_output=True)
+                             "--seed", "3", "--ensemble", "1", "--no-audit", "--top", "1", "--out", str(out), "--db", str(db)], check=True, capture_output=True)
     text = out.read_text()
     rows = _rows(text)
     assert set(rows) == {"twolink", "fish"}
@@ -58,7 +58,7 @@ def test_reproduce_resumes_from_the_library(tmp_path):
     sanlab.configure()
     def call(lib: Library, controllers: int = 8) -> list[str]:
         return _rows(reproduce(lib, ["twolink"], seed=2, controllers=controllers, trials=8, ensemble=1,
-                               log=lambda s: None))["twolink"]
+                               log=lambda s: None, top=1))["twolink"]
 
     with Library(str(tmp_path / "r.db")) as lib:
         first = call(lib)

@@ -31,7 +31,7 @@ def reproduce(
     seeds: Annotated[str | None, typer.Option(help="Several seeds (0-4, 0,2,7): the report opens with the median, min and max over them.")] = None,
     controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials per creature (the paper: 1000).")] = 1000,
-    top: Annotated[int, typer.Option(min=1, help="Spread the trials over the top K phase-1 gaits, as parallel chains of trials/K each (paper §5.3).")] = 1,
+    top: Annotated[int | None, typer.Option(min=1, help="Spread the trials over the K best phase-1 gaits (trials/K each; §5.3; default 4).")] = None,
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
     dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
@@ -53,6 +53,10 @@ def reproduce(
         seed_list = parse_seeds(seeds) if seeds is not None else [seed]
     except ValueError as e:
         raise fail(f"--seeds {safe(seeds)}: {str(e).removeprefix('seeds: ')}") from None
+    from sanlab.reproduce import DEFAULT_TOP
+
+    if top is None:
+        top = min(DEFAULT_TOP, trials, controllers)
     if trials // top < 1:
         raise fail(f"--top {top}: expected at most --trials ({trials}), so that each chain has a trial")
     if top > controllers:
