@@ -24,6 +24,7 @@ result is the same as an uninterrupted run's).
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 
@@ -59,7 +60,6 @@ class Row:
     resumed: bool = False  # some of its work was stored by an earlier call
     robust: dict | None = None  # the audited selection (``_select``); None: not made
     seed: int = 0
-    chains: int = 1  # phase-2 chains the trials were spread over (the top ``chains`` phase-1 gaits)
     tracking: dict | None = None  # the pursuit creatures' ``tracking`` result
 
     @property
@@ -234,16 +234,25 @@ def parse_seeds(text: str) -> list[int]:
     Raises ValueError naming what was expected."""
     seeds: list[int] = []
     for part in text.split(","):
-        part = part.strip()
-        lo, dash, hi = part.partition("-")
-        if not lo.strip().isdecimal() or not lo.strip().isascii() or (dash and not (hi.strip().isdecimal()
-                                                                                    and hi.strip().isascii())):
+        m = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", part, re.ASCII)
+        if m is None:
             raise ValueError(f"seeds: expected seeds like 0-4 or 0,2,7, got {text!r}")
-        first, last = int(lo), int(hi) if dash else int(lo)
+        first = int(m[1])
+        last = int(m[2]) if m[2] is not None else first
         if last < first or last - first >= 1000:
             raise ValueError(f"seeds: expected a range low-high with low <= high (at most 1000 seeds), got {part!r}")
         seeds += [k for k in range(first, last + 1) if k not in seeds]
     return seeds
+
+
+def chains(top: int | None, trials: int, controllers: int) -> int:
+    """How many phase-2 chains: ``top``, or for None ``DEFAULT_TOP`` (fewer where the trials or
+    the controllers are fewer). Raises ValueError unless 1 <= top <= trials and controllers."""
+    k = min(DEFAULT_TOP, trials, controllers) if top is None else top
+    if k < 1 or k > trials or k > controllers:
+        raise ValueError(f"top: expected 1 to {min(trials, controllers)} (at most the trials, {trials}, and the "
+                         f"controllers phase 1 keeps, {controllers}), got {k}")
+    return k
 
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
@@ -265,12 +274,10 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     Resumable: what ``lib`` already holds from an earlier call with the same arguments (a
     finished search, tuning run or audit) is reused, and an interrupted search or tuning run
     continues (see the module docstring). Raises LibraryError and ValueError as ``run_search``
-    and ``tune`` do, ValueError when ``trials // top`` is 0; KeyboardInterrupt leaves every
+    and ``tune`` do, and ValueError for a ``top`` :func:`chains` refuses; KeyboardInterrupt leaves every
     stored evaluation in the library."""
     seeds = [seed] if seeds is None else list(seeds)
-    top = min(DEFAULT_TOP, trials, controllers) if top is None else top
-    if top < 1 or top > trials or top > controllers:
-        raise ValueError(f"top: expected 1 <= top <= trials ({trials}) and controllers ({controllers}), got {top}")
+    top = chains(top, trials, controllers)
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []
@@ -311,7 +318,7 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     paper = TABLE1[name].speed_cm_s if name in TABLE1 else None
     row = Row(name, counts, paper, run_id, best[0].speed_cm_s, tuned.speed_cm_s, tuned.gait_id,
               useful_fraction(lib, run_id, spec, seconds), 0.0, spec.evaluation.metric, report, stored, robust,
-              seed=seed, chains=len(tuned_ids))
+              seed=seed)
     if spec.evaluation.metric == "pursuit":
         shown = robust["gait"] if robust and robust["gait"] else tuned.gait_id
         row.tracking = tracking(lib, run_id, shown)
@@ -488,4 +495,4 @@ def markdown(rows: list[Row], extras: dict, seeds: list[int] | int, controllers:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["TABLE1", "DEFAULT_TOP", "reproduce", "markdown", "summary", "parse_seeds"]
+__all__ = ["TABLE1", "DEFAULT_TOP", "reproduce", "markdown", "summary", "parse_seeds", "chains"]

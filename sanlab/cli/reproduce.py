@@ -42,30 +42,26 @@ def reproduce(
 
     Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped."""
     configure()
+    from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run
 
     ens = ensemble_or_exit(ensemble, dt_factors)
-    from sanlab.reproduce import parse_seeds
-
     if seeds is not None and seed != 0:
         raise fail("give --seed or --seeds, not both")
     try:
         seed_list = parse_seeds(seeds) if seeds is not None else [seed]
     except ValueError as e:
         raise fail(f"--seeds {safe(seeds)}: {str(e).removeprefix('seeds: ')}") from None
-    from sanlab.reproduce import DEFAULT_TOP
-
-    if top is None:
-        top = min(DEFAULT_TOP, trials, controllers)
-    if trials // top < 1:
-        raise fail(f"--top {top}: expected at most --trials ({trials}), so that each chain has a trial")
-    if top > controllers:
-        raise fail(f"--top {top}: expected at most --controllers ({controllers}), the gaits phase 1 keeps")
+    try:
+        top = chains(top, trials, controllers)
+    except ValueError as e:
+        raise fail(f"--{e}") from None
 
     names = [c.strip() for c in creatures.split(",")] if creatures else [n for n in TABLE1 if n in builtin_names()]
     for n in names:  # every argument checked before the first run is created
+        spec = load_or_exit(n)[0]
         for sd in seed_list:
-            check_run_args(load_or_exit(n)[0], controllers=controllers, trials=trials // top, seed=sd, top=top)
+            check_run_args(spec, controllers=controllers, trials=trials // top, seed=sd, top=top)
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
     lib = open_library(db, create=True)
