@@ -278,12 +278,54 @@ def _path_to_mid(spec: Creature) -> list[dict]:
     return poses
 
 
+def _tipped(spec: Creature, frames: dict) -> dict:
+    """The pose ``frames`` after each free tree, held rigid, has tipped over on flat ground until
+    its centre of mass is above its support: it turns about its outermost lowest contact, towards
+    the centre of mass, until the next contact lands, and again while the centre of mass is
+    outside the contacts on the ground (a body balanced on one point falls over; the built-in
+    cart starts on its keel). The frames themselves where the plane is horizontal, gravity is
+    off or the ground is not flat."""
+    if spec.world.plane != "vertical" or spec.world.gravity <= 0 or spec.world.terrain.kind != "flat":
+        return frames
+    root, by_name, out = _tree_of(spec), {link.name: link for link in spec.links}, dict(frames)
+    for tree in dict.fromkeys(root.values()):
+        links = [link for link in spec.links if root[link.name] == tree]
+        pts = np.array([geometry.transform(frames[link.name], p) for link in links for p in link.contacts], float)
+        mass = sum(link.mass for link in links)
+        if by_name[tree].fixed or len(pts) < 2 or mass <= 0:
+            continue
+        com = sum(link.mass * np.array(geometry.transform(frames[link.name], link.com)) for link in links) / mass
+        turn, shift = 0.0, np.zeros(2)  # the rigid motion so far: p -> R(turn) p + shift
+        for _ in range(len(pts) + 1):
+            low = pts[:, 1] <= pts[:, 1].min() + 1e-9
+            left, right = pts[low, 0].min(), pts[low, 0].max()
+            side = 1.0 if com[0] > right + 1e-9 else -1.0 if com[0] < left - 1e-9 else 0.0
+            if side == 0.0:
+                break
+            pivot = np.array([right if side > 0 else left, pts[:, 1].min()])
+            r = pts - pivot
+            ahead = side * r[:, 0] > 1e-9  # contacts on the side it falls towards
+            if not ahead.any():
+                break  # nothing to land on: it rolls off its last contact
+            theta = -side * float(np.arctan2(r[ahead, 1], side * r[ahead, 0]).min())
+            rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+            pts, com = (pts - pivot) @ rot.T + pivot, rot @ (com - pivot) + pivot
+            turn, shift = turn + theta, rot @ (shift - pivot) + pivot
+        rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        for link in links:
+            x, y, a = frames[link.name]
+            nx, ny = rot @ np.array([x, y]) + shift
+            out[link.name] = (float(nx), float(ny), a + turn)
+    return out
+
+
 def at_rest(spec: Creature) -> list[Finding]:
     """Without simulating: whether any sensor is on in the start pose or on the way to the
     servos' mid targets (the pose every SAN drives the creature to while its sensors are off; see
     the module docstring). A warning when none is, which the simulation (:func:`simulate`)
-    settles for sure: the pose is the file's, before the creature settles; a touch sensor counts
-    as on when its contact is within 5 mm of its tree's lowest. Nothing is said of a creature
+    settles for sure: each pose is taken as the joints put it and again tipped over, held rigid,
+    onto its contacts (:func:`_tipped`); a touch sensor counts as on when its contact is within
+    5 mm of its tree's lowest. Nothing is said of a creature
     with linear actuators (where their mid targets put it needs a simulation), of one on rough
     terrain whose touch sensors decide, or of one whose eyes watch a follow point that moves
     (it may come into view however still the creature is)."""
@@ -291,7 +333,7 @@ def at_rest(spec: Creature) -> list[Finding]:
         return []
     if not spec.sensors:
         return [Finding("at rest", True, f"sensors at rest: it has no sensors, and {NO_BIAS}; {FIX}", {"on": []})]
-    values = [_on_in_pose(spec, frames) for frames in _path_to_mid(spec)]
+    values = [_on_in_pose(spec, f) for frames in _path_to_mid(spec) for f in (frames, _tipped(spec, frames))]
     if any(v is None for pose in values for v in pose):
         return []
     on = [s.name for i, s in enumerate(spec.sensors) if any(pose[i] for pose in values)]

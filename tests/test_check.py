@@ -5,6 +5,7 @@ deliberately broken files, none on the built-ins, and its JSON; a creature no SA
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -203,6 +204,29 @@ def test_a_creature_whose_sensors_are_all_off_at_rest_is_seen_without_simulating
     assert at_rest(loads(bent, "snake.toml"))[0].values == {"on": ["tail_left"]}
     assert at_rest(loads(SNAKE.split("[[sensors]]")[0] + SNAKE[SNAKE.index("[[actuators]]"):], "s.toml"))[0].message \
         .startswith("sensors at rest: it has no sensors")
+
+
+def test_a_pose_balanced_on_one_contact_tips_over_onto_the_next():
+    """A rod standing at 30 deg on its lower end falls flat, both ends on the ground (the
+    static check's settling, ``_tipped``), whichever way it leans; a bent two-link body falls
+    onto its hull and stops where its centre of mass is over the contacts it landed on."""
+    from sanlab.check import _tipped
+    from sanlab.creature import geometry
+
+    for lean in (30, 150):  # leaning right, then left
+        rod = loads(f'[[links]]\nname = "r"\nmass = 1\nshape = "segment"\npoints = [[0, 0], [0.5, 0]]\n'
+                    f'angle_deg = {lean}\n', "rod.toml")
+        t = _tipped(rod, geometry.initial_frames(rod))
+        ys = [geometry.transform(t["r"], p)[1] for p in rod.links[0].contacts]
+        assert ys == pytest.approx([0.0, 0.0], abs=1e-12)
+        assert math.cos(t["r"][2]) == pytest.approx(-1.0 if lean > 90 else 1.0)
+    bent = loads(BASE, "bent.toml")  # L1 upright on its end, L2 bent 45 deg off its top
+    t = _tipped(bent, geometry.initial_frames(bent))
+    pts = [geometry.transform(t[link.name], p) for link in bent.links for p in link.contacts]
+    low = min(y for _, y in pts)
+    feet = [x for x, y in pts if y < low + 1e-9]
+    com = sum(link.mass * geometry.transform(t[link.name], link.com)[0] for link in bent.links) / 0.2
+    assert len(feet) == 2 and min(feet) <= com <= max(feet)
 
 
 @pytest.mark.parametrize("name", builtin_names())
