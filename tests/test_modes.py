@@ -130,12 +130,13 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
 
 @pytest.mark.slow
 def test_a_1000_controller_cart_search_finds_at_least_five_modes(tmp_path):
-    """§6.1: the cart's five gaits in 1000 evaluations (Figure 12). Our cart (its geometry is a
-    guess: cart.toml) tips over but never cartwheels, so no mode is rolling: issue 30 redesigns it."""
+    """§6.1: the cart's five gaits in 1000 evaluations (Figure 12), one of them cartwheels (the
+    cart's shapes were designed for it: cart.toml says how)."""
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "1000", "--seed", "0", "--db", db, "--json"])
     run = json.loads(r.output)["run_id"]
     out = json.loads(CliRunner().invoke(app, ["modes", run, "--db", db, "--json"]).output)
     named = {m["name"].rstrip(" 0123456789") for m in out["modes"][:10]}
     assert len(out["modes"]) >= 5 and len(named) >= 3, named
+    assert "rolling" in {m["name"].rstrip(" 0123456789") for m in out["modes"]}, named
     assert all(math.isfinite(m["speed_cm_s"]) for m in out["modes"])

@@ -48,9 +48,9 @@ def test_cart_matches_figure_11():
     touch = [(s.name, s.kind, s.link, s.contact) for s in c.sensors[:4]]
     assert touch == [
         ("S1", "touch", "L1", 0),
-        ("S2", "touch", "L1", 1),
+        ("S2", "touch", "L1", 2),
         ("S3", "touch", "L2", 0),
-        ("S4", "touch", "L2", 1),
+        ("S4", "touch", "L2", 2),
     ]
     s5, s6 = c.sensors[4:]
     assert (s5.kind, s5.link, s6.kind, s6.link) == ("angle", "L2", "angle", "L2")
@@ -62,10 +62,14 @@ def test_cart_matches_figure_11():
     assert a1.ks == pytest.approx(0.002 * PER_DEG)  # N m/rad
     assert a1.kd == pytest.approx(0.0001 * PER_DEG)  # N m s/rad
     assert c.evaluation.metric == "distance"
-    # lying flat on the ground, every contact at y = 0
-    for link in c.links:
-        for p in link.contacts:
-            assert world_point(c, link.name, p)[1] == pytest.approx(0.0, abs=1e-12)
+    # standing on the blade's keel: one contact on the ground, none below it
+    ys = [world_point(c, link.name, p)[1] for link in c.links for p in link.contacts]
+    assert min(ys) == pytest.approx(0.0, abs=1e-4) and sorted(ys)[1] > 0.005
+    # S2 and S3 sit at the joint's ends of the two links, S1 and S4 at the free ends
+    joint = world_point(c, "L2", (0.0, 0.0))
+    at = lambda s: world_point(c, s.link, c.links[0 if s.link == "L1" else 1].contacts[s.contact])
+    near = [math.dist(at(s), joint) for s in c.sensors[:4]]
+    assert near[1] < 0.02 and near[2] < 0.02 and near[0] > 0.1 and near[3] > 0.1
 
 
 def test_bounder_design():
