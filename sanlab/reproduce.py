@@ -20,13 +20,24 @@ The job takes over an hour at the paper's budget, so it resumes: run the same ca
 same library and every creature whose search, tuning, audit or selection is already stored is
 taken from the library, and an interrupted search or tuning run continues where it stopped (the
 result is the same as an uninterrupted run's).
+
+A library holding every evaluation of a five-seed table is hundreds of megabytes, too large to
+keep beside the code, and the table takes longer than one sitting on a small machine; so each
+finished row (one creature, one seed) can also go to a *ledger* (``ledger=``, ``--ledger``), a
+JSON-lines file of a few kilobytes a row, kept under version control. A row the ledger holds for
+the same creature file, seed and budget is taken from it without the library, so the table is
+made in pieces on any machines and the last piece writes the whole report
+(``docs/table1.jsonl``, ``docs/table1.md``).
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -61,6 +72,9 @@ class Row:
     robust: dict | None = None  # the audited selection (``_select``); None: not made
     seed: int = 0
     tracking: dict | None = None  # the pursuit creatures' ``tracking`` result
+    robustness: dict | None = None  # the bounder's §6.2: {"gait", "grounds": ``robustness``}
+    ledger: bool = False  # taken from a ledger, not from this call's library
+    device: str = ""  # where it was made: "2 x cpu"
 
     @property
     def robust_speed(self) -> float:
@@ -229,6 +243,63 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
 
 
+def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens: Ensemble, top: int,
+            audit: bool) -> dict:
+    """What makes a row: the creature and the SHA-256 of its file's text (a changed file is
+    another creature), the seed and the budget."""
+    return {"creature": name, "creature_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
+            "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit}
+
+
+class Ledger:
+    """Finished rows, one JSON object a line: {"key": :func:`row_key`, "row": the :class:`Row`,
+    "sanlab": version, "made": UTC time}. Reading raises ValueError naming the file and line of
+    a line that is not such an object; a later line for the same key wins."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.rows: dict[str, Row] = {}
+        if not self.path.exists():
+            return
+        fields = set(Row.__dataclass_fields__)
+        for n, line in enumerate(self.path.read_text(encoding="utf-8").splitlines(), 1):
+            if not line.strip():
+                continue
+            try:
+                entry = json.loads(line)
+                key, row = entry["key"], dict(entry["row"])
+                if set(row) - fields:
+                    raise ValueError(f"unknown row fields {sorted(set(row) - fields)}")
+                row["counts"] = tuple(row["counts"])
+                self.rows[self._id(key)] = Row(**row)
+            except (ValueError, KeyError, TypeError, AttributeError) as e:
+                raise ValueError(f"{self.path}: line {n}: expected a ledger entry "
+                                 f'{{"key": {{...}}, "row": {{...}}}} ({type(e).__name__}: {e})') from None
+
+    @staticmethod
+    def _id(key: dict) -> str:
+        return json.dumps(key, sort_keys=True)
+
+    def get(self, key: dict) -> Row | None:
+        """The stored row of ``key`` (marked as taken from the ledger), or None."""
+        row = self.rows.get(self._id(key))
+        if row is None:
+            return None
+        return Row(**{**asdict(row), "counts": tuple(row.counts), "ledger": True})
+
+    def add(self, key: dict, row: Row) -> None:
+        """Append ``row`` under ``key`` (flushed at once: a killed job keeps every finished row)."""
+        from datetime import datetime, timezone
+
+        from sanlab import __version__
+
+        self.rows[self._id(key)] = row
+        entry = {"key": key, "row": {**asdict(row), "ledger": False}, "sanlab": __version__,
+                 "made": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")}
+        with self.path.open("a", encoding="utf-8") as f:
+            f.write(json.dumps(entry, sort_keys=True) + "\n")
+
+
 def parse_seeds(text: str) -> list[int]:
     """"0-4" -> [0, 1, 2, 3, 4]; "0,2,7" -> [0, 2, 7]; "3" -> [3] (ranges and lists mix: "0-2,9").
     Raises ValueError naming what was expected."""
@@ -257,7 +328,7 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
-              top: int | None = None) -> str:
+              top: int | None = None, ledger: str | Path | None = None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -273,26 +344,33 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
 
     Resumable: what ``lib`` already holds from an earlier call with the same arguments (a
     finished search, tuning run or audit) is reused, and an interrupted search or tuning run
-    continues (see the module docstring). Raises LibraryError and ValueError as ``run_search``
-    and ``tune`` do, and ValueError for a ``top`` :func:`chains` refuses; KeyboardInterrupt leaves every
-    stored evaluation in the library."""
+    continues (see the module docstring); a row the ``ledger`` file holds for the same creature
+    file, seed and budget is taken from it, and every row made is appended to it
+    (:class:`Ledger`). Raises LibraryError and ValueError as ``run_search`` and ``tune`` do,
+    ValueError for a ``top`` :func:`chains` refuses or a malformed ledger; KeyboardInterrupt
+    leaves every stored evaluation in the library and every finished row in the ledger."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
+    book = Ledger(ledger) if ledger is not None else None
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []
-    extras: dict = {}
     t_all = time.perf_counter()
     for sd in seeds:
         for name in creatures:
-            row = _creature(lib, name, sd, controllers, trials, ens, audit, top)
+            key = row_key(name, read_source(name)[0], sd, controllers, trials, ens, top, audit)
+            row = book.get(key) if book is not None else None
+            if row is None:
+                row = _creature(lib, name, sd, controllers, trials, ens, audit, top)
+                if name == "bounder":
+                    shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
+                    row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
+                if book is not None:
+                    book.add(key, row)
             rows.append(row)
             log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
-                f"robust: {_robust(row.robust)} ({row.wall:.0f} s)")
-            if name == "bounder":
-                shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
-                extras.setdefault("robustness", {})[sd] = (shown, robustness(lib, shown))
-    return markdown(rows, extras, seeds, controllers, trials, time.perf_counter() - t_all, ens, top)
+                f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
+    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top)
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
@@ -322,6 +400,9 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     if spec.evaluation.metric == "pursuit":
         shown = robust["gait"] if robust and robust["gait"] else tuned.gait_id
         row.tracking = tracking(lib, run_id, shown)
+    import jax
+
+    row.device = f"{len(jax.devices())} x {jax.devices()[0].platform}"
     row.wall = time.perf_counter() - t0
     return row
 
@@ -426,10 +507,11 @@ def summary(rows: list[Row], seeds: list[int]) -> list[str]:
     return lines
 
 
-def markdown(rows: list[Row], extras: dict, seeds: list[int] | int, controllers: int, trials: int, total: float,
+def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: int, total: float,
              ensemble: int | Ensemble = 8, top: int = 1) -> str:
     """The report: for several seeds the table over seeds first, then each seed's table, the
-    tracking (§6) and the bounder's robustness (§6.2) sections."""
+    tracking (§6) and the bounder's robustness (§6.2) sections. ``total``: this call's wall
+    time (s); rows taken from a ledger add the wall times they were made in."""
     import jax
 
     from sanlab import __version__
@@ -446,7 +528,9 @@ def markdown(rows: list[Row], extras: dict, seeds: list[int] | int, controllers:
         f"sanlab {__version__}, {which}, {controllers} random SANs per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min.",
+        + (f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else
+           f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in rows}))}: their wall times sum "
+           f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",
     ]
     if len(seeds) > 1:
@@ -485,10 +569,12 @@ def markdown(rows: list[Row], extras: dict, seeds: list[int] | int, controllers:
             for label, v in (r.tracking or {}).items():
                 lines.append(f"| {r.creature} | {r.seed} | {label} (`{v['gait']}`) | {v['mean_distance_m']:.3f} "
                              f"| {v['pursuit']:.3f} |")
-    if "robustness" in extras:
+    robust_rows = [r for r in rows if r.robustness]
+    if robust_rows:
         lines += ["", "## Robustness (§6.2): the tuned flat-ground bounder gait on other ground", "",
                   "| seed | gait | ground | time (s) | distance (m, ensemble median) | fell |", "|---|---|---|---|---|---|"]
-        for sd, (gait, res) in extras["robustness"].items():
+        for r in robust_rows:
+            sd, gait, res = r.seed, (r.robustness or {})["gait"], (r.robustness or {})["grounds"]
             for name, v in res.items():
                 lines.append(f"| {sd} | `{gait}` | {name} | {v['seconds']:g} | {v['distance_m']:.2f} "
                              f"| {'yes' if v['fell'] else 'no'} |")

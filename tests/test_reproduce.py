@@ -158,3 +158,76 @@ def test_reproduce_over_seeds_spreads_phase_two_over_the_top_gaits(tmp_path):
         assert summary_row(again)[:9] == summary_row(text)[:9]  # all but the wall time
         assert summary_row(again)[9].strip().endswith("(resumed)") and "resumed" not in summary_row(text)[9]
         assert {r.run_id: r.status for r in lib.runs()} == runs  # nothing run again
+
+
+def _made_row(seed: int, speed: float | None) -> "Row":
+    from sanlab.reproduce import Row
+
+    robust = {"gait": None if speed is None else f"r{seed}#1", "speed": speed, "trial": 3, "worst": 0.01, "candidates": 4}
+    return Row("twolink", (2, 6, 1, 5), 12.0, f"s{seed}", 10.0, 15.0, f"t{seed}#0", 0.2, 60.0, "distance",
+               {"verdict": "robust", "changes": {"dt/2": 0.01}}, False, robust, seed=seed, device="2 x cpu")
+
+
+def test_a_ledger_gives_back_the_rows_it_was_given_and_names_a_bad_line(tmp_path):
+    from sanlab.creature import read_source
+    from sanlab.evaluate.ensemble import default_ensemble
+    from sanlab.reproduce import Ledger, row_key
+
+    text = read_source("twolink")[0]
+    ens = default_ensemble(8)
+    keys = [row_key("twolink", text, sd, 200, 1000, ens, 4, True) for sd in (0, 1)]
+    path = tmp_path / "rows.jsonl"
+    book = Ledger(path)
+    assert book.get(keys[0]) is None
+    book.add(keys[0], _made_row(0, 14.0))
+    book.add(keys[1], _made_row(1, None))
+    again = Ledger(path)  # read back from the file
+    for sd, key in enumerate(keys):
+        got = again.get(key)
+        assert got is not None and got.ledger and got.seed == sd and got.counts == (2, 6, 1, 5)
+        assert got.robust == _made_row(sd, 14.0 if sd == 0 else None).robust and got.device == "2 x cpu"
+    # another creature file, budget or ensemble is another row
+    assert again.get(row_key("twolink", text + "\n# changed\n", 0, 200, 1000, ens, 4, True)) is None
+    assert again.get(row_key("twolink", text, 0, 200, 1000, default_ensemble(4), 4, True)) is None
+    assert again.get(row_key("twolink", text, 0, 200, 500, ens, 4, True)) is None
+    with path.open("a") as f:
+        f.write('{"key": {}, "row": {"creature": "x", "bogus": 1}}\n')
+    with pytest.raises(ValueError, match=r"rows.jsonl: line 3: expected a ledger entry"):
+        Ledger(path)
+
+
+def test_reproduce_refuses_a_malformed_ledger_before_any_run(tmp_path):
+    from typer.testing import CliRunner
+
+    from sanlab.cli import app
+
+    bad, db = tmp_path / "rows.jsonl", tmp_path / "g.db"
+    bad.write_text("not json\n")
+    r = CliRunner().invoke(app, ["reproduce", "--creatures", "cart", "--ledger", str(bad), "--db", str(db)])
+    assert r.exit_code == 2 and "rows.jsonl: line 1: expected a ledger entry" in r.stderr, r.output
+    assert len(r.stderr.strip().splitlines()) == 1 and not db.exists()
+
+
+@pytest.mark.slow  # phase 1 and 2 of the two-link chain on a tiny budget, then the same from the ledger
+def test_a_table_made_in_pieces_is_the_table_made_at_once(tmp_path):
+    """Rows in the ledger are taken from it without the library: a second call on an empty
+    library runs nothing and writes the same tables; the bounder's §6.2 section travels too."""
+    import sanlab
+    from sanlab.reproduce import reproduce
+
+    sanlab.configure()
+    ledger = tmp_path / "rows.jsonl"
+    kw = dict(controllers=6, trials=4, ensemble=1, audit=False, top=1, log=lambda s: None, ledger=ledger)
+    with Library(str(tmp_path / "a.db")) as lib:
+        first = reproduce(lib, ["twolink", "bounder"], seeds=[0, 1], **kw)
+    assert len(ledger.read_text().splitlines()) == 4
+    with Library(str(tmp_path / "b.db")) as lib:
+        second = reproduce(lib, ["twolink", "bounder"], seeds=[0, 1], **kw)
+        assert lib.runs() == []  # nothing run: every row came from the ledger
+    body = lambda t: t.split("\n", 3)[3]  # all but the heading line with the wall time
+    assert body(second) == body(first) and "## Robustness" in second and "rows made in pieces" in second
+    assert len(ledger.read_text().splitlines()) == 4  # nothing appended again
+    with Library(str(tmp_path / "b.db")) as lib:  # a new seed is made and appended; the others still come from the file
+        reproduce(lib, ["twolink"], seeds=[0, 2], **kw)
+        assert sorted(r.seed for r in lib.runs()) == [2, 2]
+    assert len(ledger.read_text().splitlines()) == 5

@@ -36,11 +36,12 @@ def reproduce(
     dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
     audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4, float64) and print the audit beside its speed.")] = True,
+    ledger: Annotated[str | None, typer.Option(help="JSON-lines file of finished rows: a row it holds is taken from it, each new one appended (a table made in pieces).")] = None,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report.
 
-    Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped."""
+    Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped; with --ledger, finished rows are kept in a small file that travels without the library."""
     configure()
     from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run
@@ -64,10 +65,20 @@ def reproduce(
             check_run_args(spec, controllers=controllers, trials=trials // top, seed=sd, top=top)
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
+    if ledger is not None:
+        from sanlab.reproduce import Ledger
+
+        try:
+            Ledger(ledger)  # a malformed ledger is refused before any work
+        except (ValueError, OSError) as e:
+            raise fail(f"--ledger: {safe(str(e))}") from None
+        if not os.path.isdir(os.path.dirname(os.path.abspath(ledger))):
+            raise fail(f"--ledger {safe(ledger)}: directory {safe(os.path.dirname(os.path.abspath(ledger)))} does not exist")
     lib = open_library(db, create=True)
     try:
         report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
-                                          log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top))
+                                          log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
+                                          ledger=ledger))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None

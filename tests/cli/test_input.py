@@ -465,6 +465,7 @@ def test_the_progress_bar_shows_an_estimate_of_the_time_left():
     (["--top", "5", "--trials", "4"], "--top: expected 1 to 4"),
     (["--seeds", "4-2"], "--seeds 4-2: expected a range"),
     (["--seeds", "0-1", "--seed", "3"], "not both"),
+    (["--ledger", "/nonexistent/rows.jsonl"], "--ledger /nonexistent/rows.jsonl: directory /nonexistent does not exist"),
 ])  # fmt: skip
 def test_reproduce_checks_every_argument_before_a_run(tmp_path, args, words):
     db = tmp_path / "g.db"
