@@ -160,7 +160,7 @@ def test_reproduce_over_seeds_spreads_phase_two_over_the_top_gaits(tmp_path):
         assert {r.run_id: r.status for r in lib.runs()} == runs  # nothing run again
 
 
-def _made_row(seed: int, speed: float | None) -> "Row":
+def _made_row(seed: int, speed: float | None):
     from sanlab.reproduce import Row
 
     robust = {"gait": None if speed is None else f"r{seed}#1", "speed": speed, "trial": 3, "worst": 0.01, "candidates": 4}

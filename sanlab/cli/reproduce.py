@@ -36,12 +36,13 @@ def reproduce(
     dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
     audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4, float64) and print the audit beside its speed.")] = True,
-    ledger: Annotated[str | None, typer.Option(help="JSON-lines file of finished rows: a row it holds is taken from it, each new one appended (a table made in pieces).")] = None,
+    ledger: Annotated[str | None, typer.Option(help="JSON-lines file of finished rows: a row it holds is reused, a new one appended.")] = None,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report.
 
-    Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped; with --ledger, finished rows are kept in a small file that travels without the library."""
+    Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped.
+    With --ledger, finished rows are kept in a small file that travels without the library (a table made in pieces)."""
     configure()
     from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run

@@ -216,8 +216,8 @@ def gaits(tmp_path_factory) -> tuple[str, dict[str, str]]:
     ids = {}
     with Library(db) as lib:
         for creature, kind, idx, params in (
-            ("cart", "search", 6, {"delay_on": 0.1, "delay_off": 0.1}),
-            ("cart", "tune", 1, {**_rates(6), "model": {"act_min": [-2.0], "act_max": [2.3],
+            ("cart", "search", 8, {"delay_on": 0.1, "delay_off": 0.1}),
+            ("cart", "tune", 34, {**_rates(6), "model": {"act_min": [-2.0], "act_max": [2.3],
                                                         "sens_min": [0, 0, 0, 0, -3.0, 2.0],
                                                         "sens_max": [0, 0, 0, 0, -1.9, 3.1]}}),
             ("crawler", "search", 1, {"delay_on": 0.12, "delay_off": 0.09}),

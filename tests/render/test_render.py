@@ -28,9 +28,16 @@ def _near(img: np.ndarray, u: float, v: float, color, r: int = 1, tol: int = 40)
     return any(_close(p, color, tol) for p in patch)
 
 
+def _axis(scene) -> tuple[np.ndarray, np.ndarray]:
+    """The ends of the root link's long axis (link frame): a segment's two points, or the cart's
+    outline's A and B (vertices 0 and 2 of A, D, B, C: cart.toml), inside the filled outline."""
+    p = scene.shape_points(0)
+    return p[0], p[len(p) // 2]
+
+
 def _root_samples(scene, frame: int, view: View):
-    """Pixels on the root link (L1, a segment) at 30 %, 50 % and 70 % of its length."""
-    a, b = scene.shape_points(0)
+    """Pixels on the root link (L1) at 30 %, 50 % and 70 % of its long axis."""
+    a, b = _axis(scene)
     pts = scene.to_world(frame, 0, [a + t * (b - a) for t in (0.3, 0.5, 0.7)])
     return list(zip(*view.px(pts[:, 0], pts[:, 1])))
 
@@ -173,8 +180,8 @@ def test_link_outlines_follow_tuned_length_scales(scene1):
     big = dataclasses.replace(scene1, scale=np.array([2.0, 1.0]), _cache={})
     assert np.allclose(big.shape_points(0), 2 * scene1.shape_points(0))
     assert np.allclose(big.shape_points(1), scene1.shape_points(1))
-    ends = big.to_world(0, 0, big.shape_points(0))
-    assert np.hypot(*(ends[1] - ends[0])) == pytest.approx(0.4, rel=1e-5)  # L1 is 0.2 m long
+    ends = big.to_world(0, 0, np.stack(_axis(big)))
+    assert np.hypot(*(ends[1] - ends[0])) == pytest.approx(2 * 0.136, rel=1e-5)  # L1's axis is 13.6 cm long
     assert big.outline_points().shape == scene1.outline_points().shape
 
 
