@@ -328,7 +328,7 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
-              top: int | None = None, ledger: str | Path | None = None) -> str:
+              top: int | None = None, ledger: str | Path | None = None, command: str | None = None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -348,7 +348,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     file, seed and budget is taken from it, and every row made is appended to it
     (:class:`Ledger`). Raises LibraryError and ValueError as ``run_search`` and ``tune`` do,
     ValueError for a ``top`` :func:`chains` refuses or a malformed ledger; KeyboardInterrupt
-    leaves every stored evaluation in the library and every finished row in the ledger."""
+    leaves every stored evaluation in the library and every finished row in the ledger.
+    ``command``: the command line that made the report, named at its top."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = Ledger(ledger) if ledger is not None else None
@@ -370,7 +371,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             rows.append(row)
             log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
                 f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
-    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top)
+    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command)
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
@@ -508,7 +509,7 @@ def summary(rows: list[Row], seeds: list[int]) -> list[str]:
 
 
 def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: int, total: float,
-             ensemble: int | Ensemble = 8, top: int = 1) -> str:
+             ensemble: int | Ensemble = 8, top: int = 1, command: str | None = None) -> str:
     """The report: for several seeds the table over seeds first, then each seed's table, the
     tracking (§6) and the bounder's robustness (§6.2) sections. ``total``: this call's wall
     time (s); rows taken from a ledger add the wall times they were made in."""
@@ -523,8 +524,10 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
               f"then {trials} simulated-annealing trials spread over the best {top} ({trials // top} each, "
               f"as parallel chains; each row quotes the chain with the best robust speed)")
     lines = [
+        *([f"<!-- made by: {command} -->"] if command else []),
         "# Table 1, reproduced",
         "",
+        *([f"Made by `{command}`.", ""] if command else []),
         f"sanlab {__version__}, {which}, {controllers} random SANs per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
@@ -533,6 +536,9 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
            f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",
     ]
+    missing = [n for n in TABLE1 if n not in {r.creature for r in rows}]
+    if missing:
+        lines += [f"Not in this report: {', '.join(missing)} (Table 1's other creatures).", ""]
     if len(seeds) > 1:
         lines += [f"## Over {len(seeds)} seeds", ""] + summary(rows, seeds) + [
             "", "*Robust tuned speed*: each seed's audited selection (below); a seed where no rung of the "

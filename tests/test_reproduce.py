@@ -24,6 +24,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
     subprocess.run(SANLAB + ["reproduce", "--creatures", "twolink,fish", "--controllers", "8", "--trials", "16",
                              "--seed", "3", "--ensemble", "1", "--no-audit", "--top", "1", "--out", str(out), "--db", str(db)], check=True, capture_output=True)
     text = out.read_text()
+    assert text.startswith("<!-- made by: sanlab reproduce --creatures twolink,fish --controllers 8 --trials 16")
     rows = _rows(text)
     assert set(rows) == {"twolink", "fish"}
     with Library(str(db)) as lib:

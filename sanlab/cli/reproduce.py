@@ -25,6 +25,17 @@ from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
 
 
+def _command_line() -> str | None:
+    """This call as typed (``sanlab reproduce ...``), for the report to name; None when the
+    process was not started as ``sanlab reproduce`` (a test's runner)."""
+    import shlex
+    import sys
+
+    if sys.argv[1:2] != ["reproduce"]:
+        return None
+    return shlex.join(["sanlab", *sys.argv[1:]])
+
+
 def reproduce(
     creatures: Annotated[str | None, typer.Option(help="Comma-separated names (default: all of Table 1 that are built in).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
@@ -79,7 +90,7 @@ def reproduce(
     try:
         report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                           log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
-                                          ledger=ledger))
+                                          ledger=ledger, command=_command_line()))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None
