@@ -4,19 +4,23 @@ of gaits, the best one found in each cell of a grid over two behaviour descripto
 The archive is pyribs' ``GridArchive`` over ``problem.grid`` (``sanlab.descriptors``: signed speed,
 airborne fraction, turns per second, ...), its objective the evaluation's score. The search runs
 in generations of ``problem.generation`` controllers: those of the first tenth of the budget (at
-least one generation) are random SANs, as phase 1's (§5.2); each later one is an elite of the
+least one generation) are random SANs, as phase 1's (§5.2), the first of them setting the grid's
+open ranges (:func:`resolve`); each later one is an elite of the
 archive with a few of its integer weights changed (each by +-1 or redrawn in [-2, 2]), the
-elite picked with a chance proportional to 1 / (1 + the filled cells around its own), so the
-archive's frontier is pushed more often than its crowded middle; half of them are first moved
-along the line towards a second elite picked the same way (:func:`line`, the line step of
-Iso+LineDD), which steps where elites differ rather than anywhere. A generation is inserted into
-the archive, in index order, once all its scores are in.
+elite picked with a chance proportional to 2 ** curiosity / (1 + the filled cells around its
+own): the archive's frontier is pushed more often than its crowded middle, and an elite whose
+children entered the archive (curiosity + 1 each) more often than not (- 1/2 each) more often
+than one whose children did not (the curiosity score of Cully & Demiris 2018, "Quality and
+diversity optimization: a unifying modular framework", clipped to +-4). Half of the mutants
+are first moved along the line towards a second elite picked the same way (:func:`line`, the
+line step of Iso+LineDD), which steps where elites differ rather than anywhere. A generation is
+inserted into the archive, in index order, once all its scores are in.
 
 Exact resumption: controller ``idx`` draws its parent and its mutation from a stream of its own
-(seed, idx), and a generation only reads the archive of the generations before it, so the
-archive rebuilt from the stored evaluations (:func:`rebuild`) gives a resumed run the same
-candidates, and the same rows, as an uninterrupted one. A mutant is stored with its parent's
-index (``extra["parent_idx"]``).
+(seed, idx), and a generation only reads the archive (and the curiosity) of the generations
+before it, so the archive rebuilt from the stored evaluations (:func:`rebuild`), each mutant
+stored with its parent's index (``extra["parent_idx"]``), gives a resumed run the same
+candidates, and the same rows, as an uninterrupted one.
 """
 
 from __future__ import annotations
@@ -37,10 +41,12 @@ if TYPE_CHECKING:
     from sanlab.library import Library
 
 STREAM = 0x4D45  # names MAP-Elites' own random streams ("ME")
-INITIAL_SHARE = 0.1  # of the budget: random SANs before any mutation
 MEAN_CHANGES = 2.0  # weights changed per mutation, on average (at least one)
+INITIAL_SHARE = 0.1  # of the budget: random SANs before any mutation
 LINE_SHARE = 0.5  # of the mutants: first moved along the line to a second elite (Iso+LineDD)
 LINE_SIGMA = 0.5  # the line step's spread, in units of the two elites' difference
+CURIOSITY_UP, CURIOSITY_DOWN = 1.0, 0.5  # an elite's curiosity: + when its child enters the archive, - when not
+CURIOSITY_CAP = 4.0  # a parent's weight is multiplied by 2 ** curiosity, curiosity clipped to +-CAP
 
 
 class MapElites:
@@ -59,7 +65,8 @@ class MapElites:
         self.archive: Any = None  # made when the first generation is in (its ranges may come from it)
         self._gen = 0  # the generation being asked and told
         self._todo: list[int] = list(self._indices(0))
-        self._results: dict[int, tuple[np.ndarray, float, np.ndarray | None]] = {}
+        self._results: dict[int, tuple[np.ndarray, float, np.ndarray | None, int | None]] = {}
+        self._curiosity: dict[int, float] = {}  # elite idx -> how often its children entered the archive
         self._parents: dict[int, int] = {}  # idx -> its parent's, for the candidates in flight
         self._pick: tuple | None = None  # (generation, elites, chances) of the parents' draw
         self._pending = 0
@@ -90,8 +97,11 @@ class MapElites:
             for i in idx:
                 if i in by_idx:
                     e = by_idx[i]
+                    extra = e.extra or {}
+                    parent = extra.get("parent_idx")
                     self._results[i] = (san.decode(e.encoding), _objective(e.score, e.nonfinite),
-                                        measures(self.grid, (e.extra or {}).get("descriptors")))
+                                        measures(self.grid, extra.get("descriptors")),
+                                        None if parent is None else int(parent))
             if len(self._results) < len(idx):
                 self._todo = [i for i in idx if i not in self._results]
                 return
@@ -99,14 +109,21 @@ class MapElites:
 
     def _insert(self) -> None:
         """The finished generation into the archive (in index order), and the next one set up."""
-        ok = [(i, w, f, m) for i, (w, f, m) in sorted(self._results.items()) if m is not None]
+        done = sorted(self._results.items())
+        ok = [(i, w, f, m) for i, (w, f, m, _) in done if m is not None]
         if self.archive is None:
             self.grid = resolve(self.grid, [m for _, _, _, m in ok])
             self.archive = archive(self.grid, self.problem.san.n_weights)
+        entered = {}
         if ok:
-            self.archive.add(np.stack([w.reshape(-1) for _, w, _, _ in ok]).astype(np.float64),
-                             np.array([f for _, _, f, _ in ok]), np.stack([m for _, _, _, m in ok]),
-                             idx=np.array([i for i, _, _, _ in ok], np.int64))
+            info = self.archive.add(np.stack([w.reshape(-1) for _, w, _, _ in ok]).astype(np.float64),
+                                    np.array([f for _, _, f, _ in ok]), np.stack([m for _, _, _, m in ok]),
+                                    idx=np.array([i for i, _, _, _ in ok], np.int64))
+            entered = {i: bool(st > 0) for (i, _, _, _), st in zip(ok, info["status"], strict=True)}
+        for i, (_, _, _, parent) in done:  # curiosity (Cully & Demiris 2018): did the child enter?
+            if parent is not None:
+                c = self._curiosity.get(parent, 0.0)
+                self._curiosity[parent] = c + CURIOSITY_UP if entered.get(i, False) else c - CURIOSITY_DOWN
         self._results = {}
         self._gen += 1
         self._todo = list(self._indices(self._gen))
@@ -149,7 +166,9 @@ class MapElites:
         for shift in np.ndindex(*(3,) * n):
             if any(d != 1 for d in shift):
                 around += pad[tuple(slice(d, d + b) for d, b in zip(shift, self.grid.bins, strict=True))]
-        w = 1.0 / (1.0 + around[tuple(cells.T)])
+        # ... and one whose children entered the archive more often than not (its curiosity)
+        c = np.array([self._curiosity.get(int(i), 0.0) for i in elites["idx"]])
+        w = 1.0 / (1.0 + around[tuple(cells.T)]) * 2.0 ** np.clip(c, -CURIOSITY_CAP, CURIOSITY_CAP)
         chance = w / w.sum()
         self._pick = (self._gen, elites, chance)
         return elites, chance
@@ -164,7 +183,8 @@ class MapElites:
             if c.idx in self._parents:
                 extra["parent_idx"] = self._parents.pop(c.idx)
             rows.append(EvaluationRow(p.run_id, c.idx, p.san.encode(c.weights), p.gait_params, s, extra))
-            self._results[c.idx] = (np.asarray(c.weights), _objective(s.score, s.nonfinite), m)
+            self._results[c.idx] = (np.asarray(c.weights), _objective(s.score, s.nonfinite), m,
+                                    extra.get("parent_idx"))
         self._pending -= len(candidates)
         self._stored += len(candidates)
         if len(scores):

@@ -68,6 +68,31 @@ def test_an_open_range_is_three_times_the_first_generation_extent():
     assert flat.ranges[0] == (-3.0, 7.0)
 
 
+def test_curiosity_counts_each_parent_s_children_that_entered_the_archive():
+    from sanlab.search.base import Problem
+    from sanlab.search.map_elites import CURIOSITY_DOWN, CURIOSITY_UP, MapElites
+    from tests.search.test_strategies import SPACE, synthetic
+
+    grid = Grid(("vx_cm_s", "airborne"), ((-0.5, 0.5), (0.25, 0.75)), (4, 4))
+    me = MapElites(Problem("r", SPACE.san, 48, seed=3, grid=grid, generation=8))
+    rows = []
+    while not me.done:
+        cands = me.ask(8)
+        rows += me.tell(cands, synthetic(cands)).evaluations
+        if me._gen == 3:  # after three generations: the curiosity of two generations of mutants
+            children = [r for r in rows if "parent_idx" in r.extra]
+            assert children and all(r.idx >= 8 for r in children)  # the first tenth (one generation) is random
+            assert sum(me._curiosity.values()) != 0
+            counts = {}
+            for r in children:
+                counts.setdefault(r.extra["parent_idx"], 0)
+                counts[r.extra["parent_idx"]] += 1
+            for parent, c in me._curiosity.items():  # each child moved its parent's curiosity once
+                n = counts[parent]
+                ups = (c + CURIOSITY_DOWN * n) / (CURIOSITY_UP + CURIOSITY_DOWN)
+                assert abs(ups - round(ups)) < 1e-9 and 0 <= round(ups) <= n
+            assert set(me._curiosity) == set(counts)
+
 
 @pytest.mark.slow
 def test_a_killed_map_elites_search_resumes_to_the_same_rows_and_archive(tmp_path):
