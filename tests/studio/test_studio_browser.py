@@ -94,9 +94,10 @@ def test_playback_draws_the_root_link_where_the_recorded_trajectory_puts_it(page
     root = np.asarray(sim.poses(model, q[k])["links"])[0]
     assert drawn["t"] == pytest.approx(float(r.frames.t[k]), abs=1e-6)
     assert drawn["root"] == pytest.approx(root.tolist(), abs=1e-4)
-    # ... and the pixels: the middle of the root link (a segment) is drawn in the root's navy
-    a, b = (np.asarray(p) for p in g.spec.links[0].shape.points)
-    mid = (a + b) / 2
+    # ... and the pixels: the middle of the root link's long axis (a segment's ends, or the
+    # cart outline's A and B, vertices 0 and 2 of A, D, B, C) is drawn in the root's navy
+    pts = np.asarray(g.spec.links[0].shape.points)
+    mid = (pts[0] + pts[len(pts) // 2]) / 2
     c, s = math.cos(root[2]), math.sin(root[2])
     x, y = root[0] + c * mid[0] - s * mid[1], root[1] + s * mid[0] + c * mid[1]
     # read in one go with the draw it belongs to: the page may have redrawn the same frame at
