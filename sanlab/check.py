@@ -294,7 +294,7 @@ def _tipped(spec: Creature, frames: dict) -> dict:
         mass = sum(link.mass for link in links)
         if by_name[tree].fixed or len(pts) < 2 or mass <= 0:
             continue
-        com = sum(link.mass * np.array(geometry.transform(frames[link.name], link.com)) for link in links) / mass
+        com = np.sum([link.mass * np.array(geometry.transform(frames[link.name], link.com)) for link in links], axis=0) / mass
         turn, shift = 0.0, np.zeros(2)  # the rigid motion so far: p -> R(turn) p + shift
         for _ in range(len(pts) + 1):
             low = pts[:, 1] <= pts[:, 1].min() + 1e-9
