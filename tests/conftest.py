@@ -53,3 +53,29 @@ def bounder_run(tmp_path_factory):
     with Library(str(db)) as lib:
         run_id = run_search(lib, text, where, controllers=64, seconds=2.0, seed=1, batch=64)
     return db, run_id
+
+
+if __import__("os").environ.get("SANLAB_COMPILE_LOG"):
+    # Where the suite's time goes (issue 33): each test's seconds of JAX tracing, lowering and
+    # XLA compilation, one JSON line a test, appended to $SANLAB_COMPILE_LOG by every worker.
+    import json
+    import os
+    import time
+
+    import jax.monitoring
+
+    _spent: dict[str, float] = {}
+
+    def _count(event: str, duration_secs: float, **_) -> None:
+        if event.startswith("/jax/core/compile/") or event.startswith("/jax/compilation_cache/"):
+            _spent[event] = _spent.get(event, 0.0) + duration_secs
+
+    jax.monitoring.register_event_duration_secs_listener(_count)
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_protocol(item, nextitem):
+        _spent.clear()
+        t0 = time.perf_counter()
+        yield
+        with open(os.environ["SANLAB_COMPILE_LOG"], "a") as f:
+            f.write(json.dumps({"test": item.nodeid, "wall": time.perf_counter() - t0, **_spent}) + "\n")

@@ -79,22 +79,26 @@ def test_starts_at_rest_on_the_ground(name):
     assert depth.max() == pytest.approx(0.0, abs=1e-4)
 
 
-# Both tests below roll out batches of 256 for 6 s with the creature's own metric, exactly as a
-# search does, so each creature's program is compiled once and shared by the two.
 SECONDS, BATCH = 6.0, 256
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_200_random_networks_stay_finite_for_6_s(name):
+def test_1000_random_networks_stay_finite_for_6_s(name):
+    """Every built-in under 1000 random SANs for 6 s, in batches of 256 (one compiled program
+    for the four): no NaN, and the ground stays stiff (the first 200 sink at most 2 cm, every
+    one at most 5 cm)."""
     spec = load(name)
     san = San.for_creature(spec)
-    W = np.stack([san.random_weights(5, i) for i in range(200)])
-    p = san.params(W, spec.san.delay_on, spec.san.delay_off, "float32")
-    metric = Metric.for_creature(spec)
-    r = sim.rollout(sim.compile_creature(spec), san, p, SECONDS, observer=metric, pad_to=BATCH)
-    assert bool(np.all(np.asarray(r.finite)))
-    assert np.isfinite(np.asarray(r.state.q)).all()
-    assert float(np.max(r.max_depth)) < 0.02  # penetration stays around a centimetre or less
+    model, metric = sim.compile_creature(spec), Metric.for_creature(spec)
+    depth = []
+    for first in range(0, 1000, BATCH):
+        W = np.stack([san.random_weights(5, i) for i in range(first, min(1000, first + BATCH))])
+        p = san.params(W, spec.san.delay_on, spec.san.delay_off, "float32")
+        r = sim.rollout(model, san, p, SECONDS, observer=metric, pad_to=BATCH)
+        assert bool(np.all(np.asarray(r.finite)))
+        assert np.isfinite(np.asarray(r.state.q)).all()
+        depth += list(np.asarray(r.max_depth))
+    assert max(depth[:200]) < 0.02 and max(depth) < 0.05  # penetration stays around a centimetre or less
 
 
 @pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
