@@ -21,7 +21,7 @@ Members at several steps (``dt_factors``, issue 28: an objective the step cannot
 member 1 at dt/2, member 2 at dt, ...), each simulating the same time (a member at dt/2 runs
 twice the steps), and the evaluation scores the *lower* of the two groups' medians, so a gait
 that only moves at one step size cannot raise its score: tuning at dt alone learns the 1 ms step
-(the walker of ``docs/table1.md``, 114 cm/s at dt and 23 at dt/4). The group with the lower median
+(the walker of ``docs/table1-seed0-before-issue-28.md``, 114 cm/s at dt and 23 at dt/4). The group with the lower median
 score gives the evaluation's speed and distance too. One step factor (``(1.0,)``) is plain
 scoring, and what every run stored before this option existed reads as.
 
