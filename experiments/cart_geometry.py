@@ -30,7 +30,10 @@ twice).
     python experiments/cart_geometry.py --out cart_geometry.jsonl --write best_cart.toml
 
 The second form writes the best candidate as a creature file (the built-in cart's geometry came
-from such a file; its comments say which run).
+from such a file; its comments say which run). ``cart_geometry.jsonl`` beside this script holds
+the run behind the built-in cart (``--candidates 96 --rounds 3``, seed 0, made again on
+2026-12-03 to the same result: 288 shapes, median held-out speed 11.5, 16.2 and 20.8 cm/s in
+rounds 0, 1 and 2, the best round 2's candidate 13 at 42.6 cm/s).
 """
 
 from __future__ import annotations
