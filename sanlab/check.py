@@ -278,6 +278,10 @@ def _path_to_mid(spec: Creature) -> list[dict]:
     return poses
 
 
+def _rotation(theta: float) -> np.ndarray:
+    return np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+
+
 def _tipped(spec: Creature, frames: dict) -> dict:
     """The pose ``frames`` after each free tree, held rigid, has tipped over on flat ground until
     its centre of mass is above its support: it turns about its outermost lowest contact, towards
@@ -308,10 +312,10 @@ def _tipped(spec: Creature, frames: dict) -> dict:
             if not ahead.any():
                 break  # nothing to land on: it rolls off its last contact
             theta = -side * float(np.arctan2(r[ahead, 1], side * r[ahead, 0]).min())
-            rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+            rot = _rotation(theta)
             pts, com = (pts - pivot) @ rot.T + pivot, rot @ (com - pivot) + pivot
             turn, shift = turn + theta, rot @ (shift - pivot) + pivot
-        rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        rot = _rotation(turn)
         for link in links:
             x, y, a = frames[link.name]
             nx, ny = rot @ np.array([x, y]) + shift

@@ -328,7 +328,7 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
-              top: int | None = None, ledger: str | Path | None = None, command: str | None = None) -> str:
+              top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -352,7 +352,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ``command``: the command line that made the report, named at its top."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
-    book = Ledger(ledger) if ledger is not None else None
+    book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []

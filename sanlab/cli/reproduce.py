@@ -77,11 +77,12 @@ def reproduce(
             check_run_args(spec, controllers=controllers, trials=trials // top, seed=sd, top=top)
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
+    book = None
     if ledger is not None:
         from sanlab.reproduce import Ledger
 
         try:
-            Ledger(ledger)  # a malformed ledger is refused before any work
+            book = Ledger(ledger)  # a malformed ledger is refused before any work
         except (ValueError, OSError) as e:
             raise fail(f"--ledger: {safe(str(e))}") from None
         if not os.path.isdir(os.path.dirname(os.path.abspath(ledger))):
@@ -90,7 +91,7 @@ def reproduce(
     try:
         report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                           log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
-                                          ledger=ledger, command=_command_line()))
+                                          ledger=book, command=_command_line()))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None
