@@ -49,7 +49,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
         assert {r.creature: r.params["seconds"] for r in searches} == {"fish": 30.0, "twolink": 6.0}
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_reproduce_resumes_from_the_library(tmp_path):
     """A second call reuses every stored search, tuning run, audit and selection; an interrupted tuning run
     continues instead of starting again."""

@@ -319,7 +319,7 @@ def test_sigterm_ends_a_command_like_ctrl_c(tmp_path):
     assert r.returncode != -signal.SIGTERM
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_sigterm_during_a_compile_ends_the_command_without_a_crash():
     """XLA compiles on a worker thread while the main thread waits in JAX's compiler: an
     interrupt raised in that wait ended Python under the running compile (SIGSEGV, exit 139; one

@@ -80,7 +80,7 @@ def test_ctrl_c_during_the_first_compile_exits_130_not_a_crash(tmp_path, after):
         assert lib.runs()[0].status == "interrupted"
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_search_json_has_the_documented_shape(tmp_path):
     db = str(tmp_path / "g.db")
     r = subprocess.run(SANLAB + ["search", "cart", "-n", "20", "--seconds", "0.5", "--db", db, "--json"],
@@ -110,7 +110,7 @@ def test_search_json_has_the_documented_shape(tmp_path):
     assert shown["top"] == out["top"]
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_export_then_import_round_trips(tmp_path):
     db, other = str(tmp_path / "g.db"), str(tmp_path / "other.db")
     out = json.loads(subprocess.run(SANLAB + ["search", "cart", "-n", "10", "--seconds", "0.5", "--db", db, "--json"],
@@ -147,7 +147,7 @@ def test_a_foreign_sqlite_database_is_refused_and_left_alone(tmp_path):
     assert path.read_bytes() == before
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_missing_run_and_bad_gait_ids_are_clear_errors(tmp_path):
     db = str(tmp_path / "g.db")
     for args in (["show", "deadbeef"], ["export", "nonsense"], ["search"]):
@@ -156,7 +156,7 @@ def test_missing_run_and_bad_gait_ids_are_clear_errors(tmp_path):
         assert "Traceback" not in r.stderr and r.stderr.strip(), args
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
     from tests.helpers import DATA
 

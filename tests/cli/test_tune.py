@@ -15,7 +15,7 @@ from sanlab.library import Library
 from tests.helpers import SANLAB, interruptible, rows_in
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_tune_cli_json(bounder_run):
     db, run_id = bounder_run
     # single samples: the tuned gait's score is then its own best (with an ensemble it is re-scored

@@ -85,7 +85,7 @@ def activations(seed: int, steps: int, A: int, hold: int = 25) -> np.ndarray:
     return np.repeat(u, hold, axis=0)[:steps]
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_check_env_passes(env, tippy):
     """Gymnasium's checker (spaces, reset and step determinism, seeding, returned data not
     reused, rendering) on both configurations; only its advice (``ADVICE``) may be printed: the

@@ -144,6 +144,7 @@ def take(p, idx):
     return jax.tree_util.tree_map(lambda x: x[np.asarray(idx)], p)
 
 
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_one_controller_is_bit_identical_alone_and_anywhere_in_any_batch():
     spec = creature.load("bounder")
     m = sim.compile_creature(spec)
@@ -268,7 +269,7 @@ def test_bad_runs_are_flagged_not_fatal():
     assert list(np.asarray(r.finite)) == [True, False]
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_persistent_compile_cache_is_written(tmp_path):
     code = (
         "from sanlab import creature, sim; import jax.numpy as jnp;"
@@ -297,6 +298,7 @@ def test_a_run_continues_exactly_from_its_final_state_and_controller_state():
     assert not np.array_equal(np.asarray(first.state.q), np.asarray(whole.state.q))  # it moved on
 
 
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_the_default_start_state_is_the_one_evaluations_start_from(dtype):
     # rollout builds the default start state inside its compiled program; it must be, bit for

@@ -19,7 +19,7 @@ def gait_id(library, which: str) -> str:
     return f"{library['cart']}/1" if which == "cart" else str(library["fish"])
 
 
-@pytest.mark.slow  # over 7 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("which", ["cart", "fish"])
 def test_live_chunks_continue_the_run_as_one_rollout_would(library, which):
     """CHUNKS live chunks, each continuing from the state the last one left, give the frames of
@@ -64,6 +64,7 @@ def test_live_chunks_continue_the_run_as_one_rollout_would(library, which):
     assert live.t == float(np.asarray(r.state.t)[0])
 
 
+@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_continuation_compiles_once_per_creature_not_per_chunk(library):
     """The first chunk of a creature may compile; later chunks, a second session of the same gait
     (even through another Service), moving the follow point and a reset do not; a new terrain
