@@ -38,13 +38,14 @@ rounds 0, 1 and 2, the best round 2's candidate 13 at 42.6 cm/s).
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import time
+import sys
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from design import CONFIRM, KEEP, STEP, Design, compile_all, load_results, score
+from design import Designs as Shapes
+from design import main as run_design
 
 # name, low, high: the shape's free numbers (metres, degrees; fractions of a link's length)
 RANGES: tuple[tuple[str, float, float], ...] = (
@@ -64,9 +65,6 @@ RANGES: tuple[tuple[str, float, float], ...] = (
     ("start_deg", -90.0, 90.0),
 )
 NAMES = tuple(r[0] for r in RANGES)
-CONFIRM = 3  # SANs per candidate re-scored on a held-out ensemble
-KEEP = 8  # candidates a later round perturbs
-STEP = 0.1  # a later round's perturbation, as a fraction of each range
 
 
 def outline(length: float, a: float, top: float, b: float, bottom: float, shift: float) -> list[list[float]]:
@@ -172,150 +170,14 @@ kd = 0.0001
 '''
 
 
-def as_dict(v: np.ndarray) -> dict[str, float]:
-    return {n: float(x) for n, x in zip(NAMES, v)}
-
-
-def as_vector(g: dict[str, float]) -> np.ndarray:
-    return np.array([g[n] for n in NAMES], float)
-
-
-def uniform(rng: np.random.Generator, n: int) -> np.ndarray:
-    lo, hi = np.array([r[1] for r in RANGES]), np.array([r[2] for r in RANGES])
-    return lo + (hi - lo) * rng.random((n, len(RANGES)))
-
-
-def perturb(rng: np.random.Generator, parents: np.ndarray, n: int) -> np.ndarray:
-    lo, hi = np.array([r[1] for r in RANGES]), np.array([r[2] for r in RANGES])
-    pick = parents[rng.integers(0, len(parents), n)]
-    return np.clip(pick + STEP * (hi - lo) * rng.standard_normal(pick.shape), lo, hi)
-
-
-class Shapes:
-    """A parameter space over candidate geometries (``sanlab.evaluate.evaluator.ParamSpace``): a
-    vector is one number, the candidate's index; ``batch`` gives each row that candidate's
-    masses, inertias, centres of mass, joint anchors, contact points and seated start."""
-
-    def __init__(self, models: list):
-        self.models = models
-
-    def batch(self, thetas: np.ndarray, model):
-        import jax
-        import jax.numpy as jnp
-
-        from sanlab.san import San
-
-        rows = [self.models[int(t[0])] for t in thetas]
-        names = ("mass", "inertia", "com", "anchor", "contact", "q0")
-        over = {k: jnp.asarray(np.stack([np.asarray(getattr(r.params, k)) for r in rows]), model.dtype) for k in names}
-        B = len(rows)
-        base = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), model)
-        on, off = model.spec.san.delay_on, model.spec.san.delay_off
-        nodes = San.for_creature(model.spec).n_nodes
-        return np.full((B, nodes), 1 / on), np.full((B, nodes), -1 / off), base.with_params(**over)
-
-
-def compile_all(texts: list[str], template):
-    """Each text's model, seated on the ground, in the template's program (the same structure)."""
-    from sanlab.creature.loader import loads
-    from sanlab.sim.compiler import compile_creature
-
-    out = []
-    for text in texts:
-        m = compile_creature(loads(text, "<candidate>"), template.dtype)
-        if m.structure != template.structure:
-            raise ValueError("a candidate's structure differs from the template's")
-        out.append(m)
-    return out
-
-
-def score(texts: list[str], controllers: int, seed: int, batch: int) -> list[dict]:
-    """Each candidate's robust phase-1 result (see the module docstring)."""
-    from sanlab.creature.loader import loads
-    from sanlab.evaluate.ensemble import audit_key, default_ensemble, search_key
-    from sanlab.evaluate.evaluator import Evaluator
-
-    template = loads(texts[0], "<template>")
-    ev = Evaluator(template, ensemble=default_ensemble(8), batch=batch, space=None)
-    models = compile_all(texts, ev.model)
-    ev.space = Shapes(models)
-    W1 = np.stack([ev.san.random_weights(seed, i) for i in range(controllers)])
-    G = len(texts)
-    W = np.tile(W1, (G, 1, 1))
-    thetas = np.repeat(np.arange(G, dtype=float), controllers)[:, None]
-    keys = [search_key(seed, i) for i in range(controllers)] * G
-    s = ev(W, thetas, keys)
-    sc = np.asarray(s.score).reshape(G, controllers)
-    best = np.argsort(-sc, axis=1)[:, :CONFIRM]
-    Wc = np.stack([W1[j] for row in best for j in row])
-    tc = np.repeat(np.arange(G, dtype=float), CONFIRM)[:, None]
-    kc = [audit_key(search_key(seed, int(j))) for row in best for j in row]
-    h = ev(Wc, tc, kc)
-    hs = np.asarray(h.score).reshape(G, CONFIRM)
-    hv = np.asarray(h.speed_cm_s).reshape(G, CONFIRM)
-    turns = np.asarray(h.descriptors["turns_per_s"]).reshape(G, CONFIRM) if h.descriptors else np.zeros((G, CONFIRM))
-    out = []
-    for g in range(G):
-        k = int(np.argmax(hs[g]))
-        out.append({"score_m": float(hs[g, k]), "speed_cm_s": float(hv[g, k]), "san": int(best[g, k]),
-                    "turns_per_s": float(turns[g, k]), "phase1_best_m": float(sc[g].max()),
-                    "phase1_median_m": float(np.median(sc[g]))})
-    return out
-
-
-def load_results(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+DESIGN = Design("cart_geometry", RANGES, toml_text)
+as_dict, as_vector, uniform, perturb = DESIGN.as_dict, DESIGN.as_vector, DESIGN.uniform, DESIGN.perturb
+__all__ = ["CONFIRM", "KEEP", "NAMES", "RANGES", "STEP", "Shapes", "as_dict", "as_vector", "compile_all",
+           "load_results", "main", "perturb", "score", "toml_text", "uniform"]
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, required=True, help="JSON-lines results (resumes from it)")
-    ap.add_argument("--candidates", type=int, default=64, help="shapes a round scores")
-    ap.add_argument("--rounds", type=int, default=1, help="rounds: the first uniform, later ones around the best")
-    ap.add_argument("--controllers", type=int, default=200, help="random SANs per shape (phase 1)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--chunk", type=int, default=16, help="shapes per evaluation call (a resumable piece)")
-    ap.add_argument("--batch", type=int, default=256, help="controllers per rollout")
-    ap.add_argument("--write", type=Path, help="write the best candidate so far as a creature file and stop")
-    a = ap.parse_args(argv)
-    from sanlab import configure
-
-    configure()
-    done = load_results(a.out)
-    if a.write:
-        best = max(done, key=lambda r: r["score_m"])
-        note = (f"Geometry found by experiments/cart_geometry.py (round {best['round']}, candidate "
-                f"{best['index']}, seed {best.get('seed', a.seed)}):\nheld-out robust phase-1 speed {best['speed_cm_s']:.1f} cm/s.")
-        a.write.write_text(toml_text(best["geometry"], note))
-        print(f"wrote {a.write}: {best['speed_cm_s']:.1f} cm/s (round {best['round']}, candidate {best['index']})")
-        return
-    for rnd in range(a.rounds):
-        rng = np.random.default_rng([a.seed, rnd])
-        if rnd == 0:
-            vecs = uniform(rng, a.candidates)
-        else:
-            prior = [r for r in done if r["round"] < rnd]
-            if not prior:
-                break
-            top = sorted(prior, key=lambda r: -r["score_m"])[:KEEP]
-            vecs = perturb(rng, np.stack([as_vector(r["geometry"]) for r in top]), a.candidates)
-        have = {r["index"] for r in done if r["round"] == rnd}
-        todo = [i for i in range(a.candidates) if i not in have]
-        for c in range(0, len(todo), a.chunk):
-            idx = todo[c:c + a.chunk]
-            t0 = time.perf_counter()
-            res = score([toml_text(as_dict(vecs[i])) for i in idx], a.controllers, a.seed, a.batch)
-            with a.out.open("a") as f:
-                for i, r in zip(idx, res):
-                    row = {"round": rnd, "index": i, "seed": a.seed, "geometry": as_dict(vecs[i]), **r}
-                    done.append(row)
-                    f.write(json.dumps(row) + "\n")
-            best = max(done, key=lambda r: r["score_m"])
-            print(f"round {rnd}: {len(idx)} shapes in {time.perf_counter() - t0:.0f} s; best so far "
-                  f"{best['speed_cm_s']:.1f} cm/s (round {best['round']}, candidate {best['index']}, "
-                  f"{best['turns_per_s'] * 6:.1f} turns in 6 s)", flush=True)
+    run_design(DESIGN, argv, screen=8, doc=__doc__ or "")
 
 
 if __name__ == "__main__":
