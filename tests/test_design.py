@@ -62,3 +62,25 @@ def test_candidates_are_bounders_standing_on_their_feet(bd):
         assert sorted(feet[:, 0]) == pytest.approx([-g["hip_x"], g["hip_x"]], abs=1e-5)  # each under its hip (angles in 1e-4 deg)
         hip = spec.sensors[2]
         assert math.isclose(hip.min, math.radians(g["hip_sense"] * g["hip_swing"]), rel_tol=1e-3)
+
+
+@pytest.mark.slow  # compiles the bounder's screening and held-out programs
+def test_validation_rescores_the_best_on_fresh_sans_once_and_picks_by_its_mean(bd, tmp_path, capsys):
+    import json
+
+    out = tmp_path / "d.jsonl"
+    args = ["--out", str(out), "--candidates", "2", "--controllers", "3", "--chunk", "2", "--batch", "8"]
+    bd.main(args)
+    bd.main([*args, "--validate", "1", "--seeds", "1"])
+    rows = [json.loads(x) for x in out.read_text().splitlines()]
+    checks = [r for r in rows if r["round"] == -1]
+    best = max((r for r in rows if r["round"] == 0), key=lambda r: r["score_m"])
+    # the best design and the reference (candidate 0), each on seed 1's SANs
+    assert sorted(tuple(r["of"]) for r in checks) == sorted({(0, best["index"]), (0, 0)})
+    assert all(r["seed"] == 1 for r in checks)
+    bd.main([*args, "--validate", "1", "--seeds", "1"])
+    assert len(out.read_text().splitlines()) == len(rows)  # nothing scored twice
+    bd.main([*args, "--write", str(tmp_path / "best.toml")])
+    text = (tmp_path / "best.toml").read_text()
+    top = max(checks, key=lambda r: r["speed_cm_s"])
+    assert f"candidate {top['of'][1]}," in text and "validated on fresh SANs" in text
