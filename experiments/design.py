@@ -112,8 +112,11 @@ def compile_all(texts: Sequence[str], template) -> list:
     return out
 
 
-def score(texts: Sequence[str], controllers: int, seed: int, batch: int, screen: int = 8) -> list[dict]:
-    """Each candidate's robust phase-1 result (see the module docstring)."""
+def score(texts: Sequence[str], controllers: int, seed: int, batch: int, screen: int = 8, confirm: int = CONFIRM,
+          pick: str = "best") -> list[dict]:
+    """Each candidate's robust phase-1 result (see the module docstring): its ``confirm`` best
+    SANs re-scored on the held-out ensemble, and the best of them (``pick="best"``) or their mean
+    (``"mean"``: less of a lottery, as a design then wins by many good SANs, not one)."""
     from sanlab.creature.loader import loads
     from sanlab.evaluate.ensemble import audit_key, default_ensemble, search_key
     from sanlab.evaluate.evaluator import Evaluator
@@ -128,20 +131,23 @@ def score(texts: Sequence[str], controllers: int, seed: int, batch: int, screen:
     thetas = np.repeat(np.arange(G, dtype=float), controllers)[:, None]
     keys = [search_key(seed, i) for i in range(controllers)] * G
     s = first(W, thetas, keys)
+    confirm = min(confirm, controllers)
     sc = np.asarray(s.score).reshape(G, controllers)
-    best = np.argsort(-sc, axis=1)[:, :CONFIRM]
+    best = np.argsort(-sc, axis=1)[:, :confirm]
     held = first if screen == 8 else Evaluator(template, ensemble=default_ensemble(8), batch=batch, space=first.space)
     Wc = np.stack([W1[j] for row in best for j in row])
-    tc = np.repeat(np.arange(G, dtype=float), CONFIRM)[:, None]
+    tc = np.repeat(np.arange(G, dtype=float), confirm)[:, None]
     kc = [audit_key(search_key(seed, int(j))) for row in best for j in row]
     h = held(Wc, tc, kc)
-    hs = np.asarray(h.score).reshape(G, CONFIRM)
-    hv = np.asarray(h.speed_cm_s).reshape(G, CONFIRM)
-    turns = np.asarray(h.descriptors["turns_per_s"]).reshape(G, CONFIRM) if h.descriptors else np.zeros((G, CONFIRM))
+    hs = np.asarray(h.score).reshape(G, confirm)
+    hv = np.asarray(h.speed_cm_s).reshape(G, confirm)
+    turns = np.asarray(h.descriptors["turns_per_s"]).reshape(G, confirm) if h.descriptors else np.zeros((G, confirm))
     out = []
     for g in range(G):
         k = int(np.argmax(hs[g]))
-        out.append({"score_m": float(hs[g, k]), "speed_cm_s": float(hv[g, k]), "san": int(best[g, k]),
+        head = ({"score_m": float(hs[g, k]), "speed_cm_s": float(hv[g, k])} if pick == "best" else
+                {"score_m": float(hs[g].mean()), "speed_cm_s": float(hv[g].mean()), "best_speed_cm_s": float(hv[g, k])})
+        out.append({**head, "san": int(best[g, k]),
                     "turns_per_s": float(turns[g, k]), "phase1_best_m": float(sc[g].max()),
                     "phase1_median_m": float(np.median(sc[g]))})
     return out
@@ -153,15 +159,18 @@ def load_results(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-def main(design: Design, argv: list[str] | None = None, *, screen: int = 8, doc: str = "") -> None:
-    """The command line of a design search (``--help`` lists it); ``screen``: the default of
-    ``--screen``."""
+def main(design: Design, argv: list[str] | None = None, *, screen: int = 8, confirm: int = CONFIRM, pick: str = "best",
+         doc: str = "") -> None:
+    """The command line of a design search (``--help`` lists it); ``screen``, ``confirm`` and
+    ``pick``: the defaults of the options of those names."""
     ap = argparse.ArgumentParser(description=(doc or __doc__ or "").split("\n\n")[0])
     ap.add_argument("--out", type=Path, required=True, help="JSON-lines results (resumes from it)")
     ap.add_argument("--candidates", type=int, default=64, help="designs a round scores")
     ap.add_argument("--rounds", type=int, default=1, help="rounds: the first uniform, later ones around the best")
     ap.add_argument("--controllers", type=int, default=200, help="random SANs per design (phase 1)")
     ap.add_argument("--screen", type=int, default=screen, help="ensemble members of the first scoring (1: single samples)")
+    ap.add_argument("--confirm", type=int, default=confirm, help="SANs per design re-scored on the held-out ensemble")
+    ap.add_argument("--pick", choices=("best", "mean"), default=pick, help="a design's score: the best or the mean of those")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--chunk", type=int, default=16, help="designs per evaluation call (a resumable piece)")
     ap.add_argument("--batch", type=int, default=256, help="controllers per rollout")
@@ -199,7 +208,7 @@ def main(design: Design, argv: list[str] | None = None, *, screen: int = 8, doc:
             idx = todo[c:c + a.chunk]
             t0 = time.perf_counter()
             res = score([design.toml_text(design.as_dict(vecs[i])) for i in idx], a.controllers, a.seed, a.batch,
-                        a.screen)
+                        a.screen, a.confirm, a.pick)
             with a.out.open("a") as f:
                 for i, r in zip(idx, res):
                     row = {"round": rnd, "index": i, "seed": a.seed, "geometry": design.as_dict(vecs[i]), **r}
@@ -227,7 +236,8 @@ def validate(design: Design, a, done: list[dict]) -> None:
         todo = [r for r in picks if _key(r) not in have]
         for c in range(0, len(todo), a.chunk):
             part = todo[c:c + a.chunk]
-            res = score([design.toml_text(r["geometry"]) for r in part], a.controllers, seed, a.batch, a.screen)
+            res = score([design.toml_text(r["geometry"]) for r in part], a.controllers, seed, a.batch, a.screen,
+                        a.confirm, a.pick)
             with a.out.open("a") as f:
                 for r, s in zip(part, res):
                     row = {"round": -1, "index": -1, "of": list(_key(r)), "seed": seed, "geometry": r["geometry"], **s}
