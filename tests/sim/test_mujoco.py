@@ -287,17 +287,21 @@ def test_passive_drop_rests_at_mujocos_potential_energy():
 
 
 def test_servoed_bounder_falls_and_rests_like_mujoco():
-    """The built-in bounder on the ground, its four PD servos held at mid-range (u = 0.5: hips
-    straight down, knees bent 45 deg), so its feet end up behind its hips and it tips forward onto
+    """The bounder as first designed (tests/data/bounder_first.toml: the built-in's later design
+    has 0.15 m shins whose servos an explicit PD at 1 ms, as MuJoCo is driven here, cannot step;
+    sanlab integrates them implicitly) on the ground, its four PD servos held at mid-range (u =
+    0.5: hips straight down, knees bent 60 deg), so its feet end up behind its hips and it tips forward onto
     the body's front corner. Contacts, friction and the servos are all in play; the PD torque is
     computed in Python for MuJoCo (motor actuators). After 3 s both have come to rest in the same
     pose: height and the knees within 5 mm / 5 mrad, x within 2 cm, and the body's tilt and the
     hips within 30 mrad: resting on a corner and two feet that friction holds, the pose is not
     unique (static friction can hold any of a family of poses), and where each simulator's feet
     stopped sliding (penalty contacts with anchors here, soft constraints there) picks one."""
-    from sanlab.creature import load
+    from pathlib import Path
 
-    spec = load("bounder")
+    from sanlab.creature.loader import loads
+
+    spec = loads((Path(__file__).resolve().parents[1] / "data" / "bounder_first.toml").read_text())
     seconds, u = 3.0, 0.5
     model = sim.compile_creature(spec, "float64")
     res = sim.rollout(
