@@ -1,8 +1,9 @@
 """experiments/bounder_design.py and fourlink_design.py: free sizes and ranges as designs (issue 30).
 
 The search machinery (a design as rows of one batched program, resumable rounds) is
-experiments/design.py's, tested through the cart in test_cart_geometry.py; here: each design's
-reference reproduces today's built-in, and every bounder candidate stands on its feet.
+experiments/design.py's, tested through the cart in test_cart_geometry.py; here: each built-in is
+its design's chosen values, the bounder search's reference is the bounder it started from, and
+every bounder candidate stands on its feet.
 """
 
 import importlib.util
@@ -28,20 +29,33 @@ def bd():
     return _design("bounder")
 
 
-@pytest.mark.parametrize("name", ["bounder", "fourlink"])
-def test_the_reference_design_is_the_built_in(name):
-    from sanlab.creature import load
+def _same_physics(text_a: str, text_b: str, atol: float = 0.0) -> None:
     from sanlab.creature.loader import loads
     from sanlab.sim.compiler import compile_creature
 
-    d = _design(name)
-    a, b = load(name), loads(d.toml_text(d.BUILTIN))
+    a, b = loads(text_a), loads(text_b)
     assert (a.san, a.evaluation, a.sensors, a.actuators, a.world) == (b.san, b.evaluation, b.sensors, b.actuators, b.world)
     ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
     assert ma.structure == mb.structure
     for x, y in zip(jax.tree_util.tree_leaves(ma.params), jax.tree_util.tree_leaves(mb.params), strict=True):
-        # the built-in's file rounds its start height to 0.01 mm
-        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=0, atol=1e-5)
+        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=0, atol=atol)
+
+
+@pytest.mark.parametrize("name", ["bounder", "fourlink"])
+def test_the_built_in_is_its_design(name):
+    """The built-in's file is the design its search chose, to the file's rounding (1e-6 m, 1e-3 deg)."""
+    from sanlab.creature import read_source
+
+    d = _design(name)
+    _same_physics(read_source(name)[0], d.toml_text(d.CHOSEN), atol=2e-5)
+
+
+def test_the_bounder_searchs_reference_is_its_first_version(bd):
+    """Round 0's candidate 0 is the bounder as it was before the search (kept in tests/data,
+    equal to the built-in file at 29a0af5 in every compiled number), which the file's design note
+    quotes."""
+    first = (ROOT / "tests" / "data" / "bounder_first.toml").read_text()
+    _same_physics(first, bd.toml_text(bd.FIRST), atol=1e-5)  # that file rounded its start height to 0.01 mm
 
 
 def test_candidates_are_bounders_standing_on_their_feet(bd):
@@ -50,7 +64,7 @@ def test_candidates_are_bounders_standing_on_their_feet(bd):
     from sanlab.sim import poses
     from sanlab.sim.compiler import compile_creature
 
-    builtin = compile_creature(load("bounder"), "float64")
+    builtin = compile_creature(load("bounder"), "float64")  # the same structure, another design
     for v in bd.DESIGN.uniform(np.random.default_rng(7), 6):
         g = bd.DESIGN.as_dict(v)
         spec = loads(bd.toml_text(g))
