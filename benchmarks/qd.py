@@ -9,7 +9,9 @@ prints archive coverage (cells filled), QD-score (sum of the cells' best scores)
 speed (the highest stored speed of a gait that did not fall: stored speeds are ensemble
 medians) and the number of gait modes
 (``sanlab.modes.find`` on each run's controllers scoring at least a fifth of random search's
-best: one line for both), as MAP-Elites / random ratios.
+best: one line for both), as MAP-Elites / random ratios; and the share of the grid either
+search reached, with MAP-Elites' share of it (the coverage ratio cannot pass the union's size
+over random search's without cells neither search found).
 
     python benchmarks/qd.py [--creatures cart,bounder,walker] [--evaluations 2000] [--seed 0]
 
@@ -52,11 +54,13 @@ def measure(lib, run_id: str, grid, generation: int, min_score: float) -> dict:
     run = lib.get_run(run_id)
     san = San.for_creature(loads(run.creature_text, source=run.creature))
     evs = lib.top(run_id, None)
-    st = rebuild(grid, san.n_weights, evs, san.decode, generation).stats
+    archive = rebuild(grid, san.n_weights, evs, san.decode, generation)
+    st = archive.stats
     modes, _, _ = of_run(lib, run_id, min_score)
     ok = [e for e in evs if not e.nonfinite and not e.fell and math.isfinite(e.speed_cm_s)]
     return {"coverage": float(st.coverage), "qd": float(st.qd_score), "modes": len(modes),
-            "best_speed": max((e.speed_cm_s for e in ok), default=0.0)}
+            "best_speed": max((e.speed_cm_s for e in ok), default=0.0),
+            "cells": set(int(i) for i in archive.data("index"))}
 
 
 def main() -> None:
@@ -98,6 +102,12 @@ def main() -> None:
                 ratios[k].append(v)
             print(f"{creature:10s} ratios     coverage {r['coverage']:.2f}x  QD {r['qd']:.2f}x  modes {r['modes']:.2f}x  "
                   f"best speed {r['speed']:.2f}x")
+            # how much room the grid left: the cells either search reached, and MAP-Elites' share
+            either = a["cells"] | b["cells"]
+            print(f"{creature:10s} reached    {len(either) / grid.bins[0] / grid.bins[1]:.1%} of the cells by either search; "
+                  f"MAP-Elites holds {len(a['cells']) / max(1, len(either)):.0%} of those, random "
+                  f"{len(b['cells']) / max(1, len(either)):.0%} (coverage ratio at most {len(either) / max(1, len(b['cells'])):.2f}x "
+                  f"without cells neither found)")
     print(" ".join(f"{k}_ratio={min(v):.3f}" for k, v in ratios.items()))
 
 
