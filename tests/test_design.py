@@ -58,6 +58,28 @@ def test_the_bounder_searchs_reference_is_its_first_version(bd):
     _same_physics(first, bd.toml_text(bd.FIRST), atol=1e-5)  # that file rounded its start height to 0.01 mm
 
 
+def test_the_walker_searchs_reference_is_the_built_in():
+    """The walker is not redesigned yet: its search's reference is today's file, split stance
+    and all (the back hip placed by the design's stance rule lands on the file's -20 deg)."""
+    from sanlab.creature import read_source
+
+    w = _design("walker")
+    assert w.stance(w.FIRST) == pytest.approx((30.0, -20.0, 10.0), abs=1e-9)
+    _same_physics(read_source("walker")[0], w.toml_text(w.FIRST), atol=1e-9)
+
+
+def test_walker_candidates_stand_on_both_feet():
+    from sanlab.creature.loader import loads
+    from sanlab.sim import poses
+    from sanlab.sim.compiler import compile_creature
+
+    w = _design("walker")
+    for v in w.DESIGN.uniform(np.random.default_rng(3), 12):  # knees bent more than the hip leans, too
+        m = compile_creature(loads(w.toml_text(w.DESIGN.as_dict(v))), "float64")
+        y = np.sort(np.asarray(poses(m, m.params.q0)["contacts"])[:, 1])
+        assert abs(y[0]) < 1e-6 and abs(y[1]) < 1e-5 and y[2] > 0.01  # two feet down, the rest up
+
+
 def test_candidates_are_bounders_standing_on_their_feet(bd):
     from sanlab.creature import load
     from sanlab.creature.loader import loads
