@@ -32,7 +32,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from design import Design
+from design import Design, angle_sensors, angular_actuators, header, segment, touch_sensors
 from design import main as run_design
 
 # name, low, high (metres, degrees, seconds; fractions of a range)
@@ -55,62 +55,15 @@ def toml_text(g: dict[str, float], note: str = "") -> str:
     # knee angle k that puts the foot straight under the hip: thigh sin(a) + shin sin(a + k) = 0
     k = -a - math.asin(max(-1.0, min(1.0, g["thigh"] * math.sin(a) / g["shin"])))
     y = round(0.05 + g["thigh"] * math.cos(a) + g["shin"] * math.cos(a + k), 6)
-    hip_on = round(g["hip_sense"] * g["hip_swing"], 3)
-    knee_on = round(g["knee_sense"] * g["knee_fold"], 3)
+    hip_on, knee_on = round(g["hip_sense"] * g["hip_swing"], 3), round(g["knee_sense"] * g["knee_fold"], 3)
     head = "".join(f"# {line}\n" for line in note.splitlines()) if note else ""
-    legs = ""
-    for side, x in (("front", g["hip_x"]), ("back", -g["hip_x"])):
-        legs += f'''
-[[links]]
-name = "{side}_thigh"
-mass = 0.5
-shape = "segment"
-points = [[0.0, 0.0], [0.0, {-g["thigh"]:.6f}]]
-contacts = [[0.0, {-g["thigh"]:.6f}]]
-parent = "body"
-anchor = [{x:.6f}, -0.05]
-angle_deg = {g["start_hip"]:.4f}
-
-[[links]]
-name = "{side}_shin"
-mass = 0.3
-shape = "segment"
-points = [[0.0, 0.0], [0.0, {-g["shin"]:.6f}]]
-contacts = [[0.0, {-g["shin"]:.6f}]]
-parent = "{side}_thigh"
-anchor = [0.0, {-g["thigh"]:.6f}]
-angle_deg = {math.degrees(k):.4f}
-'''
-    sensors = ""
-    for i, (link, lo, hi) in enumerate((("front_thigh", hip_on, 180), ("front_thigh", -180, -hip_on),
-                                         ("front_shin", -180, -knee_on), ("back_thigh", hip_on, 180),
-                                         ("back_thigh", -180, -hip_on), ("back_shin", -180, -knee_on)), start=3):
-        sensors += f'\n[[sensors]]\nname = "S{i}"\ntype = "angle"\nlink = "{link}"\nmin_deg = {lo}\nmax_deg = {hi}\n'
-    actuators = ""
-    for i, (joint, lo, hi) in enumerate((("front_thigh", -g["hip_swing"], g["hip_swing"]), ("front_shin", -g["knee_fold"], 0),
-                                         ("back_thigh", -g["hip_swing"], g["hip_swing"]), ("back_shin", -g["knee_fold"], 0)),
-                                        start=1):
-        actuators += (f'\n[[actuators]]\nname = "A{i}"\ntype = "angular"\njoint = "{joint}"\nmin_deg = {lo:.3f}\n'
-                      f'max_deg = {hi:.3f}\nks = 0.4\nkd = 0.04\n')
-    return f'''{head}name = "bounder"
-description = "The bouncer of van de Panne & Fiume 1993 §3: a body on two jointed legs."
-dt = 0.001
-
-[world]
-plane = "vertical"
-gravity = 9.81
-
-[san]
-hidden = 8
-delay_on = {g["delay"]:.4f}
-delay_off = {g["delay"]:.4f}
-
-[evaluation]
-metric = "distance_upright"
-seconds = 6.0
-fell_link = "body"
-fell_angle_deg = 90
-
+    legs = "".join(segment(f"{side}_thigh", 0.5, g["thigh"], "body", (x, -0.05), g["start_hip"])
+                   + segment(f"{side}_shin", 0.3, g["shin"], f"{side}_thigh", (0.0, -g["thigh"]), math.degrees(k))
+                   for side, x in (("front", g["hip_x"]), ("back", -g["hip_x"])))
+    swing, fold = g["hip_swing"], g["knee_fold"]
+    return (head + header("bounder", "The bouncer of van de Panne & Fiume 1993 §3: a body on two jointed legs.", 8,
+                          g["delay"], 'metric = "distance_upright"\nseconds = 6.0\nfell_link = "body"\nfell_angle_deg = 90')
+            + f'''
 [[links]]
 name = "body"
 mass = 2.4
@@ -118,19 +71,12 @@ shape = "polygon"
 points = [[-0.25, -0.05], [0.25, -0.05], [0.25, 0.05], [-0.25, 0.05]]
 position = [0.0, {y}]
 angle_deg = 0
-{legs}
-[[sensors]]
-name = "S1"
-type = "touch"
-link = "front_shin"
-contact = 0
-
-[[sensors]]
-name = "S2"
-type = "touch"
-link = "back_shin"
-contact = 0
-{sensors}{actuators}'''
+''' + legs
+            + touch_sensors([("front_shin", 0), ("back_shin", 0)])
+            + angle_sensors([("front_thigh", hip_on, 180), ("front_thigh", -180, -hip_on), ("front_shin", -180, -knee_on),
+                             ("back_thigh", hip_on, 180), ("back_thigh", -180, -hip_on), ("back_shin", -180, -knee_on)], 3)
+            + angular_actuators([("front_thigh", -swing, swing, 0.4), ("front_shin", -fold, 0.0, 0.4),
+                                 ("back_thigh", -swing, swing, 0.4), ("back_shin", -fold, 0.0, 0.4)]))
 
 
 # the bounder before this search, as a design: round 0's candidate 0 (tests/test_design.py: the

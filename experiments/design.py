@@ -267,3 +267,42 @@ def chosen(design: Design, done: list[dict], seed: int) -> tuple[dict, str]:
         tail = f"held-out robust phase-1 speed {best['speed_cm_s']:.1f} cm/s."
     return best, (f"Found by experiments/{design.name}.py (round {best['round']}, candidate {best['index']}, "
                   f"seed {best.get('seed', seed)}):\n{tail}")
+
+
+# --- pieces of a creature file, shared by the design scripts' templates ----------------------
+
+
+def header(name: str, description: str, hidden: int, delay: float, evaluation: str, world: str = "") -> str:
+    """A vertical-plane creature file's top: name, description, dt = 1 ms, gravity (``world``:
+    more lines of [world], such as a [world.ground] table), the SAN (``hidden`` nodes, node delay
+    ``delay`` s on and off) and the [evaluation] table's lines."""
+    return (f'name = "{name}"\ndescription = "{description}"\ndt = 0.001\n\n[world]\nplane = "vertical"\n'
+            f'gravity = 9.81\n{world}\n[san]\nhidden = {hidden}\ndelay_on = {delay:.4f}\ndelay_off = {delay:.4f}\n\n'
+            f'[evaluation]\n{evaluation}\n')
+
+
+def segment(name: str, mass: float, length: float, parent: str, anchor: tuple[float, float], angle_deg: float) -> str:
+    """A [[links]] table: a segment drawn along -y from its joint, its far end the one contact."""
+    return (f'\n[[links]]\nname = "{name}"\nmass = {mass}\nshape = "segment"\npoints = [[0.0, 0.0], [0.0, {-length:.6f}]]\n'
+            f'contacts = [[0.0, {-length:.6f}]]\nparent = "{parent}"\nanchor = [{anchor[0]:.6f}, {anchor[1]:.6f}]\n'
+            f'angle_deg = {angle_deg:.4f}\n')
+
+
+def touch_sensors(rows: Sequence[tuple[str, int]], first: int = 1) -> str:
+    """[[sensors]] tables S{first}...: a touch sensor at contact ``c`` of link ``l`` for each (l, c)."""
+    return "".join(f'\n[[sensors]]\nname = "S{i}"\ntype = "touch"\nlink = "{link}"\ncontact = {c}\n'
+                   for i, (link, c) in enumerate(rows, start=first))
+
+
+def angle_sensors(rows: Sequence[tuple[str, float, float]], first: int) -> str:
+    """[[sensors]] tables S{first}...: an angle sensor on link ``l`` over [lo, hi] deg for each (l, lo, hi)."""
+    return "".join(f'\n[[sensors]]\nname = "S{i}"\ntype = "angle"\nlink = "{link}"\nmin_deg = {lo}\nmax_deg = {hi}\n'
+                   for i, (link, lo, hi) in enumerate(rows, start=first))
+
+
+def angular_actuators(rows: Sequence[tuple[str, float, float, float]]) -> str:
+    """[[actuators]] tables A1...: a servo on joint ``j`` over [lo, hi] deg, gain ks N m/deg and kd
+    = ks / 10 (the paper's suggestion) for each (j, lo, hi, ks)."""
+    return "".join(f'\n[[actuators]]\nname = "A{i}"\ntype = "angular"\njoint = "{joint}"\nmin_deg = {lo:.3f}\n'
+                   f'max_deg = {hi:.3f}\nks = {ks:.6f}\nkd = {ks / 10:.7f}\n'
+                   for i, (joint, lo, hi, ks) in enumerate(rows, start=1))

@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from design import Design
+from design import Design, angle_sensors, angular_actuators, header, touch_sensors
 from design import main as run_design
 
 # name, low, high (metres, N m/deg, degrees, seconds; fractions of a range)
@@ -61,7 +61,7 @@ shape = "segment"
 points = [[0.0, 0.0], [{L[0]:.6f}, 0.0]]
 position = [0.0, 0.0]
 '''
-    for i in (1, 2, 3):
+    for i in (1, 2, 3):  # drawn along +x, lying flat: not the legs' segment() along -y
         links += f'''
 [[links]]
 name = "L{i + 1}"
@@ -72,40 +72,14 @@ contacts = [[{L[i]:.6f}, 0.0]]
 parent = "L{i}"
 anchor = [{L[i - 1]:.6f}, 0.0]
 '''
-    sensors = ""
-    for i, (link, contact) in enumerate((("L1", 0), ("L1", 1), ("L2", 0), ("L3", 0), ("L4", 0)), start=1):
-        sensors += f'\n[[sensors]]\nname = "S{i}"\ntype = "touch"\nlink = "{link}"\ncontact = {contact}\n'
-    actuators = ""
-    n = 6
-    for j, (link, ks, rng) in enumerate((("L2", g["ks_end"], g["range_end"]), ("L3", g["ks_mid"], g["range_mid"]),
-                                         ("L4", g["ks_end"], g["range_end"])), start=1):
-        on = round(g["sense"] * rng, 3)
-        for lo, hi in ((on, 180), (-180, -on)):
-            sensors += f'\n[[sensors]]\nname = "S{n}"\ntype = "angle"\nlink = "{link}"\nmin_deg = {lo}\nmax_deg = {hi}\n'
-            n += 1
-        actuators += (f'\n[[actuators]]\nname = "A{j}"\ntype = "angular"\njoint = "{link}"\nmin_deg = {-rng:.3f}\n'
-                      f'max_deg = {rng:.3f}\nks = {ks:.6f}\nkd = {ks / 10:.7f}\n')
-    return f'''{head}name = "fourlink"
-description = "Table 1 of van de Panne & Fiume 1993: a chain of four links and three motors."
-dt = 0.001
-
-[world]
-plane = "vertical"
-gravity = 9.81
-[world.ground]
-stiffness = 10000.0
-damping = 20.0
-friction = 0.6
-
-[san]
-hidden = 8
-delay_on = {g["delay"]:.4f}
-delay_off = {g["delay"]:.4f}
-
-[evaluation]
-metric = "distance"
-seconds = 6.0
-{links}{sensors}{actuators}'''
+    joints = (("L2", g["ks_end"], g["range_end"]), ("L3", g["ks_mid"], g["range_mid"]), ("L4", g["ks_end"], g["range_end"]))
+    folds = [(link, lo, hi) for link, _, r in joints
+             for lo, hi in ((round(g["sense"] * r, 3), 180), (-180, -round(g["sense"] * r, 3)))]
+    ground = "[world.ground]\nstiffness = 10000.0\ndamping = 20.0\nfriction = 0.6\n"
+    return (head + header("fourlink", "Table 1 of van de Panne & Fiume 1993: a chain of four links and three motors.", 8,
+                          g["delay"], 'metric = "distance"\nseconds = 6.0', ground)
+            + links + touch_sensors([("L1", 0), ("L1", 1), ("L2", 0), ("L3", 0), ("L4", 0)])
+            + angle_sensors(folds, 6) + angular_actuators([(link, -r, r, ks) for link, ks, r in joints]))
 
 
 # the four-link chain before this search, as a design (its file at 29a0af5, to the last digit):

@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from design import Design
+from design import Design, angle_sensors, angular_actuators, header, segment, touch_sensors
 from design import main as run_design
 
 # name, low, high (metres, degrees, seconds; fractions of a range)
@@ -75,66 +75,16 @@ def toml_text(g: dict[str, float], note: str = "") -> str:
     """The walker's file of design ``g`` (a dict over the names of ``RANGES``)."""
     front, back, knee = stance(g)
     y = round(0.1 + _depth(g["thigh"], g["shin"], math.radians(front), -math.radians(knee)), 6)
-    hip_on = round(g["hip_sense"] * g["hip_swing"], 3)
-    knee_on = round(g["knee_sense"] * g["knee_fold"], 3)
+    hip_on, knee_on = round(g["hip_sense"] * g["hip_swing"], 3), round(g["knee_sense"] * g["knee_fold"], 3)
+    lean = round(g["lean"], 3)
     head = "".join(f"# {line}\n" for line in note.splitlines()) if note else ""
-    legs = ""
-    for side, hip in (("front", front), ("back", back)):
-        legs += f'''
-[[links]]
-name = "{side}_thigh"
-mass = 0.5
-shape = "segment"
-points = [[0.0, 0.0], [0.0, {-g["thigh"]:.6f}]]
-contacts = [[0.0, {-g["thigh"]:.6f}]]
-parent = "pelvis"
-anchor = [0.0, -0.1]
-angle_deg = {hip:.4f}
-
-[[links]]
-name = "{side}_shin"
-mass = 0.3
-shape = "segment"
-points = [[0.0, 0.0], [0.0, {-g["shin"]:.6f}]]
-contacts = [[0.0, {-g["shin"]:.6f}]]
-parent = "{side}_thigh"
-anchor = [0.0, {-g["thigh"]:.6f}]
-angle_deg = {-knee:.4f}
-'''
-    sensors = ""
-    for i, (link, lo, hi) in enumerate((("front_thigh", hip_on, 180), ("front_thigh", -180, -hip_on),
-                                         ("back_thigh", hip_on, 180), ("back_thigh", -180, -hip_on),
-                                         ("front_shin", -180, -knee_on), ("back_shin", -180, -knee_on),
-                                         ("torso", -180, -round(g["lean"], 3)), ("torso", round(g["lean"], 3), 180),
-                                         ("pelvis", round(g["waist_sense"], 3), 180)), start=3):
-        sensors += f'\n[[sensors]]\nname = "S{i}"\ntype = "angle"\nlink = "{link}"\nmin_deg = {lo}\nmax_deg = {hi}\n'
-    actuators = ""
-    for i, (joint, lo, hi, ks) in enumerate((("pelvis", -g["waist_back"], g["waist_fwd"], 0.3),
-                                             ("front_thigh", -g["hip_swing"], g["hip_swing"], 0.4),
-                                             ("front_shin", -g["knee_fold"], 0.0, 0.4),
-                                             ("back_thigh", -g["hip_swing"], g["hip_swing"], 0.4),
-                                             ("back_shin", -g["knee_fold"], 0.0, 0.4)), start=1):
-        actuators += (f'\n[[actuators]]\nname = "A{i}"\ntype = "angular"\njoint = "{joint}"\nmin_deg = {lo:.3f}\n'
-                      f'max_deg = {hi:.3f}\nks = {ks}\nkd = {ks / 10:.3f}\n')
-    return f'''{head}name = "walker"
-description = "The walker of van de Panne & Fiume 1993: a biped with a waist, hips and knees."
-dt = 0.001
-
-[world]
-plane = "vertical"
-gravity = 9.81
-
-[san]
-hidden = 6
-delay_on = {g["delay"]:.4f}
-delay_off = {g["delay"]:.4f}
-
-[evaluation]
-metric = "distance_upright"
-seconds = 6.0
-fell_link = "torso"
-fell_angle_deg = 60
-
+    legs = "".join(segment(f"{side}_thigh", 0.5, g["thigh"], "pelvis", (0.0, -0.1), hip)
+                   + segment(f"{side}_shin", 0.3, g["shin"], f"{side}_thigh", (0.0, -g["thigh"]), -knee)
+                   for side, hip in (("front", front), ("back", back)))
+    swing, fold = g["hip_swing"], g["knee_fold"]
+    return (head + header("walker", "The walker of van de Panne & Fiume 1993: a biped with a waist, hips and knees.", 6,
+                          g["delay"], 'metric = "distance_upright"\nseconds = 6.0\nfell_link = "torso"\nfell_angle_deg = 60')
+            + f'''
 [[links]]
 name = "torso"
 mass = 1.0
@@ -143,29 +93,14 @@ points = [[0.0, 0.0], [0.0, 0.3]]
 contacts = [[0.0, 0.3]]
 position = [0.0, {y}]
 angle_deg = 0
-
-[[links]]
-name = "pelvis"
-mass = 1.2
-shape = "segment"
-points = [[0.0, 0.0], [0.0, -0.1]]
-contacts = [[0.0, -0.1]]
-parent = "torso"
-anchor = [0.0, 0.0]
-angle_deg = 0
-{legs}
-[[sensors]]
-name = "S1"
-type = "touch"
-link = "front_shin"
-contact = 0
-
-[[sensors]]
-name = "S2"
-type = "touch"
-link = "back_shin"
-contact = 0
-{sensors}{actuators}'''
+''' + segment("pelvis", 1.2, 0.1, "torso", (0.0, 0.0), 0.0) + legs
+            + touch_sensors([("front_shin", 0), ("back_shin", 0)])
+            + angle_sensors([("front_thigh", hip_on, 180), ("front_thigh", -180, -hip_on), ("back_thigh", hip_on, 180),
+                             ("back_thigh", -180, -hip_on), ("front_shin", -180, -knee_on), ("back_shin", -180, -knee_on),
+                             ("torso", -180, -lean), ("torso", lean, 180), ("pelvis", round(g["waist_sense"], 3), 180)], 3)
+            + angular_actuators([("pelvis", -g["waist_back"], g["waist_fwd"], 0.3), ("front_thigh", -swing, swing, 0.4),
+                                 ("front_shin", -fold, 0.0, 0.4), ("back_thigh", -swing, swing, 0.4),
+                                 ("back_shin", -fold, 0.0, 0.4)]))
 
 
 # the walker as it is (its file at 4382142): round 0's candidate 0 (tests/test_design.py)
