@@ -22,7 +22,8 @@ candidate 39) 30.4 · 31.3 · 24.8; the built-in's file says what changed.
 The search itself is ``experiments/design.py``'s; by default it screens the random SANs with
 single samples (``--screen 1``) and scores a design by the mean held-out speed of its ten best
 SANs (``--confirm 10 --pick mean``): scored by its single best SAN, as the cart was, the designs
-that won were lotteries (search best 97-107 cm/s, 20-47 cm/s on other seeds' SANs).
+that won were lotteries (this bounder search's first run: search best 97-107 cm/s, 20-47 cm/s on
+other seeds' SANs).
 """
 
 from __future__ import annotations
