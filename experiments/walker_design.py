@@ -110,7 +110,7 @@ angle_deg = 0
                                  ("back_shin", -fold, 0.0, 0.4)]))
 
 
-# the walker as it is (its file at 4382142): round 0's candidate 0 (tests/test_design.py)
+# the walker as it is (its file at 29a0af5): round 0's candidate 0 (tests/test_design.py)
 FIRST = {"thigh": 0.25, "shin": 0.25, "hip_swing": 60.0, "knee_fold": 60.0, "waist_back": 10.0, "waist_fwd": 30.0,
          "hip_sense": 25 / 60, "knee_sense": 0.75, "lean": 15.0, "waist_sense": 15.0, "start_hip": 30.0,
          "start_knee": 10.0, "delay": 0.07}
