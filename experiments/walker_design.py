@@ -22,7 +22,8 @@ screened with single samples, a design scored by the mean held-out speed of its 
 13.9 · 10.1 · 7.5 cm/s on seeds 1-3's SANs (mean 10.5), the best design (round 1, candidate
 56) 16.4 · 21.0 · 16.7 (mean 18.0): a long thigh on a short shin (0.311 + 0.15 m), hips +-49
 deg, knees to -38, a wider waist (-15 to +46), sensors near the middle of their ranges and
-0.076 s node delays. Not yet the built-in: its five seeds of Table 1 are still to run.
+0.076 s node delays. It is the built-in walker (``CHOSEN``); the first one is kept in
+tests/data/walker_first.toml.
 """
 
 from __future__ import annotations
@@ -110,10 +111,15 @@ angle_deg = 0
                                  ("back_shin", -fold, 0.0, 0.4)]))
 
 
-# the walker as it is (its file at 29a0af5): round 0's candidate 0 (tests/test_design.py)
+# the walker as first designed (tests/data/walker_first.toml): round 0's candidate 0
 FIRST = {"thigh": 0.25, "shin": 0.25, "hip_swing": 60.0, "knee_fold": 60.0, "waist_back": 10.0, "waist_fwd": 30.0,
          "hip_sense": 25 / 60, "knee_sense": 0.75, "lean": 15.0, "waist_sense": 15.0, "start_hip": 30.0,
          "start_knee": 10.0, "delay": 0.07}
+# round 1's candidate 56, validated on seeds 1-3: the built-in walker (tests/test_design.py)
+CHOSEN = {"thigh": 0.31113715884240567, "shin": 0.15, "hip_swing": 48.736691360207715, "knee_fold": 37.55356250456267,
+          "waist_back": 15.254085324784777, "waist_fwd": 45.68550585878853, "hip_sense": 0.2,
+          "knee_sense": 0.2123812901590114, "lean": 22.7596320717018, "waist_sense": 8.744117460857439, "start_hip": 5.0,
+          "start_knee": 20.30553812757128, "delay": 0.07637075557360971}
 DESIGN = Design("walker_design", RANGES, toml_text, reference=FIRST)
 
 

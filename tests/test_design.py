@@ -1,4 +1,4 @@
-"""experiments/bounder_design.py and fourlink_design.py: free sizes and ranges as designs (issue 30).
+"""experiments/bounder_design.py, fourlink_design.py and walker_design.py: free sizes and ranges as designs (issue 30).
 
 The search machinery (a design as rows of one batched program, resumable rounds) is
 experiments/design.py's, tested through the cart in test_cart_geometry.py; here: each built-in is
@@ -41,7 +41,7 @@ def _same_physics(text_a: str, text_b: str, atol: float = 0.0) -> None:
         np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=0, atol=atol)
 
 
-@pytest.mark.parametrize("name", ["bounder", "fourlink"])
+@pytest.mark.parametrize("name", ["bounder", "fourlink", "walker"])
 def test_the_built_in_is_its_design(name):
     """The built-in's file is the design its search chose, to the file's rounding (1e-6 m, 1e-3 deg)."""
     from sanlab.creature import read_source
@@ -58,14 +58,13 @@ def test_the_bounder_searchs_reference_is_its_first_version(bd):
     _same_physics(first, bd.toml_text(bd.FIRST), atol=1e-5)  # that file rounded its start height to 0.01 mm
 
 
-def test_the_walker_searchs_reference_is_the_built_in():
-    """The walker is not redesigned yet: its search's reference is today's file, split stance
-    and all (the back hip placed by the design's stance rule lands on the file's -20 deg)."""
-    from sanlab.creature import read_source
-
+def test_the_walker_searchs_reference_is_its_first_version():
+    """Round 0's candidate 0 is the walker as it was before the search (kept in tests/data, the
+    built-in file at 7f63d6a), split stance and all: the back hip placed by the design's stance
+    rule lands on that file's -20 deg."""
     w = _design("walker")
     assert w.stance(w.FIRST) == pytest.approx((30.0, -20.0, 10.0), abs=1e-9)
-    _same_physics(read_source("walker")[0], w.toml_text(w.FIRST), atol=1e-9)
+    _same_physics((ROOT / "tests" / "data" / "walker_first.toml").read_text(), w.toml_text(w.FIRST), atol=1e-9)
 
 
 def test_walker_candidates_stand_on_both_feet():
