@@ -113,6 +113,30 @@ def test_summary_over_seeds_takes_median_min_and_max_of_the_robust_speeds():
     assert line.strip("|").split("|")[8].strip() == "0.38"  # median of 0.25 and 0.5
 
 
+def test_shortfalls_name_each_missed_goal_and_whether_tuning_or_the_audit_lost_it():
+    from sanlab.reproduce import Row, shortfalls
+
+    def row(name, seed, after, speed, verdict="robust", chains=None, paper=12.0, ratio=None):
+        robust = {"gait": f"r{seed}#1", "speed": speed, "trial": 3, "worst": 0.01, "candidates": 4}
+        track = None if ratio is None else {"best": {"mean_distance_m": ratio}, "median random": {"mean_distance_m": 1.0}}
+        return Row(name, (2, 6, 1, 5), paper, f"s{seed}", 10.0, after, f"t{seed}#0", 0.2, 60.0, "distance",
+                   {"verdict": verdict}, False, robust, seed=seed, chains=chains, tracking=track)
+
+    seeds = [0, 1, 2]
+    met = [row("met", sd, 15.0, 13.0) for sd in seeds]
+    slow = [row("slow", sd, 9.0, 8.0, chains=[9.0, 13.0]) for sd in seeds]  # one chain of six got there
+    refused = [row("refused", sd, 16.0, 10.0, verdict="resolution-dependent") for sd in seeds]
+    lost = [row("lost", sd, 5.0, 5.0, paper=None, ratio=0.5) for sd in seeds]
+    out = shortfalls(met + slow + refused + lost, seeds)
+    assert [line.split("**")[1] for line in out] == ["slow", "refused", "lost"]  # "met" meets it
+    assert "median 8.0 of 12 cm/s (0 of 3 seeds at it)" in out[0] and "tuning itself falls short" in out[0]
+    assert "of all 6 chains, 3 reached 12 (the fastest 13.0)" in out[0]
+    assert "the audit refuses it" in out[1] and "3 quoted chain bests at the speed were refused" in out[1]
+    assert "resolution-dependent" in out[1] and "Speed" not in out[2]
+    assert "Tracking: median ratio 0.50 against a goal below 0.33 (0 of 3 seeds below it)" in out[2]
+    assert shortfalls(met, seeds) == []
+
+
 @pytest.mark.parametrize("text, seeds", [("0-4", [0, 1, 2, 3, 4]), ("3", [3]), ("0-1,7,1", [0, 1, 7])])
 def test_parse_seeds(text, seeds):
     from sanlab.reproduce import parse_seeds
@@ -166,7 +190,8 @@ def _made_row(seed: int, speed: float | None):
 
     robust = {"gait": None if speed is None else f"r{seed}#1", "speed": speed, "trial": 3, "worst": 0.01, "candidates": 4}
     return Row("twolink", (2, 6, 1, 5), 12.0, f"s{seed}", 10.0, 15.0, f"t{seed}#0", 0.2, 60.0, "distance",
-               {"verdict": "robust", "changes": {"dt/2": 0.01}}, False, robust, seed=seed, device="2 x cpu")
+               {"verdict": "robust", "changes": {"dt/2": 0.01}}, False, robust, seed=seed, device="2 x cpu",
+               chains=[15.0, 9.5])
 
 
 def test_a_ledger_gives_back_the_rows_it_was_given_and_names_a_bad_line(tmp_path):
@@ -187,6 +212,7 @@ def test_a_ledger_gives_back_the_rows_it_was_given_and_names_a_bad_line(tmp_path
         got = again.get(key)
         assert got is not None and got.ledger and got.seed == sd and got.counts == (2, 6, 1, 5)
         assert got.robust == _made_row(sd, 14.0 if sd == 0 else None).robust and got.device == "2 x cpu"
+        assert got.chains == [15.0, 9.5]
     # another creature file, budget or ensemble is another row
     assert again.get(row_key("twolink", text + "\n# changed\n", 0, 200, 1000, ens, 4, True)) is None
     assert again.get(row_key("twolink", text, 0, 200, 1000, default_ensemble(4), 4, True)) is None
