@@ -72,10 +72,25 @@ if __import__("os").environ.get("SANLAB_COMPILE_LOG"):
 
     jax.monitoring.register_event_duration_secs_listener(_count)
 
+    # which programs each test compiled: the persistent cache's key of every executable written,
+    # so that a cold run shows the programs that two tests (or two workers) compiled alike
+    from jax._src import compilation_cache as _cc
+
+    _programs: list[list] = []
+    _put = _cc.put_executable_and_time
+
+    def _put_logged(cache_key, module_name, executable, backend, compile_time):
+        _programs.append([cache_key[-16:], module_name, compile_time])
+        return _put(cache_key, module_name, executable, backend, compile_time)
+
+    _cc.put_executable_and_time = _put_logged
+
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_protocol(item, nextitem):
         _spent.clear()
+        _programs.clear()
         t0 = time.perf_counter()
         yield
         with open(os.environ["SANLAB_COMPILE_LOG"], "a") as f:
-            f.write(json.dumps({"test": item.nodeid, "wall": time.perf_counter() - t0, **_spent}) + "\n")
+            f.write(json.dumps({"test": item.nodeid, "wall": time.perf_counter() - t0, **_spent,
+                                "programs": _programs, "worker": os.environ.get("PYTEST_XDIST_WORKER", "")}) + "\n")
