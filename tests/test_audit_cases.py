@@ -2,9 +2,10 @@
 
 The gaits in ``tests/data/gaits`` are exports of runs made by sanlab itself at the paper's budget
 (200 random SANs, 1000 annealing trials, ensemble 8, seed 0): the walker's tuned 114 cm/s and the
-bounder's tuned 66.8 cm/s of ``docs/table1.md`` (23 and 36 cm/s at dt/4 there), the tuned bounder
-of issue 28 (seed 5, 157.4 cm/s, 77.1 in float64), a chaotic random three-link gait, and a two-link
-gait tuned under members at dt and dt/2 whose starts all fall into one limit cycle. Each test
+bounder's tuned 66.8 cm/s of the one-seed ``docs/table1.md`` of commit bc64b5d (23 and 36 cm/s at
+dt/4 there; the first walker and bounder), the tuned bounder of issue 28 (seed 5, 157.4 cm/s, 77.1
+in float64), a chaotic random three-link gait, and a two-link gait tuned under members at dt and
+dt/2 whose starts all fall into one limit cycle. Each test
 imports one and audits it from scratch: nothing here is a stored result.
 """
 
@@ -50,7 +51,7 @@ def test_the_walker_tuned_to_the_step_is_resolution_dependent(lib):
 
 @pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_tuned_bounder_of_table1_is_not_vouched_for(lib):
-    """docs/table1.md flagged it from medians of 8 (66.8 cm/s, 35.9 at dt/4); over 32 starts its
+    """docs/table1.md (commit bc64b5d) flagged it from medians of 8 (66.8 cm/s, 35.9 at dt/4); over 32 starts its
     mean moves less than that, and the interval cannot yet tell: not a pass."""
     a = audit(lib, _imported(lib, "bounder-tuned-artefact"))
     assert a.flagged and a.verdict != ROBUST, a.summary()
