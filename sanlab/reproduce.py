@@ -483,6 +483,12 @@ def _tracking_ratio(r: Row) -> float | None:
     return r.tracking["best"]["mean_distance_m"] / max(1e-12, r.tracking["median random"]["mean_distance_m"])
 
 
+def _by_creature(rows: list[Row], seeds: list[int]):
+    """(creature, its rows in the order of ``seeds``), creatures in their first row's order."""
+    for name in dict.fromkeys(r.creature for r in rows):
+        yield name, sorted((r for r in rows if r.creature == name), key=lambda r: seeds.index(r.seed))
+
+
 def summary(rows: list[Row], seeds: list[int]) -> list[str]:
     """The table over seeds: per creature, the median, min and max of the robust tuned speed
     (a seed without a robust gait counts 0), each seed's, how many meet Table 1, the verdicts of
@@ -492,9 +498,7 @@ def summary(rows: list[Row], seeds: list[int]) -> list[str]:
     lines = ["| creature | Table 1 speed (cm/s) | robust tuned speed, median (cm/s) | min | max | per seed (cm/s) "
              "| seeds at Table 1 speed | audits of the tuned gaits | tracking: distance ratio, median | wall time |",
              "|---|---|---|---|---|---|---|---|---|---|"]
-    names = list(dict.fromkeys(r.creature for r in rows))
-    for name in names:
-        mine = sorted((r for r in rows if r.creature == name), key=lambda r: seeds.index(r.seed))
+    for name, mine in _by_creature(rows, seeds):
         speeds = np.array([r.robust_speed for r in mine])
         paper = mine[0].paper_speed
         met = "-" if paper is None else f"{int((speeds >= paper).sum())} of {len(mine)}"
@@ -513,16 +517,15 @@ TRACKING_GOAL = 1 / 3  # §6's tracking, as issue 30 states it: a third of the m
 
 
 def shortfalls(rows: list[Row], seeds: list[int]) -> list[str]:
-    """Which creatures miss the goal over the seeds, and what the rows say about why: one bullet
-    per creature that misses it ("" lines only when every creature meets it).
+    """Which creatures miss the goal over the seeds, and what the rows say about why: one Markdown
+    bullet per creature that misses it (an empty list when every creature meets it).
 
     The goal (issue 30): the median over seeds of the robust tuned speed at least Table 1's, and,
     for the creatures that follow a point, the median tracking ratio below :data:`TRACKING_GOAL`.
     The cause is read off the rows: whether the quoted chain's best before the audit (*after
     tuning*) already falls short, or reaches the speed and the audit refuses it."""
     out = []
-    for name in dict.fromkeys(r.creature for r in rows):
-        mine = sorted((r for r in rows if r.creature == name), key=lambda r: seeds.index(r.seed))
+    for name, mine in _by_creature(rows, seeds):
         n, paper = len(mine), mine[0].paper_speed
         why = []
         if paper is not None:
