@@ -126,23 +126,27 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
         return step(model, cparams, carry)
 
     carry = (state0, cstate0, acc0, deepest0)
-    if not every:
+    n_frames = n_steps // every if every else 0
+    if not n_frames:
         carry = jax.lax.fori_loop(0, n_steps, lambda _, c: body(c, None)[0], carry)
-        frames = None
+        frames = None if not every else _frames_first(_empty_frames(model, controller, cparams, carry, 0))
     else:
-        n_frames = n_steps // every
+        # One loop over every step, so the step is traced and compiled once; a frame is written
+        # on every ``every``-th step. A scan over frames with an inner loop held two or three
+        # copies of the step (a block's first step, the rest of the block, the leftover steps)
+        # and compiled 1.5-1.7x slower (bounder, 2 cores) for the same arithmetic.
+        def record(i, cf):
+            carry, buf = cf
+            carry, out = body(carry, None)
+            k = jnp.minimum(i // every, n_frames - 1)
+            keep = (i % every == 0) & (i < n_frames * every)
+            put = lambda b, x: jax.lax.dynamic_update_index_in_dim(
+                b, jnp.where(keep, x, jax.lax.dynamic_index_in_dim(b, k, 0, keepdims=False)), k, 0)
+            return carry, jax.tree_util.tree_map(put, buf, out)
 
-        def block(carry, _):
-            carry, first = body(carry, None)
-            if every > 1:
-                carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=every - 1)
-            return carry, first
-
-        carry, rec = jax.lax.scan(block, carry, None, length=n_frames)
-        rest = n_steps - n_frames * every
-        if rest:
-            carry, _ = jax.lax.scan(lambda c, x: (body(c, x)[0], None), carry, None, length=rest)
-        frames = jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), rec)  # [F, B, ...] -> [B, F, ...]
+        buf = _empty_frames(model, controller, cparams, carry, n_frames)
+        carry, rec = jax.lax.fori_loop(0, n_steps, record, (carry, buf))
+        frames = _frames_first(rec)
     state, cstate, acc, deepest = carry
 
     def last(m, state, acc):
@@ -155,6 +159,24 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
 
     state, acc, finite = each(last, 0, 0)(model, state, acc)
     return state, acc, deepest, finite, frames, cstate
+
+
+def _frames_first(rec):
+    """Recorded buffers [F, B, ...] -> [B, F, ...]."""
+    return jax.tree_util.tree_map(lambda x: jnp.moveaxis(x, 0, 1), rec)
+
+
+def _empty_frames(model: Model, controller: Controller, cparams, carry, n: int):
+    """Zeroed buffers for ``n`` recorded frames [n, B, ...] of (q, qd, bits, u, cstate), shaped
+    without tracing the step: only the controller's ``apply`` is traced, for its output's shape."""
+    state, cstate = carry[0], carry[1]
+    B, dtype = state.q.shape[0], state.q.dtype
+    one = lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype)
+    bits = jax.ShapeDtypeStruct((model.structure.n_sensors,), dtype)
+    _, u = jax.eval_shape(lambda c, s, b, h: controller.apply(c, s, b, h), jax.tree_util.tree_map(one, cparams),
+                          jax.tree_util.tree_map(one, cstate), bits, jax.ShapeDtypeStruct((), dtype))
+    zeros = lambda s: jnp.zeros((n, B, *s.shape), s.dtype)
+    return jax.tree_util.tree_map(zeros, (one(state.q), one(state.q), bits, u, jax.tree_util.tree_map(one, cstate)))
 
 
 def devices():
