@@ -173,6 +173,17 @@ def test_recording_costs_nothing_in_the_result_and_has_the_right_frames():
     assert rec.frames.bits.shape == (5, 50, 6) and rec.frames.u.shape == (5, 50, 1)
     np.testing.assert_allclose(rec.frames.t[:3], [0.0, 0.02, 0.04])
     np.testing.assert_array_equal(np.asarray(plain.state.q), np.asarray(rec.state.q))
+    # steps left over after the last whole frame are run, not recorded; frame k is the state
+    # before step k * every (here every 20 steps)
+    odd = sim.rollout(m, san, p, seconds=1.013, record_fps=50)
+    assert odd.frames.q.shape == (5, 50, m.structure.ndof)
+    np.testing.assert_array_equal(np.asarray(odd.frames.q), np.asarray(rec.frames.q))
+    np.testing.assert_allclose(np.asarray(odd.state.t), 1.013, atol=1e-4)  # float32 time, 1013 steps
+    at20 = sim.rollout(m, san, p, steps=20)
+    np.testing.assert_array_equal(np.asarray(odd.frames.q[:, 1]), np.asarray(at20.state.q))
+    # a run shorter than one frame records none
+    short = sim.rollout(m, san, p, seconds=0.01, record_fps=50)
+    assert short.frames.q.shape == (5, 0, m.structure.ndof) and short.frames.t.shape == (0,)
 
 
 def test_closed_loop_hook_runs_sensors_controller_and_physics_each_step():
