@@ -590,7 +590,7 @@ def _continuation():
     steps, recording a frame every ``every`` steps -> (state, cstate, finite, {q [F, D],
     bits [F, S], nodes [F, N], poses: ``sim.poses`` of each frame}).
 
-    The loop of ``sim.rollout`` (sense, controller, step, in one ``lax.scan``; frames recorded
+    The loop of ``sim.rollout`` (sense, controller, step, in one loop; frames recorded
     before their step; the final state's velocity M^-1 p), written with the simulator's public
     functions and compiled once per creature structure, controller and chunk size. Live mode
     calls it every 204 ms of simulated time: ``sim.rollout`` itself pads a batch of one to every
@@ -618,13 +618,16 @@ def _continuation():
                 nxt, _ = sim.advance(model, fr, state, u)
                 return (nxt, cs2), (state.q, bits, cs.out)
 
-            def frame(carry, _):
+            def one(i, c):  # the step once in the program, a frame kept every ``every`` steps (as sim.rollout)
+                carry, buf = c
                 carry, rec = body(carry)
-                if every > 1:
-                    carry, _ = jax.lax.scan(lambda c, _: (body(c)[0], None), carry, None, length=every - 1)
-                return carry, rec
+                k, keep = i // every, i % every == 0
+                return carry, jax.tree_util.tree_map(lambda b, x: b.at[k].set(jnp.where(keep, x, b[k])), buf, rec)
 
-            (state, cs), (q, bits, nodes) = jax.lax.scan(frame, (state, cstate), None, length=frames)
+            dtype = state.q.dtype
+            buf = (jnp.zeros((frames, *state.q.shape), dtype), jnp.zeros((frames, model.structure.n_sensors), dtype),
+                   jnp.zeros((frames, *cstate.out.shape), cstate.out.dtype))
+            (state, cs), (q, bits, nodes) = jax.lax.fori_loop(0, frames * every, one, ((state, cstate), buf))
             state = state._replace(qd=sim.velocity(model, state, gate))
             finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
             poses = jax.vmap(lambda x: sim.poses(model, x))(q)
