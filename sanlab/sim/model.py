@@ -19,7 +19,7 @@ external horizontal force the centre of mass cannot move along x, whatever the c
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -89,7 +89,10 @@ class Structure:
     water: bool
     follow: bool
     follow_loop: bool
-    dt: float
+    # the step's length (s), for the host only (a duration in steps): the traced step reads
+    # ``params.dt``, so it is no part of a program's identity and a nudged step (the audit's
+    # dt/2, dt/4) reuses the nominal step's traced and compiled program
+    dt: float = field(compare=False, repr=False)
     articulated: bool = False  # the step's linear algebra: O(n) articulated-body (see sim.articulated) or dense
 
     @property
@@ -180,13 +183,35 @@ class Model:
         return replace(self, params=replace(self.params, **changes))
 
 
+class _Carried:
+    """A value that a pytree's static part carries without it being part of the pytree's
+    identity: it compares equal to any other and prints as nothing. Model carries its creature
+    spec so: no traced code reads it (``structure`` holds all the program depends on), so models
+    that differ only in their spec (another dt) share one traced program and one
+    stored executable (``sim.executables`` keys on the tree's ``repr``)."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Carried)
+
+    def __hash__(self) -> int:
+        return 0
+
+    def __repr__(self) -> str:
+        return "_Carried"
+
+
 def _pytree_model() -> None:
     import jax
 
     jax.tree_util.register_pytree_node(
         Model,
-        lambda m: ([m.params], (m.structure, m.spec, m.dtype)),
-        lambda aux, ch: Model(aux[0], ch[0], aux[1], aux[2]),
+        lambda m: ([m.params], (m.structure, _Carried(m.spec), m.dtype)),
+        lambda aux, ch: Model(aux[0], ch[0], aux[1].value, aux[2]),
     )
 
 

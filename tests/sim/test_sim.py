@@ -270,6 +270,47 @@ def test_rollouts_of_any_duration_share_one_compiled_program():
     np.testing.assert_array_equal(np.asarray(long.state.q), np.asarray(recorded.state.q))
 
 
+def test_a_nudged_step_reuses_the_traced_program_and_runs_at_its_own_step(monkeypatch):
+    """The audit's dt/2 and dt/4 differ from the nominal creature only in dt, which the traced
+    step reads from ``params``: they trace nothing new (each used to cost a trace, a lowering and
+    a cache load, 1-2 s for the bounder). And the shared program must not carry the first
+    model's dt or spec along: the nudged run equals one traced afresh for it, bit for bit."""
+    import dataclasses
+    import importlib
+
+    import jax.monitoring
+
+    from sanlab.sim import executables
+
+    rollout_module = importlib.import_module("sanlab.sim.rollout")  # the module, not the function
+
+    spec = creature.load("cart")
+    san, p = random_sans(spec, 4, seed=2)
+    nominal = sim.rollout(sim.compile_creature(spec), san, p, seconds=0.3)
+    half = sim.compile_creature(dataclasses.replace(spec, dt=spec.dt / 2))
+    traced: list[str] = []
+
+    def count(event: str, duration_secs: float, **_) -> None:
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traced.append(event)
+
+    jax.monitoring.register_event_duration_secs_listener(count)
+    try:
+        shared = sim.rollout(half, san, p, seconds=0.3)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(count)
+    assert traced == []
+    assert np.allclose(np.asarray(shared.state.t), 0.3, atol=1e-6)  # 600 steps of 0.5 ms
+    assert not np.array_equal(np.asarray(shared.state.q), np.asarray(nominal.state.q))
+    # afresh: no program in memory, none from disk
+    monkeypatch.setattr(executables, "enabled", lambda: False)
+    rollout_module._program.cache_clear()
+    jax.clear_caches()
+    fresh = sim.rollout(half, san, p, seconds=0.3)
+    for field in ("q", "p", "t"):
+        np.testing.assert_array_equal(np.asarray(getattr(shared.state, field)), np.asarray(getattr(fresh.state, field)))
+
+
 def test_bad_runs_are_flagged_not_fatal():
     spec = creature.load("cart")
     m = sim.compile_creature(spec)
