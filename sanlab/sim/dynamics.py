@@ -1027,12 +1027,14 @@ def step(model: Model, state: State, u) -> State:
     return nxt._replace(qd=velocity(model, nxt))
 
 
-def energy(model: Model, state: State) -> dict:
+def energy(model: Model, state: State, fr: Frame | None = None) -> dict:
     """Mechanical energy of one creature (J): kinetic (of the velocity M^-1 p), gravitational
     (m g y of each centre of mass), and elastic (passive joint and linear springs; actuators,
-    joint stops and the ground excluded)."""
+    joint stops and the ground excluded). fr: ``state``'s prepared frame when at hand (an
+    observer's ``update`` has it), else it is prepared here."""
     st, p = model.structure, model.params
-    fr = prepare(model, state)
+    if fr is None:
+        fr = prepare(model, state)
     kin, grav, elastic = 0.0, 0.0, 0.0
     for ls in st.links:
         i = ls.index
