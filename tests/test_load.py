@@ -4,7 +4,7 @@ XLA's CPU devices abort the process (SIGABRT) when one of them misses a cross-de
 collective's deadline; with other work on the cores that happened to about one `reproduce` in
 five. The rollout no longer runs any multi-device program with a collective
 (``sanlab.sim.rollout._program``); this checks it where it used to fail: a small `reproduce` and
-a 1000-trial tuning, each run again and again beside a CPU hog that keeps every core busy,
+a 320-trial tuning, each run again and again beside a CPU hog that keeps every core busy,
 asserting that no run dies of a signal.
 
 In the test suite each command runs ``SANLAB_LOAD_REPEATS`` times (default 1: the full check
@@ -67,7 +67,7 @@ def check(repeats: int, log=print) -> tuple[int, int, float]:
         commands = {
             "reproduce": ["reproduce", "--creatures", "twolink", "--controllers", "8", "--trials", "16", "--no-audit",
                           "--out", os.path.join(tmp, "t1.md"), "--db", os.path.join(tmp, "t1.db")],
-            "tune": ["tune", gait, "--trials", "1000", "--batch", "16", "--db", db, "--json"],
+            "tune": ["tune", gait, "--trials", "320", "--batch", "16", "--db", db, "--json"],
         }
         with Hog():
             for i in range(repeats):

@@ -64,8 +64,9 @@ def test_a_message_with_a_5000_digit_number_is_answered_and_the_connection_stays
     server, _ = bare_studio
     with connect(server.url.replace("http://", "ws://") + "ws") as ws:
         ws.send('{"id": 1, "op": "top", "run": "ab", "n": ' + HUGE + "}")
-        r = json.loads(ws.recv(timeout=30))
-        assert r["type"] == "reply" and r["ok"] is False
+        while (r := json.loads(ws.recv(timeout=30)))["type"] != "reply":
+            pass  # the library's own news may come first on a busy machine
+        assert r["ok"] is False
         assert r["error"] == "malformed message: not JSON this server reads: a number of more than 4300 digits"
         ws.send(json.dumps({"id": 2, "op": "runs"}))  # the same connection still serves
         while (r := json.loads(ws.recv(timeout=30)))["type"] != "reply":
