@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import subprocess
@@ -34,6 +35,25 @@ def rod(name, L, m, **kw):
 def box(name, w, h, m, **kw):
     pts = ((-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2))
     return Link(name, m, m * (w * w + h * h) / 12, (0.0, 0.0), Shape("polygon", pts), contacts=pts[:2], **kw)
+
+
+@contextlib.contextmanager
+def compile_events(prefix: str = "/jax/core/compile/"):
+    """The names of the JAX compile events (tracing, lowering, compiling, cache loads) whose name
+    starts with ``prefix``, raised inside the ``with`` block (a list filled as they come)."""
+    import jax.monitoring
+
+    seen: list[str] = []
+
+    def count(event: str, duration_secs: float, **_) -> None:
+        if event.startswith(prefix):
+            seen.append(event)
+
+    jax.monitoring.register_event_duration_secs_listener(count)
+    try:
+        yield seen
+    finally:
+        jax.monitoring.unregister_event_duration_listener(count)
 
 
 def run(spec, cparams, dtype="float64", **kw):
@@ -245,23 +265,12 @@ def test_rollouts_of_any_duration_share_one_compiled_program():
     """Without recording, the number of steps is an input of the compiled rollout: a second
     duration traces and compiles nothing (it used to cost a whole compilation, about 12 s for the
     bounder without a compile cache), and runs exactly as many steps as asked."""
-    import jax.monitoring
-
     spec = creature.load("cart")
     m = sim.compile_creature(spec)
     san, p = random_sans(spec, 4, seed=2)
     short = sim.rollout(m, san, p, seconds=0.2)
-    compiles: list[float] = []
-
-    def count(event: str, duration_secs: float, **_) -> None:
-        if event.startswith("/jax/core/compile/"):  # tracing, lowering, compiling (or a cache load)
-            compiles.append(duration_secs)
-
-    jax.monitoring.register_event_duration_secs_listener(count)
-    try:
+    with compile_events() as compiles:  # tracing, lowering, compiling (or a cache load)
         long = sim.rollout(m, san, p, seconds=0.5)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(count)
     assert compiles == []
     assert np.allclose(np.asarray(short.state.t), 0.2, atol=1e-6)
     assert np.allclose(np.asarray(long.state.t), 0.5, atol=1e-6)
@@ -278,8 +287,6 @@ def test_a_nudged_step_reuses_the_traced_program_and_runs_at_its_own_step(monkey
     import dataclasses
     import importlib
 
-    import jax.monitoring
-
     from sanlab.sim import executables
 
     rollout_module = importlib.import_module("sanlab.sim.rollout")  # the module, not the function
@@ -288,17 +295,8 @@ def test_a_nudged_step_reuses_the_traced_program_and_runs_at_its_own_step(monkey
     san, p = random_sans(spec, 4, seed=2)
     nominal = sim.rollout(sim.compile_creature(spec), san, p, seconds=0.3)
     half = sim.compile_creature(dataclasses.replace(spec, dt=spec.dt / 2))
-    traced: list[str] = []
-
-    def count(event: str, duration_secs: float, **_) -> None:
-        if event == "/jax/core/compile/jaxpr_trace_duration":
-            traced.append(event)
-
-    jax.monitoring.register_event_duration_secs_listener(count)
-    try:
+    with compile_events("/jax/core/compile/jaxpr_trace_duration") as traced:
         shared = sim.rollout(half, san, p, seconds=0.3)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(count)
     assert traced == []
     assert np.allclose(np.asarray(shared.state.t), 0.3, atol=1e-6)  # 600 steps of 0.5 ms
     assert not np.array_equal(np.asarray(shared.state.q), np.asarray(nominal.state.q))
