@@ -21,8 +21,8 @@ gymnasium_mujoco = pytest.importorskip("gymnasium.envs.mujoco")
 
 ASSETS = os.path.join(os.path.dirname(gymnasium_mujoco.__file__), "assets")
 GYM = {"hopper": os.path.join(ASSETS, "hopper.xml"), "walker2d": os.path.join(ASSETS, "walker2d_v5.xml")}
-# Each command compiles its own program; JAX's persistent cache is left out so that a stale entry
-# from another run cannot change what is tested.
+# Each command runs in its own process and shares the compile cache, as a user's commands do (its
+# keys cover sanlab's source and the whole program, so an entry cannot be stale).
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
