@@ -92,7 +92,7 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
     ``in_model`` says so). n_steps: a Python int when recording (the frames' count is a shape), else
     a traced scalar, so that one compiled program serves every duration.
 
-    Time is a loop (``scan``; ``fori_loop`` without recording) over a ``vmap``-ed step, not a
+    Time is one ``fori_loop`` (recording or not) over a ``vmap``-ed step, not a
     ``vmap`` over a looped one: the step is then traced once, already batched, where batching a
     loop traces the step and then batches its trace again (about twice the tracing time, the
     largest part of a cold start). The compiled program is the same.
