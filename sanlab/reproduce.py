@@ -172,7 +172,8 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     def wanted(run: Run) -> bool:
         s = run.settings
         return (isinstance(s, SearchSettings) and s.imported_from is None and s.controllers == controllers
-                and s.seconds == seconds and s.batch == SEARCH_BATCH and s.ensemble == ens
+                and s.seconds == seconds and s.batch in (SEARCH_BATCH, min(SEARCH_BATCH, controllers))
+                and s.ensemble == ens
                 and (run.dtype or "float32") == "float32")
 
     run = _earlier(lib, "search", text, seed, wanted)

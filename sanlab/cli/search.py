@@ -51,7 +51,8 @@ def search(
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
     batch: Annotated[int | None, typer.Option(min=1, help=(
-        "Controllers simulated (and committed) together; map-elites' generation (default 256; map-elites 64)."))] = None,
+        "Controllers simulated (and committed) together, at most --controllers; map-elites' generation "
+        "(default 256; map-elites 64)."))] = None,
     strategy: Annotated[str, typer.Option(help=(
         "random (§5.2: random SANs) or map-elites (a repertoire: the best gait in each cell of --grid)."))] = "random",
     grid: Annotated[str | None, typer.Option(help=(

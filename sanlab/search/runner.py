@@ -43,7 +43,9 @@ def run_search(
     stored run and only the controllers not yet stored are evaluated; the run then ends exactly
     as an uninterrupted one. ``backend``: where evaluations run (default: this machine).
     ``strategy``: a phase-1 strategy of ``sanlab.search.registry`` ("random", "map-elites": then
-    ``grid`` is its archive, and ``batch`` its generation). ValueError for an unknown strategy.
+    ``grid`` is its archive, and ``batch`` its generation). ``batch``: controllers simulated
+    together; a random search of fewer controllers than that simulates (and stores as its batch)
+    only those. ValueError for an unknown strategy.
     """
     backend = backend if backend is not None else Local()
     if resume is not None:
@@ -66,6 +68,10 @@ def run_search(
         raise ValueError(f"strategy: expected one of {registry.names(1)}, got {strategy!r}")
     if strategy == "map-elites" and grid is None:
         grid = parse_grid(None)
+    if run_id is None and strategy == "random":
+        # the evaluator pads every call to its batch: 64 controllers in a batch of 256 simulated
+        # 256; a controller's score does not depend on its batch, so this changes no result
+        batch = min(batch, controllers)
     ev = Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=batch, ensemble=ens)
     on, off = ev.delays()
     if run_id is None:

@@ -30,6 +30,29 @@ def test_the_batch_size_does_not_change_the_result(tmp_path):
     assert a_top == b_top and a_scores == b_scores
 
 
+def test_a_search_smaller_than_its_batch_simulates_only_its_controllers(tmp_path, monkeypatch):
+    """The evaluator pads every call to its batch, so 24 controllers in the default batch of 256
+    simulated 256 (with the default ensemble, 2,048 rollouts for 192); the run's batch is now its
+    size, with the same scores."""
+    import sanlab.sim as sim
+
+    rows = []
+    real = sim.rollout
+
+    def counted(model, controller, cparams, *a, **k):
+        rows.append(len(cparams.weights))
+        return real(model, controller, cparams, *a, **k)
+
+    monkeypatch.setattr(sim, "rollout", counted)
+    run_id, top, scores = search(tmp_path / "a.db", n=24, batch=256, ensemble=4)
+    with Library(str(tmp_path / "a.db")) as lib:
+        assert lib.get_run(run_id).settings.batch == 24
+    assert sum(rows) == 24 * 4  # one rollout per step factor of the ensemble; 256 * 4 before
+    monkeypatch.setattr(sim, "rollout", real)
+    _, top16, scores16 = search(tmp_path / "b.db", n=24, batch=16, ensemble=4)  # two calls of 16
+    assert top == top16 and scores == scores16
+
+
 def test_progress_reaches_the_reporter(tmp_path):
     seen = []
     search(tmp_path / "a.db", n=64, reporter=seen.append)
