@@ -138,11 +138,7 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
         def record(i, cf):
             carry, buf = cf
             carry, out = body(carry, None)
-            k = jnp.minimum(i // every, n_frames - 1)
-            keep = (i % every == 0) & (i < n_frames * every)
-            put = lambda b, x: jax.lax.dynamic_update_index_in_dim(
-                b, jnp.where(keep, x, jax.lax.dynamic_index_in_dim(b, k, 0, keepdims=False)), k, 0)
-            return carry, jax.tree_util.tree_map(put, buf, out)
+            return carry, write_frame(buf, out, i, every)
 
         buf = _empty_frames(model, controller, cparams, carry, n_frames)
         carry, rec = jax.lax.fori_loop(0, n_steps, record, (carry, buf))
@@ -159,6 +155,19 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
 
     state, acc, finite = each(last, 0, 0)(model, state, acc)
     return state, acc, deepest, finite, frames, cstate
+
+
+def write_frame(buf, out, i, every: int):
+    """Frame buffers ``buf`` (leaves [F, ...]) with step ``i``'s outputs ``out`` (leaves [...])
+    written as frame ``i // every`` when ``i`` is a multiple of ``every``, and unchanged otherwise
+    (also for the steps after the last whole frame). For a loop that runs the step once and
+    records every ``every``-th step (the rollout, the studio's live chunks)."""
+    n = jax.tree_util.tree_leaves(buf)[0].shape[0]
+    k = jnp.minimum(i // every, n - 1)
+    keep = (i % every == 0) & (i < n * every)
+    put = lambda b, x: jax.lax.dynamic_update_index_in_dim(
+        b, jnp.where(keep, x, jax.lax.dynamic_index_in_dim(b, k, 0, keepdims=False)), k, 0)
+    return jax.tree_util.tree_map(put, buf, out)
 
 
 def _frames_first(rec):

@@ -607,6 +607,7 @@ def _continuation():
         import jax.numpy as jnp
 
         from sanlab import sim
+        from sanlab.sim.rollout import write_frame
 
         @partial(jax.jit, static_argnames=("controller", "every", "frames"))
         def run(model, controller, cparams, state, cstate, gate, every, frames):
@@ -621,8 +622,7 @@ def _continuation():
             def one(i, c):  # the step once in the program, a frame kept every ``every`` steps (as sim.rollout)
                 carry, buf = c
                 carry, rec = body(carry)
-                k, keep = i // every, i % every == 0
-                return carry, jax.tree_util.tree_map(lambda b, x: b.at[k].set(jnp.where(keep, x, b[k])), buf, rec)
+                return carry, write_frame(buf, rec, i, every)
 
             dtype = state.q.dtype
             buf = (jnp.zeros((frames, *state.q.shape), dtype), jnp.zeros((frames, model.structure.n_sensors), dtype),
