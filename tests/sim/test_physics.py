@@ -227,9 +227,12 @@ def _energy_run(spec: Creature, seconds: float = 10.0):
     m = sim.compile_creature(spec, "float64")
     r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), seconds, observer=_EnergyWatch())
     w = {k: float(np.asarray(v)[0]) for k, v in r.acc.items()}
-    # hanging straight down from the pivot (0, 2): link i's centre of mass at 2 - (i + 1/2) L
-    hang = sum(float(m.params.mass[i + 1]) * float(m.params.gravity) * (2.0 - (i + 0.5) * 0.1)
-               for i in range(len(spec.links) - 1))
+    # hanging straight down from the pivot: each link's centre of mass below its joint by its
+    # offset along the link, each joint below the last by the length of the link above it
+    hang, y = 0.0, spec.links[0].position[1]
+    for link in spec.links[1:]:
+        hang += link.mass * float(m.params.gravity) * (y - link.com[0])
+        y -= link.shape.points[1][0]
     return w, w["e0"] - hang, r
 
 
