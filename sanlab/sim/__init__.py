@@ -34,6 +34,7 @@ from sanlab.sim.rollout import (
     SineController,
     batch_quantum,
     devices,
+    frame_capacity,
     rollout,
 )
 
@@ -42,5 +43,5 @@ __all__ = [
     "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
-    "batch_quantum", "devices", "rollout",
+    "batch_quantum", "devices", "frame_capacity", "rollout",
 ]

@@ -85,12 +85,14 @@ class Result(NamedTuple):
     cstate: Any = None  # final controller state (pass it back as ``cstate0`` to continue a run)
 
 
-def _batched(model: Model, controller: Controller, observer: Observer | None, n_steps: int, every: int, cparams,
-             state0, cstate0, gate, in_model):
-    """Roll a batch of controllers out for n_steps, recording a frame every ``every`` steps;
-    every argument but ``gate`` and ``n_steps`` carries the batch axis first (``model`` only where
-    ``in_model`` says so). n_steps: a Python int when recording (the frames' count is a shape), else
-    a traced scalar, so that one compiled program serves every duration.
+def _batched(model: Model, controller: Controller, observer: Observer | None, n_steps, every, capacity: int,
+             cparams, state0, cstate0, gate, in_model):
+    """Roll a batch of controllers out for n_steps, recording a frame every ``every`` steps into
+    ``capacity`` frame buffers (0: no recording); every argument but ``gate``, ``n_steps``,
+    ``every`` and ``capacity`` carries the batch axis first (``model`` only where ``in_model`` says
+    so). n_steps and every: traced scalars, so that one compiled program serves every duration
+    and frame rate whose ``n_steps // every`` frames fit the buffers (the frames past them are
+    the caller's to cut off).
 
     Time is one ``fori_loop`` (recording or not) over a ``vmap``-ed step, not a
     ``vmap`` over a looped one: the step is then traced once, already batched, where batching a
@@ -117,7 +119,7 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
             acc = observer.update(m, acc, state, fr, bits, u)
         nxt, depth = advance(m, fr, state, u)
         qd_n = jnp.stack([x + jnp.zeros((), state.q.dtype) for x in fr.qd]) if fr.qd else state.qd
-        out = (state.q, qd_n, bits, u, cstate) if every else None
+        out = (state.q, qd_n, bits, u, cstate) if capacity else None
         return (nxt, cstate2, acc, jnp.maximum(deepest, depth)), out
 
     step = each(one, 0, 0)
@@ -126,21 +128,22 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
         return step(model, cparams, carry)
 
     carry = (state0, cstate0, acc0, deepest0)
-    n_frames = n_steps // every if every else 0
-    if not n_frames:
+    if not capacity:
         carry = jax.lax.fori_loop(0, n_steps, lambda _, c: body(c, None)[0], carry)
-        frames = None if not every else _frames_first(_empty_frames(model, controller, cparams, carry, 0))
+        frames = None
     else:
         # One loop over every step, so the step is traced and compiled once; a frame is written
         # on every ``every``-th step. A scan over frames with an inner loop held two or three
         # copies of the step (a block's first step, the rest of the block, the leftover steps)
         # and compiled 1.5-1.7x slower (bounder, 2 cores) for the same arithmetic.
+        n_frames = n_steps // every
+
         def record(i, cf):
             carry, buf = cf
             carry, out = body(carry, None)
-            return carry, write_frame(buf, out, i, every)
+            return carry, write_frame(buf, out, i, every, n_frames)
 
-        buf = _empty_frames(model, controller, cparams, carry, n_frames)
+        buf = _empty_frames(model, controller, cparams, carry, capacity)
         carry, rec = jax.lax.fori_loop(0, n_steps, record, (carry, buf))
         frames = _frames_first(rec)
     state, cstate, acc, deepest = carry
@@ -157,13 +160,15 @@ def _batched(model: Model, controller: Controller, observer: Observer | None, n_
     return state, acc, deepest, finite, frames, cstate
 
 
-def write_frame(buf, out, i, every: int):
+def write_frame(buf, out, i, every, n=None):
     """Frame buffers ``buf`` (leaves [F, ...]) with step ``i``'s outputs ``out`` (leaves [...])
-    written as frame ``i // every`` when ``i`` is a multiple of ``every``, and unchanged otherwise
-    (also for the steps after the last whole frame). For a loop that runs the step once and
-    records every ``every``-th step (the rollout, the studio's live chunks)."""
-    n = jax.tree_util.tree_leaves(buf)[0].shape[0]
-    k = jnp.minimum(i // every, n - 1)
+    written as frame ``i // every`` when ``i`` is a multiple of ``every`` and that frame is one of
+    the first ``n`` (default: F), and unchanged otherwise (also for the steps after the last whole
+    frame). For a loop that runs the step once and records every ``every``-th step (the rollout,
+    the studio's live chunks); ``every`` and ``n`` may be traced."""
+    cap = jax.tree_util.tree_leaves(buf)[0].shape[0]
+    n = cap if n is None else n
+    k = jnp.minimum(i // every, cap - 1)
     keep = (i % every == 0) & (i < n * every)
     put = lambda b, x: jax.lax.dynamic_update_index_in_dim(
         b, jnp.where(keep, x, jax.lax.dynamic_index_in_dim(b, k, 0, keepdims=False)), k, 0)
@@ -198,13 +203,24 @@ def batch_quantum() -> int:
     return 8 * len(devices())
 
 
+MIN_FRAMES = 256  # 8.5 s at 30 fps: the films, replays and checks of a creature share one program
+
+
+def frame_capacity(n_frames: int) -> int:
+    """Frame buffers for ``n_frames`` recorded frames: at least :data:`MIN_FRAMES`, else the next
+    power of two, so that recordings of nearby lengths and rates share a compiled program at no
+    more than twice the frames' memory (a 6 s replay at 30 fps: 180 frames in 256)."""
+    return max(MIN_FRAMES, 1 << max(0, int(n_frames) - 1).bit_length())
+
+
 @lru_cache(maxsize=64)
-def _program(controller: Controller, observer: Observer | None, n_steps: int, every: int, params_batched: bool,
+def _program(controller: Controller, observer: Observer | None, capacity: int, params_batched: bool,
              fence: bool, with_cstate: bool, with_state0: bool, devs: tuple):
     """The compiled rollout of one configuration over the devices ``devs``: each device rolls out
-    its own contiguous share of the batch, and nothing in the program crosses devices. Without
-    recording (``every`` 0) the number of steps is an argument of the program, not part of it
-    (``n_steps`` is then 0 here): evaluations of any duration share one compilation.
+    its own contiguous share of the batch, and nothing in the program crosses devices. The number
+    of steps and the steps between recorded frames are arguments of the program, not part of it;
+    only the frame buffers' size ``capacity`` (0: no recording) is: evaluations of any duration
+    share one compilation, and so do recordings whose frames fit the same buffers.
 
     Why shard_map and host-side results: under ``jit`` with sharded inputs the program itself is
     collective-free, but slicing its sharded output (the padding cut) is a second multi-device
@@ -218,7 +234,7 @@ def _program(controller: Controller, observer: Observer | None, n_steps: int, ev
     mesh = jax.sharding.Mesh(np.array(devs), ("b",))
     B, R = P("b"), P()
 
-    def local(model, cparams, state0, cstate0, one, steps):
+    def local(model, cparams, state0, cstate0, one, steps, every):
         in_model = jax.tree_util.tree_map(lambda _: 0 if params_batched else None, model)
         gate = (one > 0) if fence else None
         if state0 is None:  # at rest in the start pose, built here: op by op on the host it cost 30-50 ms a call
@@ -230,10 +246,9 @@ def _program(controller: Controller, observer: Observer | None, n_steps: int, ev
                 # then re-derives it for every element of the batch (20 ms a call at batch 1024)
                 one0 = _barrier(make_state(model), gate)
                 state0 = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (b, *x.shape)), one0)
-        return _batched(model, controller, observer, n_steps if every else steps, every, cparams, state0,
-                        cstate0, gate, in_model)
+        return _batched(model, controller, observer, steps, every, capacity, cparams, state0, cstate0, gate, in_model)
 
-    specs = (B if params_batched else R, B, B if with_state0 else R, B if with_cstate else R, R, R)
+    specs = (B if params_batched else R, B, B if with_state0 else R, B if with_cstate else R, R, R, R)
     return mesh, jax.jit(jax.shard_map(local, mesh=mesh, in_specs=specs, out_specs=B, check_vma=False))
 
 
@@ -269,9 +284,11 @@ def rollout(
     """Roll out a batch of controllers on ``model``.
 
     cparams: controller parameters with a leading batch axis [B, ...].
-    seconds / steps: duration (one of them); without recording it is an input of the compiled
-    program, so runs of any duration share one compilation. record_fps: record frames at this
-    rate (None: no recording, and none of its cost; with it, each duration compiles its own).
+    seconds / steps: duration (one of them); an input of the compiled program, so runs of any
+    duration share one compilation. record_fps: record frames at this rate (None: no recording,
+    and none of its cost); an input of the program too, whose frame buffers hold
+    :func:`frame_capacity` frames: recordings whose frames fit the same buffers share one
+    compilation.
     state0: initial state (default: the creature's pose at rest), unbatched or [B, ...]. params_batched: model.params leaves carry the batch axis too
     (tuning several parameter sets at once). pad_to: pad the batch to this size (default: the
     next multiple of :func:`batch_quantum`) so that varying batch sizes reuse one compilation.
@@ -304,7 +321,8 @@ def rollout(
     dtype = model.dtype
     if fence is None:
         fence = devices()[0].platform == "cpu"
-    config = (controller, observer, steps if every else 0, every, params_batched, fence,
+    n_frames = steps // every if every else 0
+    config = (controller, observer, frame_capacity(n_frames) if every else 0, params_batched, fence,
               cstate0 is not None, state0 is not None, tuple(devices()))
     mesh, program = _program(*config)
     shard = jax.sharding.NamedSharding(mesh, P("b"))
@@ -315,12 +333,13 @@ def rollout(
     cp, s0, cs0 = jax.device_put(jax.tree_util.tree_map(batched, (cparams, state0, cstate0)), shard)
     m = jax.device_put(jax.tree_util.tree_map(batched if params_batched else host, model),
                        shard if params_batched else whole)
-    one, n_run = jax.device_put((np.ones((), dtype), np.asarray(steps, np.int32)), whole)
+    one, n_run, n_every = jax.device_put((np.ones((), dtype), np.asarray(steps, np.int32),
+                                          np.asarray(max(every, 1), np.int32)), whole)
     # a warm start loads the stored executable and skips the trace (see sim.executables)
-    out = jax.device_get(executables.call(config[:-1], program, (m, cp, s0, cs0, one, n_run)))  # each device's share, to the host
+    out = jax.device_get(executables.call(config[:-1], program, (m, cp, s0, cs0, one, n_run, n_every)))  # each device's share, to the host
     state, acc, deepest, finite, frames, cstate = jax.tree_util.tree_map(lambda x: x[:B], out)
     if frames is not None:
-        qf, qdf, bits, u, cs = frames
+        qf, qdf, bits, u, cs = jax.tree_util.tree_map(lambda x: x[:, :n_frames], frames)  # the buffers' unused tail
         t = np.arange(qf.shape[1]) * every * dt
         frames = Frames(t, qf, qdf, bits, u, cs)
     return Result(state, acc, deepest, finite, frames, cstate)

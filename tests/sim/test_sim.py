@@ -279,6 +279,27 @@ def test_rollouts_of_any_duration_share_one_compiled_program():
     np.testing.assert_array_equal(np.asarray(long.state.q), np.asarray(recorded.state.q))
 
 
+def test_recordings_whose_frames_fit_one_buffer_share_a_compiled_program():
+    """A recording's steps and its steps between frames are inputs of the compiled rollout too;
+    only the size of its frame buffers (the frame count rounded up to a power of two, at least
+    256) is built in. Another duration and frame rate whose frames fit the same buffers compiles nothing, and
+    records the states of the plain runs it samples, and no more frames than asked."""
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 4, seed=2)
+    sim.rollout(m, san, p, seconds=1.0, record_fps=50)  # 50 frames (a frame every 20 steps), buffers of 256
+    assert [sim.frame_capacity(n) for n in (0, 1, 50, 256, 257, 1000, 1024, 1025)] == [256] * 4 + [512, 1024, 1024, 2048]
+    with compile_events() as compiles:
+        other = sim.rollout(m, san, p, seconds=0.9, record_fps=40)  # 36 frames, one every 25 steps
+    assert compiles == []
+    assert other.frames.q.shape == (4, 36, m.structure.ndof) and other.frames.u.shape == (4, 36, 1)
+    np.testing.assert_allclose(other.frames.t[:3], [0.0, 0.025, 0.05])
+    at25 = sim.rollout(m, san, p, steps=25)
+    np.testing.assert_array_equal(np.asarray(other.frames.q[:, 1]), np.asarray(at25.state.q))
+    plain = sim.rollout(m, san, p, seconds=0.9)
+    np.testing.assert_array_equal(np.asarray(other.state.q), np.asarray(plain.state.q))
+
+
 def test_a_nudged_step_reuses_the_traced_program_and_runs_at_its_own_step(monkeypatch):
     """The audit's dt/2 and dt/4 differ from the nominal creature only in dt, which the traced
     step reads from ``params``: they trace nothing new (each used to cost a trace, a lowering and
