@@ -203,13 +203,13 @@ def batch_quantum() -> int:
     return 8 * len(devices())
 
 
-MIN_FRAMES = 256  # 8.5 s at 30 fps: the films, replays and checks of a creature share one program
+MIN_FRAMES = 256  # 8.4 s at 30 fps (a frame every 33 ms): a creature's films, replays and checks share one program
 
 
 def frame_capacity(n_frames: int) -> int:
     """Frame buffers for ``n_frames`` recorded frames: at least :data:`MIN_FRAMES`, else the next
     power of two, so that recordings of nearby lengths and rates share a compiled program at no
-    more than twice the frames' memory (a 6 s replay at 30 fps: 180 frames in 256)."""
+    more than twice the frames' memory (a 6 s replay at 30 fps: 181 frames in 256)."""
     return max(MIN_FRAMES, 1 << max(0, int(n_frames) - 1).bit_length())
 
 
@@ -301,16 +301,22 @@ def rollout(
     Returns a :class:`Result` of NumPy arrays (fetched from the devices, padding cut off). The
     batch is split into one contiguous share per device, each rolled out on its own (see
     ``_program``); a controller's result is bit-identical alone or anywhere in any batch, and
-    whatever the number of devices.
+    whatever the number of devices. Raises ValueError for a negative duration, a record_fps
+    that is negative or not finite, or neither seconds nor steps.
     """
     dt = float(model.structure.dt)
     if steps is None:
         if seconds is None:
             raise ValueError("give seconds or steps")
         steps = int(round(seconds / dt))
+    if steps < 0:
+        raise ValueError(f"steps: expected >= 0, got {steps} (seconds={seconds})")
+    if record_fps is not None and not (math.isfinite(record_fps) and record_fps >= 0):
+        raise ValueError(f"record_fps: expected a finite rate >= 0 (frames per second), got {record_fps}")
     every = 0
     if record_fps:
-        every = max(1, int(round(1.0 / (record_fps * dt))))
+        # a rate too low for one frame in the run records none (every is then an int32 input)
+        every = min(max(1, int(round(1.0 / (record_fps * dt)))), steps + 1)
     leaves = jax.tree_util.tree_leaves(cparams)
     B = leaves[0].shape[0]
     q = batch_quantum()

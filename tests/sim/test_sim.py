@@ -300,6 +300,24 @@ def test_recordings_whose_frames_fit_one_buffer_share_a_compiled_program():
     np.testing.assert_array_equal(np.asarray(other.state.q), np.asarray(plain.state.q))
 
 
+def test_a_recording_refuses_a_negative_duration_or_rate_and_records_none_at_a_tiny_rate():
+    """Negative durations and rates, and rates that are not numbers, are refused (a negative
+    duration once came back as a buffer of zeroed frames); a rate too low for one frame in the
+    run records none (its steps between frames are an int32 input of the program)."""
+    spec = creature.load("cart")
+    m = sim.compile_creature(spec)
+    san, p = random_sans(spec, 2, seed=3)
+    for kw in ({"steps": -5, "record_fps": 30}, {"seconds": -0.1, "record_fps": 30}, {"steps": -1}):
+        with pytest.raises(ValueError, match="steps: expected >= 0"):
+            sim.rollout(m, san, p, **kw)
+    for fps in (-30.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="record_fps"):
+            sim.rollout(m, san, p, seconds=0.1, record_fps=fps)
+    tiny = sim.rollout(m, san, p, seconds=0.1, record_fps=1e-7)
+    assert tiny.frames.q.shape == (2, 0, m.structure.ndof) and tiny.frames.t.shape == (0,)
+    np.testing.assert_array_equal(np.asarray(tiny.state.q), np.asarray(sim.rollout(m, san, p, seconds=0.1).state.q))
+
+
 def test_a_nudged_step_reuses_the_traced_program_and_runs_at_its_own_step(monkeypatch):
     """The audit's dt/2 and dt/4 differ from the nominal creature only in dt, which the traced
     step reads from ``params``: they trace nothing new (each used to cost a trace, a lowering and
