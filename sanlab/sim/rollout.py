@@ -316,7 +316,8 @@ def rollout(
     every = 0
     if record_fps:
         # a rate too low for one frame in the run records none (every is then an int32 input)
-        every = min(max(1, int(round(1.0 / (record_fps * dt)))), steps + 1)
+        spacing = 1.0 / (record_fps * dt) if record_fps * dt > 0 else math.inf
+        every = steps + 1 if spacing >= steps + 1 else max(1, int(round(spacing)))
     leaves = jax.tree_util.tree_leaves(cparams)
     B = leaves[0].shape[0]
     q = batch_quantum()

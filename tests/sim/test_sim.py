@@ -313,8 +313,9 @@ def test_a_recording_refuses_a_negative_duration_or_rate_and_records_none_at_a_t
     for fps in (-30.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="record_fps"):
             sim.rollout(m, san, p, seconds=0.1, record_fps=fps)
-    tiny = sim.rollout(m, san, p, seconds=0.1, record_fps=1e-7)
-    assert tiny.frames.q.shape == (2, 0, m.structure.ndof) and tiny.frames.t.shape == (0,)
+    for fps in (1e-7, 1e-310, 5e-324):  # the last two: a frame spacing of inf steps
+        tiny = sim.rollout(m, san, p, seconds=0.1, record_fps=fps)
+        assert tiny.frames.q.shape == (2, 0, m.structure.ndof) and tiny.frames.t.shape == (0,)
     np.testing.assert_array_equal(np.asarray(tiny.state.q), np.asarray(sim.rollout(m, san, p, seconds=0.1).state.q))
 
 
