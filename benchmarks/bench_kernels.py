@@ -45,8 +45,7 @@ def _start(spec, B: int, seed: int):
 
 def run(form: str, spec, B: int, steps: int, seed: int):
     """Final coordinates q [B, D] of B random SANs (controllers 0..B-1 of seed ``seed``) after
-    ``steps`` steps on ``form``: "engine" (sim.rollout, float32), "engine64", "numba",
-    "numba-lanes" or "c++"."""
+    ``steps`` steps on ``form``: "engine" (sim.rollout, float32), "engine64" or "c++" (the kernel)."""
     return prepared(form, spec, B, steps, seed)()
 
 
@@ -67,28 +66,8 @@ def prepared(form: str, spec, B: int, steps: int, seed: int):
     m, san, sp, pk, (q, p, anchor, istate, out) = _start(spec, B, seed)
     w = np.asarray(sp.weights, np.float64)
     k1, k2 = np.asarray(sp.k1, np.float64), np.asarray(sp.k2, np.float64)
-    if form == "c++":
-        return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps)["q"]
-    tables = (pk.li, pk.lf, pk.ri, pk.rl, pk.rn, pk.ti, pk.ci, pk.cf, pk.si, pk.sf, pk.ai, pk.af, pk.wf, pk.wi, pk.rough)
-    WT = np.ascontiguousarray(np.swapaxes(w, 1, 2))
-    if form == "numba":
-        def numba():
-            qq = q.copy()
-            kernel.rollout_san(*tables, WT, k1, k2, qq, p.copy(), anchor.copy(), istate.copy(), out.copy(), np.zeros(B),
-                               steps)
-            return qq
-        return numba
-    from sanlab.sim import kernel_lanes as KL
+    return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps)["q"]
 
-    tl = lambda x: kernel._tile(x, KL.W)
-    ctrl = (tl(WT), tl(k1), tl(k2))
-    st0 = [tl(x) for x in (q, p, anchor, istate, out, np.zeros(B))]
-
-    def lanes():
-        st = [x.copy() for x in st0]
-        KL.rollout_san(*tables, *ctrl, *st, steps)  # pyright: ignore[reportCallIssue]
-        return kernel._untile(st[0], B)
-    return lanes
 
 
 def agreement(spec, B: int, steps: int) -> np.ndarray:

@@ -1,13 +1,11 @@
 """The engine-as-data spike (issue 46): the bounder's step as one kernel that reads the creature
 as data, in three forms, against today's XLA engine, in one run.
 
-Forms (sanlab/sim/kernel.py, sanlab/sim/kernel_lanes.py, sanlab/sim/_kernel/):
-- ``numba``: Numba, one creature per thread, scalar code (``njit(parallel=True)``, ``prange``);
-- ``numba-lanes``: Numba, a tile of 4 creatures per thread, every statement a loop over the tile;
-- ``c++``: C++ over GCC vector types, a tile of ``kernel.lanes()`` creatures per thread (one SIMD
-  register per value), OpenMP over tiles, called through ctypes; built by the package's install.
-All three run in float64 and step each creature bit for bit alike; the engine runs as the
-search does (float32, one XLA device per core), and in float64 for the agreement figure.
+The kernel (sanlab/sim/_kernel, ``c++``): C++ over GCC vector types, a tile of
+``kernel.lanes()`` creatures per thread (one SIMD register per value), OpenMP over tiles, called
+through ctypes; built by the package's install, in float64. The engine runs as the search does
+(float32, one XLA device per core), and in float64 for the agreement figure. Two Numba forms
+were measured beside it and dropped (commit 6ef5cad has them; docs/engine-history.md the figures).
 
 Printed, each as a ratio to the engine in the same run (these machines vary 2x run to run):
 - the first call of a creature no process has compiled (the bounder, and a 9-link chain): the
@@ -83,7 +81,7 @@ def main() -> None:
     from sanlab import creature
 
     spec = creature.load("bounder")
-    forms = ("numba", "numba-lanes", "c++")
+    forms = ("c++",)
     if not args.skip_first:
         print("first call, fresh process, no compile caches (8 SANs, 1 s):")
         for links, label in ((0, "bounder"), (9, "9-link chain")):
