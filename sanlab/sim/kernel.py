@@ -15,17 +15,13 @@ round-off. Structural zeros are no longer dropped at trace time; they are carrie
 zeros, which changes no value (x + 0 = x exactly), and a contact no creature of a tile touches
 is skipped.
 
-Coverage so far (the spike of issue 46): the vertical plane, trees of rigid links (free or welded
-to the world), angular servos, joint springs and stops, isotropic and anisotropic ground friction
-on flat, sloped, hill and rough terrain, touch, angle and tilt sensors, the SAN controller, and
-the dense route of the linear algebra. Not yet: the horizontal plane and water drag, point masses,
-linear actuators and springs, eye and length sensors, observers (metrics) and recording, the
-articulated O(n) route. :func:`supported` says whether a model is covered.
+It covers every physical element of a creature file (both planes, every terrain, point masses,
+angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
+water drag, every sensor kind, the follow point) and the SAN, on the dense route of the linear
+algebra. Not yet: observers (metrics), recording, and the articulated O(n) route for long chains;
+it is not yet what ``sim.rollout`` runs (issue 46 ports the layers above onto it).
 
-Layout (see :func:`pack`): ``li`` int32 [L, LI] and ``lf`` float64 [L, LF] per link; ``ti``
-int32 [T, 3] per tree; ``ci`` int32 [C] and ``cf`` [C, 2] per contact; ``si`` int32 [S, 2] and
-``sf`` [S, 2] per sensor; ``ai`` int32 [A] and ``af`` [A, 4] per actuator; ``wf`` float64 [WF]
-and ``wi`` int32 [WI] for the world; ``rough`` [K, 3].
+Layout: see :class:`Packed`.
 """
 
 from __future__ import annotations
@@ -44,62 +40,62 @@ F_JSPRING = 12  # 3: stiffness, damping, rest
 F_LIMIT = 15  # 4: min, max, stiffness, damping
 LF = 19
 # wf entries
-W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C = range(9)
-WF = 9
+(W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
+ W_FOLLOW_SPEED) = range(13)
 # wi entries
-W_TERRAIN, W_HIDDEN = range(2)
-WI = 2
+W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP = range(5)
 TERRAINS = {"flat": 0, "slope": 1, "hill": 2, "rough": 3}
-SENSORS = {"touch": 0, "angle": 1, "tilt": 2}
+SENSORS = {"touch": 0, "angle": 1, "tilt": 2, "eye": 3, "length": 4}
+# the order of the tables in the kernel's call (see _kernel/kernel.cpp)
+TABLES = ("li", "ri", "rl", "rn", "ti", "ci", "si", "ai", "pi", "ei", "wi", "lf", "cf", "sf", "af", "pf", "ef", "wf",
+          "rough", "follow")
 
 
 class Packed(NamedTuple):
-    """A creature as arrays (see the module docstring)."""
+    """A creature as tables for the kernel: int32 ``li`` [L, LI] and float64 ``lf`` [L, LF] per
+    link (the column names above); ``ri``, ``rl`` [L, R] and ``rn`` [L] each link's chain: the
+    dofs a point on it depends on (the tree's translation, then each joint from the root, in
+    increasing order), what each is (-1 / -2 the tree's x / y, else the link whose joint it is),
+    and how many; ``ti`` [T, 3] per tree (root, free, a lone point mass); ``ci`` [C] and ``cf``
+    [C, 3] per contact (link; point in its frame (m), normal load (N) in the horizontal plane);
+    ``si`` [S, 4] and ``sf`` [S, 6] per sensor (kind, then the contact, link or links it reads;
+    min, max, two points); ``ai`` [A, 3] and ``af`` [A, 8] per actuator (angular 0 or linear 1,
+    joint link or the two links; min, max, ks, kd, two points); ``pi`` [P, 2] and ``pf`` [P, 7]
+    per linear spring (links; points, stiffness, damping, rest); ``ei`` [E] and ``ef`` [E, 4] per
+    water-drag edge (link; ends); ``wi`` and ``wf`` the world; ``rough`` [K, 3] rough terrain's
+    terms; ``follow`` [F, 2] the follow point's path, equally spaced in arc length. Units SI."""
 
     li: Any
-    lf: Any
-    ri: Any  # [L, R] int32: the dofs of each link's chain (translation, then joints from the root)
-    rl: Any  # [L, R] int32: what each of them is: -1 / -2 the tree's x / y, -3 a dof the link
-    # does not depend on, else the link whose joint it is (its origin is the pivot)
-    rn: Any  # [L] int32: how many
+    ri: Any
+    rl: Any
+    rn: Any
     ti: Any
     ci: Any
-    cf: Any
     si: Any
-    sf: Any
     ai: Any
-    af: Any
-    wf: Any
+    pi: Any
+    ei: Any
     wi: Any
+    lf: Any
+    cf: Any
+    sf: Any
+    af: Any
+    pf: Any
+    ef: Any
+    wf: Any
     rough: Any
-    q0: Any  # [D]
+    follow: Any
+    q0: Any  # [D] the start pose
     ndof: int
 
 
-def supported(model) -> str | None:
-    """None when the kernel covers ``model`` (a ``sim.Model``), else what it lacks."""
-    st = model.structure
-    if st.plane != "vertical":
-        return "the horizontal plane"
-    if st.water:
-        return "water drag"
-    if any(ls.point for ls in st.links):
-        return "point masses"
-    if st.lin_act or st.springs:
-        return "linear actuators or springs"
-    if any(kind not in SENSORS for kind, _, _ in st.sensors):
-        return "eye or length sensors"
-    return None
-
-
 def pack(model, hidden: int) -> Packed:
-    """The arrays of ``model`` (a ``sim.Model``, any dtype: the kernel runs in float64) and the
-    SAN's hidden node count. Raises ValueError for what the kernel does not cover yet."""
-    why = supported(model)
-    if why is not None:
-        raise ValueError(f"the kernel does not cover {why} yet")
+    """The tables of ``model`` (a ``sim.Model`` of any dtype: the kernel runs in float64) for a
+    SAN with ``hidden`` hidden nodes. The kernel's linear algebra is the dense route whichever
+    route ``model`` names (the two give the same step to round-off)."""
     st, p = model.structure, model.params
-    f = lambda x: np.asarray(x, np.float64)
+    f = lambda x: np.asarray(x, np.float64)  # noqa: E731
+    i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)  # noqa: E731
     L = len(st.links)
     li = np.full((L, LI), -1, np.int32)
     lf = np.zeros((L, LF), np.float64)
@@ -126,18 +122,35 @@ def pack(model, hidden: int) -> Packed:
         rn[ls.index] = len(row)
         for a, (d, k) in enumerate(row):
             ri[ls.index, a], rl[ls.index, a] = d, k
-    ti = np.array([(t.root, int(t.free), int(t.point)) for t in st.trees], np.int32).reshape(-1, 3)
-    ci = np.array(st.contacts, np.int32)
-    cf = f(p.contact).reshape(-1, 2)
-    si = np.array([(SENSORS[k], idx if k == "touch" else link) for k, link, idx in st.sensors], np.int32).reshape(-1, 2)
-    sf = np.stack([f(p.sens_min), f(p.sens_max)], 1).reshape(-1, 2)
-    ai = np.array([ref for _, ref in st.actuators], np.int32)
-    af = np.stack([f(p.act_min), f(p.act_max), f(p.act_ks), f(p.act_kd)], 1).reshape(-1, 4)
+    ti = i32([(t.root, int(t.free), int(t.point)) for t in st.trees], -1, 3)
+    ci = i32(st.contacts, -1)
+    cf = np.concatenate([f(p.contact).reshape(-1, 2), f(p.contact_load).reshape(-1, 1)], 1)
+    si = np.full((len(st.sensors), 4), -1, np.int32)
+    for s, (kind, link, idx) in enumerate(st.sensors):
+        if kind == "touch":
+            si[s] = (SENSORS[kind], idx, -1, -1)
+        elif kind == "eye":
+            si[s] = (SENSORS[kind], *st.eyes[idx])
+        elif kind == "length":
+            si[s] = (SENSORS[kind], *st.lengths[idx], -1)
+        else:
+            si[s] = (SENSORS[kind], link, -1, -1)
+    sf = np.concatenate([f(p.sens_min).reshape(-1, 1), f(p.sens_max).reshape(-1, 1), f(p.sens_pts).reshape(-1, 4)], 1)
+    ai = np.array([(0, ref, -1) if kind == "angular" else (1, *st.lin_act[ref]) for kind, ref in st.actuators],
+                  np.int32).reshape(-1, 3)
+    af = np.concatenate([np.stack([f(p.act_min), f(p.act_max), f(p.act_ks), f(p.act_kd)], 1).reshape(-1, 4),
+                         f(p.act_pts).reshape(-1, 4)], 1)
+    pi = i32(st.springs, -1, 2)
+    pf = np.concatenate([f(p.spr_pts).reshape(-1, 4), f(p.spr).reshape(-1, 3)], 1)
+    ei = i32(st.edges, -1)
+    ef = f(p.edge).reshape(-1, 4)
     terrain = f(p.terrain)
-    wf = np.array([f(p.gravity), f(p.ground_k), f(p.ground_c), f(p.slip), f(p.dt), terrain[0], terrain[1], terrain[2],
-                   terrain[3]], np.float64)
-    wi = np.array([TERRAINS[st.terrain], hidden], np.int32)
-    return Packed(li, lf, ri, rl, rn, ti, ci, cf, si, sf, ai, af, wf, wi, f(p.rough).reshape(-1, 3), f(p.q0), st.ndof)
+    wf = np.array([f(p.gravity), f(p.ground_k), f(p.ground_c), f(p.slip), f(p.dt), *terrain, f(p.water_k), f(p.water_t),
+                   f(p.follow_ds), f(p.follow_speed)], np.float64)
+    wi = np.array([TERRAINS[st.terrain], hidden, int(st.plane == "horizontal"), int(st.follow), int(st.follow_loop)],
+                  np.int32)
+    return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, lf, cf, sf, af, pf, ef, wf, f(p.rough).reshape(-1, 3),
+                  f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
 
 
 # ------------------------------------------------------------------ the C++ kernel (sanlab/sim/_kernel)
@@ -160,8 +173,8 @@ def _library():
             raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
-        lib.sanlab_rollout_san.restype = ctypes.c_int
-        lib.sanlab_rollout_san.argtypes = [P] * 26 + [ctypes.c_int64, ctypes.c_int64]
+        lib.sanlab_rollout_san.restype = None
+        lib.sanlab_rollout_san.argtypes = [P, P, P, ctypes.c_int64, ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         _LIB = lib
     return _LIB
@@ -185,27 +198,28 @@ def _tile(x: np.ndarray, W: int) -> np.ndarray:
 
 
 def _untile(x: np.ndarray, B: int) -> np.ndarray:
-    return np.moveaxis(x, -1, 1).reshape(-1, *x.shape[1:-1])[:B]
+    return np.moveaxis(x, -1, 1).reshape(x.shape[0] * x.shape[-1], *x.shape[1:-1])[:B]
 
 
-def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int) -> dict:
-    """``steps`` steps of B creatures under SANs on the C++ kernel. weights [B, N, I], k1, k2
-    [B, N] (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]. Returns the state after
-    them: q, p, anchor, istate, out, t (s since the call), and the deepest penetration dmax [B]
-    (m; -inf without contacts)."""
+def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0) -> dict:
+    """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
+    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
+    Returns the state after them: q, p, anchor, istate, out, t (s), and the deepest penetration
+    dmax [B] (m; -inf without contacts)."""
+    import ctypes
+
     W = lanes()
     B = q.shape[0]
     N = istate.shape[1]
+    tables = [np.ascontiguousarray(getattr(pk, name)) for name in TABLES]
     dims = np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
-                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N], np.int32)
-    st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.zeros(B), np.full(B, -np.inf))]
+                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
+                     pk.follow.shape[0]], np.int32)
+    st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.full(B, float(t0)),
+                                                        np.full(B, -np.inf))]
     ctrl = [_tile(np.swapaxes(np.asarray(weights, np.float64), 1, 2), W), _tile(np.asarray(k1, np.float64), W),
             _tile(np.asarray(k2, np.float64), W)]
-    tables = [dims, pk.li, pk.ri, pk.rl, pk.rn, pk.ti, pk.ci, pk.si, pk.ai, pk.wi, pk.lf, pk.cf, pk.sf, pk.af, pk.wf,
-              pk.rough]
-    tables = [np.ascontiguousarray(a) for a in tables]
-    rc = _library().sanlab_rollout_san(*[a.ctypes.data for a in tables + st + ctrl], st[0].shape[0], int(steps))
-    if rc != 0:
-        raise ValueError("the creature is larger than the kernel's scratch")
+    ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])  # noqa: E731
+    _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), ptrs(st + ctrl), st[0].shape[0], int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
     return {n: _untile(a, B) for n, a in zip(names, st)}

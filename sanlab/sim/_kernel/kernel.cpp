@@ -4,6 +4,7 @@
 // creatures is one OpenMP task, its state copied into an aligned scratch, stepped, and copied back.
 #include <cstring>
 #include <cstdlib>
+#include <vector>
 #include "step.h"
 
 using namespace sanlab;
@@ -18,7 +19,7 @@ template <class V> static void run_tile(const Model &m, Tile<V> &t, V *s, int64_
   V *time = out + m.N, *dmax = time + 1, *WT = dmax + 1, *k1 = WT + m.I * m.N, *k2 = k1 + m.N;
   for (int64_t n = 0; n < steps; ++n) {
     prepare(m, q, p, t);
-    sense(m, t);
+    sense(m, t, *time);
     san(m, t, WT, k1, k2, istate, out);
     advance(m, t, q, p, anchor, *dmax);
     *time = *time + h;
@@ -29,25 +30,26 @@ extern "C" {
 
 int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 
-// Arrays (float64 unless said): tables as kernel.pack(); per tile (T tiles of W lanes, lane last):
-// q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W], t, dmax [T, W], WT [T, I, N, W],
-// k1, k2 [T, N, W]; the state updated in place. Returns 0.
-int sanlab_rollout_san(const int32_t *dims, const int32_t *li, const int32_t *ri, const int32_t *rl, const int32_t *rn,
-                       const int32_t *ti, const int32_t *ci, const int32_t *si, const int32_t *ai, const int32_t *wi,
-                       const double *lf, const double *cf, const double *sf, const double *af, const double *wf,
-                       const double *rough, double *q, double *p, double *anchor, double *istate, double *out, double *t,
-                       double *dmax, const double *WT, const double *k1, const double *k2, int64_t T, int64_t steps) {
+// Runs `steps` steps of T tiles of W creatures under SANs (kernel.py: run_san).
+// dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py); tables: the creature's tables in the
+// order of kernel.TABLES; state: q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W],
+// t, dmax [T, W] (updated in place), then the SAN's WT [T, I, N, W], k1, k2 [T, N, W]; float64.
+void sanlab_rollout_san(const int32_t *dims, const void *const *tables, double *const *state, int64_t T, int64_t steps) {
   Model m;
   m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
-  m.K = dims[7]; m.N = dims[8]; m.I = dims[9];
-  m.li = li; m.ri = ri; m.rl = rl; m.rn = rn; m.ti = ti; m.ci = ci; m.si = si; m.ai = ai; m.wi = wi;
-  m.lf = lf; m.cf = cf; m.sf = sf; m.af = af; m.wf = wf; m.rough = rough;
+  m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
+  const int32_t **ints[] = {&m.li, &m.ri, &m.rl, &m.rn, &m.ti, &m.ci, &m.si, &m.ai, &m.pi, &m.ei, &m.wi};
+  const double **reals[] = {&m.lf, &m.cf, &m.sf, &m.af, &m.pf, &m.ef, &m.wf, &m.rough, &m.follow};
+  int k = 0;
+  for (auto p : ints) *p = (const int32_t *)tables[k++];
+  for (auto p : reals) *p = (const double *)tables[k++];
+  std::vector<int32_t> dense(m.D);
+  for (int d = 0; d < m.D; ++d) dense[d] = d;
+  m.dense_idx = dense.data();
   const int W = Lanes<vd>::W;
-  const int D = m.D, C = m.C, N = m.N, I = m.I;
   const size_t nt = tile_values<vd>(m), ns = state_values<vd>(m);
-  struct Part { double *base; size_t n; };  // one caller array: its tile's share is n values of vd
-  const Part parts[] = {{q, (size_t)D}, {p, (size_t)D}, {anchor, (size_t)(2 * C)}, {istate, (size_t)N}, {out, (size_t)N},
-                        {t, 1}, {dmax, 1}, {(double *)WT, (size_t)(I * N)}, {(double *)k1, (size_t)N}, {(double *)k2, (size_t)N}};
+  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
+                          (size_t)(m.I * m.N), (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
 #pragma omp parallel
   {
@@ -57,13 +59,12 @@ int sanlab_rollout_san(const int32_t *dims, const int32_t *li, const int32_t *ri
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
       vd *at = s;
-      for (const Part &x : parts) { std::memcpy(at, x.base + b * x.n * W, x.n * sizeof(vd)); at += x.n; }
+      for (int k = 0; k < 10; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
       run_tile(m, tile, s, steps);
       at = s;
-      for (int k = 0; k < n_out; ++k) { std::memcpy(parts[k].base + b * parts[k].n * W, at, parts[k].n * sizeof(vd)); at += parts[k].n; }
+      for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
     }
     std::free(mem);
   }
-  return 0;
 }
 }

@@ -92,13 +92,17 @@ template <class V> static inline void sincos(V x, V &s, V &c) {
 
 enum { L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT, LI };
 enum { F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA, F_MU, F_JSPRING = 12, F_LIMIT = 15, LF = 19 };
-enum { W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C };
-enum { W_TERRAIN, W_HIDDEN };
+enum { W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
+       W_FOLLOW_SPEED };
+enum { W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP };
+enum { S_TOUCH, S_ANGLE, S_TILT, S_EYE, S_LENGTH };
 
+// The creature as tables (kernel.py: Packed, in the order of kernel.TABLES)
 struct Model {
-  int L, C, T, D, S, A, R, K, N, I;
-  const int32_t *li, *ri, *rl, *rn, *ti, *ci, *si, *ai, *wi;
-  const double *lf, *cf, *sf, *af, *wf, *rough;
+  int L, C, T, D, S, A, R, K, N, I, P, E, F;
+  const int32_t *li, *ri, *rl, *rn, *ti, *ci, *si, *ai, *pi, *ei, *wi;
+  const double *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough, *follow;
+  const int32_t *dense_idx;  // 0, 1, ..., D - 1: a row over every dof
 };
 
 // A tile's scratch: every per-creature value of a step, one V each, carved out of one block sized
@@ -108,27 +112,34 @@ template <class V> struct Tile {
   double *msum;
   V (*cp)[2], *depth, (*gn)[4], (*cv)[2];
   V *M, *A, *F, *Lf;
-  V *Q, *u, *qd, *g, *x;
+  V *Q, *u, *qd, *g, *x, *row;
   V *total, *bits, *act;
 };
 
-template <class V> static size_t tile_values(const Model &m) {
-  const size_t L = m.L, C = m.C, D = m.D;
-  return L * 12 + L + C * 10 + 4 * D * D + 5 * D + 2 * m.N + m.S + m.A;
-}
-
-// Lays out a tile's scratch in `mem` (tile_values<V>(m) values of V, aligned like V).
-template <class V> static Tile<V> tile_at(const Model &m, V *mem) {
-  Tile<V> t;
+// Lays out a tile's scratch from `mem` on; returns how many values of V it takes (the layout is
+// the only count of them: tile_values asks it with no memory).
+template <class V> static size_t tile_layout(const Model &m, V *mem, Tile<V> &t) {
   const int L = m.L, C = m.C, D = m.D;
-  auto take = [&](size_t n) { V *r = mem; mem += n; return r; };
+  size_t used = 0;
+  auto take = [&](size_t n) { V *r = mem ? mem + used : nullptr; used += n; return r; };
   t.th = take(L); t.cs = (V(*)[2])take(2 * L); t.X = (V(*)[2])take(2 * L); t.com = (V(*)[2])take(2 * L);
   t.mc = (V(*)[2])take(2 * L); t.S = (V(*)[2])take(2 * L); t.w = take(L); t.V_ = (V(*)[2])take(2 * L);
   t.msum = (double *)take(L);
   t.cp = (V(*)[2])take(2 * C); t.depth = take(C); t.gn = (V(*)[4])take(4 * C); t.cv = (V(*)[2])take(2 * C);
   t.M = take(D * D); t.A = take(D * D); t.F = take(D * D); t.Lf = take(D * D);
-  t.Q = take(D); t.u = take(D); t.qd = take(D); t.g = take(D); t.x = take(D);
+  t.Q = take(D); t.u = take(D); t.qd = take(D); t.g = take(D); t.x = take(D); t.row = take(D);
   t.total = take(m.N); t.bits = take(m.S); t.act = take(m.A);
+  return used;
+}
+
+template <class V> static size_t tile_values(const Model &m) {
+  Tile<V> t;
+  return tile_layout<V>(m, nullptr, t);
+}
+
+template <class V> static Tile<V> tile_at(const Model &m, V *mem) {
+  Tile<V> t;
+  tile_layout<V>(m, mem, t);
   return t;
 }
 
@@ -152,8 +163,13 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
     const double *f = m.lf + i * LF;
     int par = l[L_PARENT];
     if (par < 0) {
-      t.X[i][0] = V{} + (l[L_DX] < 0 ? f[F_POSEX] : 0.0);
-      t.X[i][1] = V{} + (l[L_DX] < 0 ? f[F_POSEY] : 0.0);
+      if (l[L_DX] >= 0 && l[L_POINT]) {  // a free point mass sits at its coordinates
+        t.X[i][0] = q[l[L_DX]];
+        t.X[i][1] = q[l[L_DY]];
+      } else {  // welded to the world where the file puts it, or a free tree's root (placed below)
+        t.X[i][0] = V{} + (l[L_DX] < 0 ? f[F_POSEX] : 0.0);
+        t.X[i][1] = V{} + (l[L_DX] < 0 ? f[F_POSEY] : 0.0);
+      }
     } else {
       V c = t.cs[par][0], s = t.cs[par][1];
       double ax = f[F_ANCX], ay = f[F_ANCY];
@@ -163,6 +179,11 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
   }
   for (int i = 0; i < L; ++i) {
     const double *f = m.lf + i * LF;
+    if (m.li[i * LI + L_POINT]) {
+      t.com[i][0] = t.X[i][0];
+      t.com[i][1] = t.X[i][1];
+      continue;
+    }
     V c = t.cs[i][0], s = t.cs[i][1];
     double rx = f[F_COMX], ry = f[F_COMY];
     t.com[i][0] = t.X[i][0] + (c * rx - s * ry);
@@ -204,11 +225,15 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
   const int kind = m.wi[W_TERRAIN];
   for (int c = 0; c < m.C; ++c) {
     int i = m.ci[c];
-    double rx = m.cf[c * 2], ry = m.cf[c * 2 + 1];
+    double rx = m.cf[c * 3], ry = m.cf[c * 3 + 1];
     V cc = t.cs[i][0], ss = t.cs[i][1];
     V px = t.X[i][0] + (cc * rx - ss * ry), py = t.X[i][1] + (ss * rx + cc * ry);
     t.cp[c][0] = px;
     t.cp[c][1] = py;
+    if (m.wi[W_PLANE] == 1) {  // seen from above: every contact always rests on the floor
+      t.depth[c] = V{} + 1.0;
+      continue;
+    }
     if (kind == 0) {
       t.gn[c][0] = V{};
       t.gn[c][1] = V{} + 1.0;
@@ -275,6 +300,24 @@ template <class V> static inline void outer(V *A, int D, V coef, const int32_t *
       A[j * D + i] += v;
     }
     A[i * D + i] += cgi * g[a];
+  }
+}
+
+// A += coef (g h^T + h g^T) for two rows on the same dofs (sparse.SymMatrix.add_outer with h)
+template <class V> static inline void outer2(V *A, int D, V coef, const int32_t *idx, const V *g, const V *h, int n) {
+  for (int a = 0; a < n; ++a) {
+    int i = idx[a];
+    V cgi = coef * g[a];
+    for (int b = 0; b < n; ++b) {
+      int j = idx[b];
+      V v = cgi * h[b];
+      if (i == j) {
+        A[i * D + i] += v + v;
+      } else {
+        A[i * D + j] += v;
+        A[j * D + i] += v;
+      }
+    }
   }
 }
 
@@ -382,94 +425,167 @@ template <class V> static inline void joint(Tile<V> &t, int D, int d, double h, 
   t.Q[d] += f - (h * k) * rate;
 }
 
-// One step from a prepared tile with activations t.act: q, p, anchor advanced in place; dmax the
-// deepest penetration so far
-template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, V *p, V (*anchor)[2], V &dmax) {
+template <class V> static inline void point_vel(const Tile<V> &t, int i, V px, V py, V &vx, V &vy) {
+  V rx = px - t.X[i][0], ry = py - t.X[i][1];
+  vx = t.V_[i][0] - t.w[i] * ry;
+  vy = t.V_[i][1] + t.w[i] * rx;
+}
+
+template <class V> static inline void point_at(const Tile<V> &t, int i, double rx, double ry, V &px, V &py) {
+  V c = t.cs[i][0], s = t.cs[i][1];
+  px = t.X[i][0] + (c * rx - s * ry);
+  py = t.X[i][1] + (s * rx + c * ry);
+}
+
+// A dense row over every dof: g = J_b^T e - J_a^T e, for an element between a point on link la
+// and one on link lb (dynamics._linear)
+template <class V> static inline void two_point_row(const Model &m, Tile<V> &t, int la, V pax, V pay, int lb, V pbx,
+                                                    V pby, V ex, V ey, V *row) {
+  const int D = m.D;
+  V *g = t.g;
+  for (int d = 0; d < D; ++d) row[d] = V{};
+  int n = point_row(m, t, lb, pbx, pby, ex, ey, g);
+  for (int a = 0; a < n; ++a) row[m.ri[lb * m.R + a]] += g[a];
+  n = point_row(m, t, la, pax, pay, ex, ey, g);
+  for (int a = 0; a < n; ++a) row[m.ri[la * m.R + a]] += -g[a];
+}
+
+// A spring-damper between a point on link la and one on link lb (local points f[0..3]):
+// F = ks (target - L) - kd L' along the line between them (dynamics._linear)
+template <class V> static inline void linear(const Model &m, Tile<V> &t, const double *f, int la, int lb, V target,
+                                             double ks, double kd, double h) {
+  const int D = m.D;
+  V pax, pay, pbx, pby;
+  point_at(t, la, f[0], f[1], pax, pay);
+  point_at(t, lb, f[2], f[3], pbx, pby);
+  V dx = pbx - pax, dy = pby - pay;
+  V L = Lanes<V>::sqrt(dx * dx + dy * dy);
+  V ex = dx / L, ey = dy / L;
+  two_point_row(m, t, la, pax, pay, lb, pbx, pby, ex, ey, t.row);
+  V vax, vay, vbx, vby;
+  point_vel(t, la, pax, pay, vax, vay);
+  point_vel(t, lb, pbx, pby, vbx, vby);
+  V rate = (vbx - vax) * ex + (vby - vay) * ey;
+  outer(t.A, D, V{} + (h * kd + (h * h) * ks), m.dense_idx, t.row, D);
+  force(t.Q, ks * (target - L) - kd * rate - (h * ks) * rate, m.dense_idx, t.row, D);
+}
+
+// The stick-slip decision along one tangent (dynamics._stick_law and _stick_element): the element's
+// matrix coefficient and force, and how far behind the contact its anchor stays
+template <class V> static inline void stick_slip(V stretch, V v, V limit, double gk, double slip, double h, V &coef,
+                                                 V &f, V &held) {
   using Ls = Lanes<V>;
-  const int D = m.D, L = m.L;
-  const double h = m.wf[W_DT];
-  for (int a = 0; a < D; ++a) t.Q[a] = V{};
-  for (int a = 0; a < D * D; ++a) t.A[a] = t.M[a];
-  // the inertial force dT/dq at fixed velocities
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (T[2] == 1) continue;
-    bool free = T[1] == 1;
-    int r = T[0];
-    V vcx = free ? t.qd[m.li[r * LI + L_DX]] : V{}, vcy = free ? t.qd[m.li[r * LI + L_DY]] : V{};
-    for (int i = 0; i < L; ++i) {
-      const int32_t *l = m.li + i * LI;
-      if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
-      double mass = m.lf[i * LF + F_MASS];
-      V rx = t.com[i][0] - t.X[i][0], ry = t.com[i][1] - t.X[i][1];
-      V vx = t.V_[i][0] - t.w[i] * ry, vy = t.V_[i][1] + t.w[i] * rx;
-      V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
-      V Px{}, Py{}, nx = t.com[i][0], ny = t.com[i][1];
-      for (int k = i; k >= 0; k = m.li[k * LI + L_PARENT]) {
-        Px = Px + t.w[k] * (nx - t.X[k][0]);
-        Py = Py + t.w[k] * (ny - t.X[k][1]);
-        nx = t.X[k][0];
-        ny = t.X[k][1];
-        int rot = m.li[k * LI + L_ROT];
-        if (rot >= 0 && !(free && m.li[k * LI + L_PARENT] < 0)) t.Q[rot] += -(ux * Px + uy * Py);
+  V c = limit / slip;
+  V s = Ls::min(Ls::max(stretch, -limit / gk), limit / gk);
+  V trial = -gk * s - c * v;
+  V slide = limit / Ls::max(Ls::abs(v), V{} + slip);
+  auto stick = (limit > 0.0) & (Ls::abs(trial) <= limit);
+  coef = Ls::sel(stick, h * c + (h * h) * gk, h * slide);
+  f = Ls::sel(stick, trial - (h * gk) * v, -slide * v);
+  held = Ls::sel(stick, s, V{});
+}
+
+// Horizontal plane: every contact's friction against the floor under its constant load
+// (dynamics._plane_laws): anisotropic along a link axis, or isotropic within a disc
+template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (*anchor)[2]) {
+  using Ls = Lanes<V>;
+  const int D = m.D;
+  const double h = m.wf[W_DT], gk = m.wf[W_GK], slip = m.wf[W_SLIP];
+  for (int c = 0; c < m.C; ++c) {
+    int i = m.ci[c];
+    const int32_t *l = m.li + i * LI;
+    const double *f = m.lf + i * LF;
+    const int32_t *idx = m.ri + i * m.R;
+    V px = t.cp[c][0], py = t.cp[c][1], vx = t.cv[c][0], vy = t.cv[c][1];
+    double N = m.cf[c * 3 + 2];
+    V dx = px - anchor[c][0], dy = py - anchor[c][1];
+    if (l[L_ANISO]) {
+      int frm = l[L_AX_FROM], to = l[L_AX_TO];
+      V ax = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
+      V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
+      V inv = 1.0 / Ls::sqrt(ax * ax + ay * ay + 1e-12);
+      V e1x = ax * inv, e1y = ay * inv, e2x = -e1y, e2y = e1x;
+      V va = vx * e1x + vy * e1y, vl = vx * e2x + vy * e2y;
+      V s1 = dx * e1x + dy * e1y, s2 = dx * e2x + dy * e2y;
+      V mu = Ls::sel(gk * s1 + va > 0.0, V{} + f[F_MU], V{} + f[F_MU + 1]);
+      V c1, f1, h1, c2, f2, h2;
+      stick_slip(s1, va, mu * N, gk, slip, h, c1, f1, h1);
+      stick_slip(s2, vl, V{} + f[F_MU + 2] * N, gk, slip, h, c2, f2, h2);
+      int n = point_row(m, t, i, px, py, e1x, e1y, t.g);
+      outer(t.A, D, c1, idx, t.g, n);
+      force(t.Q, f1, idx, t.g, n);
+      n = point_row(m, t, i, px, py, e2x, e2y, t.g);
+      outer(t.A, D, c2, idx, t.g, n);
+      force(t.Q, f2, idx, t.g, n);
+      anchor[c][0] = px - h1 * e1x - h2 * e2x;
+      anchor[c][1] = py - h1 * e1y - h2 * e2y;
+    } else {
+      double limit = f[F_MU] * N, cc = limit / slip;
+      V r = Ls::sqrt(dx * dx + dy * dy);
+      V scale = Ls::min(V{} + 1.0, (limit / gk) / Ls::max(r, V{} + 1e-30));
+      V sx = dx * scale, sy = dy * scale;
+      V tx = -gk * sx - cc * vx, ty = -gk * sy - cc * vy;
+      auto stick = (V{} + limit > 0.0) & (tx * tx + ty * ty <= limit * limit);
+      V speed = Ls::sqrt(vx * vx + vy * vy);
+      V slide = limit / Ls::max(speed, V{} + slip);
+      V ks = Ls::sel(stick, V{} + gk, V{}), damp = Ls::sel(stick, V{} + cc, slide);
+      V coef = h * damp + (h * h) * ks;
+      V e0[2] = {V{} + 1.0, V{}}, e1[2] = {V{}, V{} + 1.0};
+      V trial[2] = {tx, ty}, vel[2] = {vx, vy};
+      for (int a = 0; a < 2; ++a) {
+        V *e = a == 0 ? e0 : e1;
+        int n = point_row(m, t, i, px, py, e[0], e[1], t.g);
+        outer(t.A, D, coef, idx, t.g, n);
+        force(t.Q, Ls::sel(stick, trial[a], -slide * vel[a]) - (h * ks) * vel[a], idx, t.g, n);
       }
+      anchor[c][0] = px - Ls::sel(stick, sx, V{});
+      anchor[c][1] = py - Ls::sel(stick, sy, V{});
     }
   }
-  // gravity
-  const double grav = m.wf[W_GRAVITY];
-  for (int a = 0; a < D; ++a) t.x[a] = V{};
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    int r = T[0];
-    if (T[1] == 1) {
-      double mt = 0.0;
-      for (int i = 0; i < L; ++i)
-        if (m.li[i * LI + L_TREE] == tr) mt = mt + m.lf[i * LF + F_MASS];
-      t.x[m.li[r * LI + L_DY]] = V{} - (mt * grav);
-      continue;
-    }
-    for (int i = 0; i < L; ++i) {
-      if (m.li[i * LI + L_TREE] != tr || m.li[i * LI + L_PARENT] < 0) continue;
-      int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
-      force(t.Q, V{} - (m.lf[i * LF + F_MASS] * grav), m.ri + i * m.R, t.g, n);
-    }
+}
+
+// Water drag on each edge, exact for a rigid edge: normal -k int (v.N) N ds, tangential (skin)
+// -k_t int (v.T) T ds (dynamics.advance)
+template <class V> static inline void water(const Model &m, Tile<V> &t) {
+  const int D = m.D;
+  const double h = m.wf[W_DT], k = m.wf[W_WATER_K], kt = m.wf[W_WATER_T];
+  for (int e = 0; e < m.E; ++e) {
+    int i = m.ei[e];
+    const double *f = m.ef + e * 4;
+    const int32_t *idx = m.ri + i * m.R;
+    V ax, ay, bx, by;
+    point_at(t, i, f[0], f[1], ax, ay);
+    point_at(t, i, f[2], f[3], bx, by);
+    V dx = bx - ax, dy = by - ay;
+    V L = Lanes<V>::sqrt(dx * dx + dy * dy);
+    V tx = dx / L, ty = dy / L, nx = -ty, ny = tx;
+    V vax, vay;
+    point_vel(t, i, ax, ay, vax, vay);
+    V vn = vax * nx + vay * ny;
+    bool point = m.li[i * LI + L_POINT];
+    V w = point ? V{} : t.w[i];
+    V c1 = k * L, c2 = k * L * L / 2.0, c3 = k * L * L * L / 3.0;
+    int n = point_row(m, t, i, ax, ay, nx, ny, t.g);
+    V *gw = t.row;  // the link's rotation row on the same dofs
+    for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.R + a] >= 0) ? 1.0 : 0.0);
+    outer(t.A, D, h * c1, idx, t.g, n);
+    outer2(t.A, D, h * c2, idx, t.g, gw, n);
+    outer(t.A, D, h * c3, idx, gw, n);
+    force(t.Q, -(c1 * vn + c2 * w), idx, t.g, n);
+    force(t.Q, -(c2 * vn + c3 * w), idx, gw, n);
+    V vt = vax * tx + vay * ty, ct = kt * L;
+    n = point_row(m, t, i, ax, ay, tx, ty, t.g);
+    outer(t.A, D, h * ct, idx, t.g, n);
+    force(t.Q, -ct * vt, idx, t.g, n);
   }
-  turn(m, t, t.x, -1, 1);
-  for (int a = 0; a < D; ++a) t.Q[a] += t.x[a];
-  // passive joint springs, then stops
-  for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (!l[L_SPRING]) continue;
-    const double *f = m.lf + i * LF;
-    int d = l[L_ROT];
-    double k = f[F_JSPRING], c = f[F_JSPRING + 1], rest = f[F_JSPRING + 2];
-    V phi = t.th[i] - t.th[l[L_PARENT]];
-    joint(t, D, d, h, -k * (phi - rest) - c * t.u[d], V{} + k, V{} + c, t.u[d]);
-  }
-  for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (!l[L_LIMIT]) continue;
-    const double *f = m.lf + i * LF;
-    int d = l[L_ROT];
-    double lo = f[F_LIMIT], hi = f[F_LIMIT + 1], k = f[F_LIMIT + 2], c = f[F_LIMIT + 3];
-    V phi = t.th[i] - t.th[l[L_PARENT]];
-    V below = Ls::max(k * (lo - phi) - c * t.u[d], V{});
-    V above = Ls::min(k * (hi - phi) - c * t.u[d], V{});
-    auto on = ((phi < lo) & (below > 0.0)) | ((phi > hi) & (above < 0.0));
-    V onv = Ls::sel(on, V{} + 1.0, V{});
-    V torque = Ls::sel(phi < lo, below, Ls::sel(phi > hi, above, V{}));
-    joint(t, D, d, h, torque, onv * k, onv * c, t.u[d]);
-  }
-  // actuators (angular servos)
-  for (int a = 0; a < m.A; ++a) {
-    int j = m.ai[a];
-    int d = m.li[j * LI + L_ROT];
-    const double *f = m.af + a * 4;
-    V target = f[0] + t.act[a] * (f[1] - f[0]);
-    V phi = t.th[j] - t.th[m.li[j * LI + L_PARENT]];
-    joint(t, D, d, h, f[2] * (target - phi) - f[3] * t.u[d], V{} + f[2], V{} + f[3], t.u[d]);
-  }
-  // ground contact and stick-slip friction
+}
+
+// Vertical plane: every contact's normal force and stick-slip friction against the ground, as
+// elements of the step (dynamics._ground_laws); a contact no lane touches adds nothing
+template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
+  using Ls = Lanes<V>;
+  const int D = m.D;
+  const double h = m.wf[W_DT];
   const double gk = m.wf[W_GK], gc = m.wf[W_GC], slip = m.wf[W_SLIP];
   const double cn = h * gc + (h * h) * gk;
   for (int c = 0; c < m.C; ++c) {
@@ -512,6 +628,108 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
     anchor[c][0] = t.cp[c][0] - held * tx;
     anchor[c][1] = t.cp[c][1] - held * ty;
   }
+}
+
+// One step from a prepared tile with activations t.act: q, p, anchor advanced in place; dmax the
+// deepest penetration so far
+template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, V *p, V (*anchor)[2], V &dmax) {
+  using Ls = Lanes<V>;
+  const int D = m.D, L = m.L;
+  const double h = m.wf[W_DT];
+  for (int a = 0; a < D; ++a) t.Q[a] = V{};
+  for (int a = 0; a < D * D; ++a) t.A[a] = t.M[a];
+  // the inertial force dT/dq at fixed velocities
+  for (int tr = 0; tr < m.T; ++tr) {
+    const int32_t *T = m.ti + tr * 3;
+    if (T[2] == 1) continue;
+    bool free = T[1] == 1;
+    int r = T[0];
+    V vcx = free ? t.qd[m.li[r * LI + L_DX]] : V{}, vcy = free ? t.qd[m.li[r * LI + L_DY]] : V{};
+    for (int i = 0; i < L; ++i) {
+      const int32_t *l = m.li + i * LI;
+      if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
+      double mass = m.lf[i * LF + F_MASS];
+      V rx = t.com[i][0] - t.X[i][0], ry = t.com[i][1] - t.X[i][1];
+      V vx = t.V_[i][0] - t.w[i] * ry, vy = t.V_[i][1] + t.w[i] * rx;
+      V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
+      V Px{}, Py{}, nx = t.com[i][0], ny = t.com[i][1];
+      for (int k = i; k >= 0; k = m.li[k * LI + L_PARENT]) {
+        Px = Px + t.w[k] * (nx - t.X[k][0]);
+        Py = Py + t.w[k] * (ny - t.X[k][1]);
+        nx = t.X[k][0];
+        ny = t.X[k][1];
+        int rot = m.li[k * LI + L_ROT];
+        if (rot >= 0 && !(free && m.li[k * LI + L_PARENT] < 0)) t.Q[rot] += -(ux * Px + uy * Py);
+      }
+    }
+  }
+  // gravity, in the vertical plane: on a free tree's centre of mass, link by link in a welded tree
+  if (m.wi[W_PLANE] == 0) {
+    const double grav = m.wf[W_GRAVITY];
+    for (int a = 0; a < D; ++a) t.x[a] = V{};
+    for (int tr = 0; tr < m.T; ++tr) {
+      const int32_t *T = m.ti + tr * 3;
+      int r = T[0];
+      if (T[1] == 1) {
+        double mt = 0.0;
+        for (int i = 0; i < L; ++i)
+          if (m.li[i * LI + L_TREE] == tr) mt = mt + m.lf[i * LF + F_MASS];
+        t.x[m.li[r * LI + L_DY]] = V{} - (mt * grav);
+        continue;
+      }
+      for (int i = 0; i < L; ++i) {
+        if (m.li[i * LI + L_TREE] != tr || m.li[i * LI + L_PARENT] < 0) continue;
+        int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
+        force(t.Q, V{} - (m.lf[i * LF + F_MASS] * grav), m.ri + i * m.R, t.g, n);
+      }
+    }
+    turn(m, t, t.x, -1, 1);
+    for (int a = 0; a < D; ++a) t.Q[a] += t.x[a];
+  }
+  // passive joint springs, then stops
+  for (int i = 0; i < L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    if (!l[L_SPRING]) continue;
+    const double *f = m.lf + i * LF;
+    int d = l[L_ROT];
+    double k = f[F_JSPRING], c = f[F_JSPRING + 1], rest = f[F_JSPRING + 2];
+    V phi = t.th[i] - t.th[l[L_PARENT]];
+    joint(t, D, d, h, -k * (phi - rest) - c * t.u[d], V{} + k, V{} + c, t.u[d]);
+  }
+  for (int i = 0; i < L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    if (!l[L_LIMIT]) continue;
+    const double *f = m.lf + i * LF;
+    int d = l[L_ROT];
+    double lo = f[F_LIMIT], hi = f[F_LIMIT + 1], k = f[F_LIMIT + 2], c = f[F_LIMIT + 3];
+    V phi = t.th[i] - t.th[l[L_PARENT]];
+    V below = Ls::max(k * (lo - phi) - c * t.u[d], V{});
+    V above = Ls::min(k * (hi - phi) - c * t.u[d], V{});
+    auto on = ((phi < lo) & (below > 0.0)) | ((phi > hi) & (above < 0.0));
+    V onv = Ls::sel(on, V{} + 1.0, V{});
+    V torque = Ls::sel(phi < lo, below, Ls::sel(phi > hi, above, V{}));
+    joint(t, D, d, h, torque, onv * k, onv * c, t.u[d]);
+  }
+  // actuators: angular servos at a joint, linear ones between two points
+  for (int a = 0; a < m.A; ++a) {
+    const int32_t *ai = m.ai + a * 3;
+    const double *f = m.af + a * 8;
+    V target = f[0] + t.act[a] * (f[1] - f[0]);
+    if (ai[0] == 0) {
+      int j = ai[1], d = m.li[j * LI + L_ROT];
+      V phi = t.th[j] - t.th[m.li[j * LI + L_PARENT]];
+      joint(t, D, d, h, f[2] * (target - phi) - f[3] * t.u[d], V{} + f[2], V{} + f[3], t.u[d]);
+    } else {
+      linear(m, t, f + 4, ai[1], ai[2], target, f[2], f[3], h);
+    }
+  }
+  for (int n = 0; n < m.P; ++n) {
+    const double *f = m.pf + n * 7;
+    linear(m, t, f, m.pi[n * 2], m.pi[n * 2 + 1], V{} + f[6], f[4], f[5], h);
+  }
+  if (m.wi[W_PLANE] == 0) ground_laws(m, t, anchor, dmax);
+  else plane_laws(m, t, anchor);
+  if (m.E) water(m, t);
   // the step: A du = h Q; p += S^T M du; q += h v*
   for (int a = 0; a < D; ++a) t.Q[a] = h * t.Q[a];
   solve(t, t.A, t.Q, t.x, D);
@@ -532,18 +750,60 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   }
 }
 
-template <class V> static inline void sense(const Model &m, Tile<V> &t) {
+// The follow point at time `time` (s): linear interpolation in the path's arc-length table
+// (dynamics.follow_point)
+template <class V> static inline void follow_point(const Model &m, V time, V &x, V &y) {
   using Ls = Lanes<V>;
+  const int n = m.F;
+  V u = m.wf[W_FOLLOW_SPEED] * time / m.wf[W_FOLLOW_DS];
+  for (int l = 0; l < Ls::W; ++l) {
+    double ul = Ls::lane(u, l);
+    if (m.wi[W_FOLLOW_LOOP]) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
+    ul = ul < 0.0 ? 0.0 : (ul > n - 1 ? n - 1 : ul);
+    int i0 = (int)__builtin_floor(ul);
+    if (i0 > n - 2) i0 = n - 2;
+    double f = ul - i0;
+    const double *a = m.follow + 2 * i0, *b = a + 2;
+    Ls::set(x, l, a[0] + f * (b[0] - a[0]));
+    Ls::set(y, l, a[1] + f * (b[1] - a[1]));
+  }
+}
+
+// Binary sensor values (dynamics.sense) of a prepared tile at time `time`
+template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) {
+  using Ls = Lanes<V>;
+  V fx{}, fy{};
+  if (m.wi[W_FOLLOW]) follow_point(m, time, fx, fy);
   for (int s = 0; s < m.S; ++s) {
-    int kind = m.si[s * 2], link = m.si[s * 2 + 1];
-    if (kind == 0) {
-      t.bits[s] = Ls::sel(t.depth[link] > 0.0, V{} + 1.0, V{});
+    const int32_t *si = m.si + s * 4;
+    const double *sf = m.sf + s * 6;
+    int kind = si[0];
+    if (kind == S_TOUCH) {
+      t.bits[s] = m.wi[W_PLANE] == 1 ? V{} + 1.0 : Ls::sel(t.depth[si[1]] > 0.0, V{} + 1.0, V{});
       continue;
     }
-    int par = m.li[link * LI + L_PARENT];
-    V ang = (par < 0 || kind == 2) ? t.th[link] : t.th[link] - t.th[par];
-    V a = ang - (2 * M_PI) * Ls::floor((ang + M_PI) * (0.5 / M_PI));
-    t.bits[s] = Ls::sel((a >= m.sf[s * 2]) & (a <= m.sf[s * 2 + 1]), V{} + 1.0, V{});
+    V a;
+    if (kind == S_ANGLE || kind == S_TILT) {
+      int link = si[1], par = m.li[link * LI + L_PARENT];
+      V ang = (par < 0 || kind == S_TILT) ? t.th[link] : t.th[link] - t.th[par];
+      a = ang - (2 * M_PI) * Ls::floor((ang + M_PI) * (0.5 / M_PI));
+    } else if (kind == S_EYE) {
+      int li = si[1], frm = si[2], to = si[3];
+      V ex, ey;
+      point_at(t, li, sf[2], sf[3], ex, ey);
+      V ax = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[li][0];
+      V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[li][1];
+      V dx = fx - ex, dy = fy - ey;
+      V num = ax * dy - ay * dx, den = ax * dx + ay * dy;
+      for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, __builtin_atan2(Ls::lane(num, l), Ls::lane(den, l)));
+    } else {
+      V pax, pay, pbx, pby;
+      point_at(t, si[1], sf[2], sf[3], pax, pay);
+      point_at(t, si[2], sf[4], sf[5], pbx, pby);
+      V dx = pbx - pax, dy = pby - pay;
+      a = Ls::sqrt(dx * dx + dy * dy);
+    }
+    t.bits[s] = Ls::sel((a >= sf[0]) & (a <= sf[1]), V{} + 1.0, V{});
   }
 }
 
