@@ -2,7 +2,7 @@
 built-ins (and, in ``tests/library``, gait exports derived from a valid one), mutated the way a
 careless or hostile user would: values of the wrong type or container, numbers that overflow or
 vanish (integers too large for a float, or for Python to read), deep nesting, odd keys (newlines,
-escape sequences), names with spaces around them, deleted, added and duplicated fields, and
+escape sequences, long dotted keys, too many keys), names with spaces around them, deleted, added and duplicated fields, and
 raw-text damage (truncation, stray lines).
 
 The tests run a bounded, seeded number of examples; a larger campaign, with counts of each
@@ -110,7 +110,7 @@ def mutated(draw, doc: dict, most: int = 4) -> dict:
 
 def _lines(text: str, draw) -> str:
     lines = text.splitlines()
-    op = draw(st.sampled_from(["truncate", "insert", "delete", "deep", "bytes"]))
+    op = draw(st.sampled_from(["truncate", "insert", "delete", "deep", "bytes", "key"]))
     if op == "truncate":
         return text[: draw(st.integers(0, len(text)))]
     if op == "insert":
@@ -125,6 +125,10 @@ def _lines(text: str, draw) -> str:
     if op == "delete" and lines:
         i = draw(st.integers(0, len(lines) - 1))
         return "\n".join(lines[:i] + lines[i + 1 :]) + "\n"
+    if op == "key":  # a long dotted key, or many keys, in a line of its own
+        key = draw(dotted_keys(hi=5_000)) if draw(st.booleans()) else draw(many_keys(hi=30_000))
+        i = draw(st.integers(0, len(lines)))
+        return "\n".join(lines[:i] + [key[0]] + lines[i:]) + "\n"
     if op == "deep":
         n = draw(st.sampled_from([200, 600, 3000]))
         opener, closer = draw(st.sampled_from([("[", "]"), ("{ a = ", " }")]))
@@ -132,6 +136,29 @@ def _lines(text: str, draw) -> str:
     i = draw(st.integers(0, len(text)))
     junk = draw(st.sampled_from(["\x00", "\x1b", "\r", '"', "'''", "[", "]]", "\ufeff", "\\u", "#"]))
     return text[:i] + junk + text[i:]
+
+
+@st.composite
+def dotted_keys(draw, lo: int = 2, hi: int = 30_000) -> tuple[str, int]:
+    """(a TOML key of ``lo`` to ``hi`` parts, its parts) in one of the forms TOML writes a key in:
+    dotted bare, numeric or quoted parts, spaces around the dots, as a key, a table header, an
+    array-of-tables header or inside an inline table (issue 48: the reader was quadratic in them)."""
+    n = draw(st.one_of(st.integers(lo, min(hi, 40)), st.integers(lo, hi)))
+    part = draw(st.sampled_from(["a", "1", '"a.b"', "'x'", "k-_9", '""']))
+    dot = draw(st.sampled_from([".", " . ", "\t.\t"]))
+    key = dot.join([part] * n)
+    form = draw(st.sampled_from(["{} = 1", "[{}]", "[[{}]]", "v = {{ {} = 1 }}", "[links.{}]"]))
+    return form.format(key), n + (form == "[links.{}]")
+
+
+@st.composite
+def many_keys(draw, lo: int = 1, hi: int = 40_000) -> tuple[str, int]:
+    """(TOML text of distinct keys, tables or arrays of tables, their parts in all)."""
+    n, depth = draw(st.integers(lo, hi)), draw(st.sampled_from([1, 2, 4, 16]))
+    form = draw(st.sampled_from(["k{} = 1\n", "[k{}]\n", "[[k{}]]\n", "v{} = {{ a = 1 }}\n"]))
+    tail = ".a" * (depth - 1)
+    per = depth + (form == "v{} = {{ a = 1 }}\n")
+    return "".join(form.format(f"{i}{tail}") for i in range(n // per + 1)), (n // per + 1) * per
 
 
 @st.composite
