@@ -39,14 +39,14 @@ class StudioServer:
                  log_level: str = "warning"):
         import uvicorn
 
-        from sanlab.studio.app import create_app
+        from sanlab.studio.app import MAX_FRAME, create_app
         from sanlab.studio.service import Service
 
         self.host = host
         self.service = Service(db)
         self.app = create_app(self.service, poll=poll, local_only=is_loopback(host))
         config = uvicorn.Config(self.app, host=host, port=port, log_level=log_level, ws="websockets-sansio",
-                                lifespan="on", timeout_graceful_shutdown=2)
+                                ws_max_size=MAX_FRAME, lifespan="on", timeout_graceful_shutdown=2)
         self.server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
         self.port = port
