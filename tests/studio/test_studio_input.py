@@ -171,6 +171,18 @@ def _still_serves(server) -> None:
         assert (r["id"], r["ok"]) == (9, True)
 
 
+@pytest.mark.parametrize("payload", [b"\xff", b'{"id": 1, "op": "runs", "x": "\xc3\x28"}', b"\xed\xa0\x80"])
+def test_a_text_frame_that_is_not_utf8_closes_with_1007_and_logs_no_traceback(bare_studio, payload):
+    server, log = bare_studio
+    log.records.clear()
+    with _ws_handshake(server.port) as c:
+        c.sendall(_frame(payload))
+        assert _close_code(c) == 1007
+    _still_serves(server)
+    time.sleep(0.5)  # what uvicorn logs once the connection is gone
+    assert not [r.getMessage() for r in log.records if r.levelno >= logging.WARNING or r.exc_info]
+
+
 def test_a_frame_over_the_bound_is_refused_before_it_is_read_whole(bare_studio):
     from sanlab.studio.app import MAX_FRAME
 
