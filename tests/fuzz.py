@@ -161,6 +161,21 @@ def many_keys(draw, lo: int = 1, hi: int = 40_000) -> tuple[str, int]:
     return "".join(form.format(f"{i}{tail}") for i in range(n // per + 1)), (n // per + 1) * per
 
 
+def bad_widths() -> st.SearchStrategy:
+    """Picture widths a Gymnasium environment refuses (issue 48: 0 and -5 gave 64 px, 20,000 a
+    MemoryError, 100,000 18 GB): outside [64, 4096], or not an integer."""
+    return st.one_of(
+        st.sampled_from([0, -5, 63, 4097, 20_000, 100_000, 2**63, -(2**70), 640.0, 1e9, math.nan, "640", None, True, [640]]),
+        st.integers(max_value=63), st.integers(min_value=4097),
+    )
+
+
+def huge_ints() -> st.SearchStrategy:
+    """Integers too large for a float64 (``10**400``), either sign: np.asarray(..., float)
+    raises OverflowError on them, not ValueError."""
+    return st.builds(lambda m, neg: -m if neg else m, st.integers(min_value=2**1024, max_value=10**5000), st.booleans())
+
+
 @st.composite
 def creature_texts(draw) -> str:
     """A creature file's text: a built-in, mutated as a document (mostly) or as text."""
