@@ -177,6 +177,28 @@ def huge_ints() -> st.SearchStrategy:
 
 
 @st.composite
+def page_damage(draw, pages: int, page_size: int = 4096) -> list[tuple[int, int, int]]:
+    """(offset, byte, count) writes that damage a library file of ``pages`` pages (never the
+    first, the header: a file without one is refused as no database at all): whole pages
+    overwritten, a page's header or cells, single bytes changed (issue 48: `sanlab search` then
+    wrote into such a file)."""
+    out = []
+    for _ in range(draw(st.integers(1, 4))):
+        page = draw(st.integers(1, pages - 1)) * page_size
+        fill = draw(st.sampled_from([0x00, 0xFF, 0xAA, 0x0D]))
+        kind = draw(st.sampled_from(["page", "header", "cells", "byte"]))
+        if kind == "page":
+            out.append((page, fill, page_size))
+        elif kind == "header":
+            out.append((page, fill, draw(st.integers(1, 12))))
+        elif kind == "cells":
+            out.append((page + draw(st.integers(12, page_size - 64)), fill, draw(st.integers(1, 64))))
+        else:
+            out.append((page + draw(st.integers(0, page_size - 1)), draw(st.integers(0, 255)), 1))
+    return out
+
+
+@st.composite
 def creature_texts(draw) -> str:
     """A creature file's text: a built-in, mutated as a document (mostly) or as text."""
     text, _ = read_source(draw(st.sampled_from(builtin_names())))
