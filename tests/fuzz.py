@@ -161,6 +161,20 @@ def many_keys(draw, lo: int = 1, hi: int = 40_000) -> tuple[str, int]:
     return "".join(form.format(f"{i}{tail}") for i in range(n // per + 1)), (n // per + 1) * per
 
 
+def odd_names() -> st.SearchStrategy:
+    """Names as MJCF bytes (in an XML attribute): not UTF-8 (Latin-1, a lone continuation byte,
+    a truncated sequence, an encoded surrogate) or holding a control or format character as a
+    character reference (a newline, a tab, an escape, a C1 control, a bidi override); issue 48:
+    each ended in a traceback or an error about a line of a generated file."""
+    bad_bytes = st.sampled_from([b"\xe9", b"\x80", b"\xc3", b"\xed\xa0\x80", b"\xff\xfe", b"caf\xe9"])
+    controls = st.sampled_from(["&#10;", "&#9;", "&#13;", "&#27;[2J", "&#x85;", "&#x9b;31m", "&#x202e;", "&#x7f;"])
+    word = st.sampled_from([b"", b"a", b"leg", b"x y"])
+    return st.one_of(
+        st.builds(lambda a, x, b: a + x + b, word, bad_bytes, word),
+        st.builds(lambda a, x, b: a + x.encode() + b, word, controls, word),
+    )
+
+
 def bad_widths() -> st.SearchStrategy:
     """Picture widths a Gymnasium environment refuses (issue 48: 0 and -5 gave 64 px, 20,000 a
     MemoryError, 100,000 18 GB): outside [64, 4096], or not an integer."""
