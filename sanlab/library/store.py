@@ -221,11 +221,14 @@ class Library:
             conn.execute("BEGIN IMMEDIATE")
             try:
                 yield conn
+                # A COMMIT that fails (a full disk: SQLITE_FULL) may leave the transaction open;
+                # rolled back here, or every later write of this connection would fail on BEGIN
+                # ("cannot start a transaction within a transaction"), the run's "interrupted" too.
+                conn.execute("COMMIT")
             except BaseException:
                 if conn.in_transaction:
                     conn.execute("ROLLBACK")
                 raise
-            conn.execute("COMMIT")
 
     def _resolve(self, ref: str) -> str:
         """The full run id for an exact id or an unambiguous prefix."""

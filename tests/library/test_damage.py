@@ -521,3 +521,39 @@ def test_every_command_that_writes_refuses_a_damaged_library_before_doing_work(p
     assert r.stderr.startswith(f"{path}: damaged: SQLite's quick check fails (") and r.stderr.count("\n") == 1, r.stderr
     assert _digest(path) == before
     assert not os.path.exists(path + "-wal") or os.path.getsize(path + "-wal") == 0
+
+
+class _FullAtCommit:
+    """A connection whose next COMMIT fails as SQLite's does on a full disk (SQLITE_FULL), with
+    the transaction left open, as SQLite may leave it."""
+
+    def __init__(self, conn: sqlite3.Connection):
+        self._conn, self.fail_next = conn, True
+
+    def execute(self, sql: str, *args):
+        if sql == "COMMIT" and self.fail_next:
+            self.fail_next = False
+            raise sqlite3.OperationalError("database or disk is full")
+        return self._conn.execute(sql, *args)
+
+    def __getattr__(self, name: str):
+        return getattr(self._conn, name)
+
+
+def test_a_commit_that_fails_on_a_full_disk_leaves_the_library_writable(tmp_path):
+    """Issue 48: a tuning stopped by a full disk was once left "running": a COMMIT that fails
+    can leave its transaction open, and then the write that marks the run "interrupted" failed
+    on BEGIN. The failed transaction is now rolled back: nothing of it is stored, and the next
+    write works."""
+    from tests.library.test_library import row
+
+    path = str(tmp_path / "g.db")
+    with Library(path) as lib:
+        run = new_run(lib, total=10)
+        lib.set_status(run.run_id, "running")
+        lib._conn = _FullAtCommit(lib._conn)  # type: ignore[assignment]
+        with pytest.raises(LibraryError) as e:
+            lib.add_batch(run.run_id, [row(i, 1.0) for i in range(4)])
+        assert_one_line(e, "database or disk is full")
+        lib.set_status(run.run_id, "interrupted")
+        assert lib.get_run(run.run_id).status == "interrupted" and lib.count(run.run_id) == 0
