@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sanlab.creature import geometry
-from sanlab.creature.spec import AngularActuator, Creature
+from sanlab.creature.spec import AngularActuator, Creature, LinearActuator
 
 OMEGA_DT = 1.0  # omega dt beyond which an underdamped servo, spring or stop is not resolved by the step
 
@@ -73,9 +73,8 @@ class Servos:
     @classmethod
     def of(cls, spec: Creature) -> Servos:
         inertia = geometry.joint_inertias(spec)
-        lines = [k for k, a in enumerate(spec.actuators) if not isinstance(a, AngularActuator)]
-        masses = dict(zip(lines, geometry.line_masses(spec, [(spec.actuators[k].a, spec.actuators[k].b)  # type: ignore[union-attr]
-                                                             for k in lines])))
+        lines = [(k, a) for k, a in enumerate(spec.actuators) if isinstance(a, LinearActuator)]
+        masses = dict(zip([k for k, _ in lines], geometry.line_masses(spec, [(a.a, a.b) for _, a in lines])))
         idx, I = [], []
         for k, a in enumerate(spec.actuators):
             moved = inertia.get(a.joint, math.inf) if isinstance(a, AngularActuator) else masses[k]
