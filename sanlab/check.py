@@ -403,11 +403,32 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -
 
 
 def resolution(spec: Creature) -> list[Finding]:
-    """Servos the step cannot resolve (``sanlab.evaluate.resolution``): one warning each, or
-    one line saying every servo is resolved."""
+    """Servos, springs and stops the step cannot resolve (``sanlab.evaluate.resolution``): one
+    warning each, or one line saying every servo is resolved (and one for springs and stops)."""
     from sanlab.evaluate.resolution import OMEGA_DT, Servos
 
     sv = Servos.of(spec)
+    return _servo_resolution(spec, sv, OMEGA_DT) + _passive_resolution(spec, sv, OMEGA_DT)
+
+
+def _passive_resolution(spec: Creature, sv: Any, bound: float) -> list[Finding]:
+    out = []
+    for p in sv.passive:
+        if p.unresolved(spec.dt):
+            out.append(Finding("resolution", True, (
+                f"{p.what}: rings at {p.omega / (2 * math.pi):.3g} Hz (damping ratio {p.zeta:.2g}), "
+                f"{p.omega * spec.dt:.3g} rad per step of {spec.dt:g} s: the step cannot follow it, so every evaluation "
+                "is flagged non-finite (raise its damping, lower its stiffness, or lower dt)"),
+                {"omega_dt": float(p.omega * spec.dt), "zeta": float(p.zeta)}))
+    if sv.passive and not out:
+        rings = [p.omega * spec.dt for p in sv.passive if p.zeta < 1.0]
+        how = (f"largest omega dt {max(rings):.2g} rad per step of those that ring, at most {bound:g}" if rings
+               else "every one is overdamped: none rings")
+        out.append(Finding("resolution", False, f"springs and stops: the step resolves every one ({how})"))
+    return out
+
+
+def _servo_resolution(spec: Creature, sv: Any, OMEGA_DT: float) -> list[Finding]:
     if not len(sv.index):
         return []
     ks = np.array([a.ks for a in spec.actuators])

@@ -2,7 +2,7 @@
 built-ins (and, in ``tests/library``, gait exports derived from a valid one), mutated the way a
 careless or hostile user would: values of the wrong type or container, numbers that overflow or
 vanish (integers too large for a float, or for Python to read), deep nesting, odd keys (newlines,
-escape sequences), names with spaces around them, deleted, added and duplicated fields, and
+escape sequences, long dotted keys, too many keys), names with spaces around them, deleted, added and duplicated fields, and
 raw-text damage (truncation, stray lines).
 
 The tests run a bounded, seeded number of examples; a larger campaign, with counts of each
@@ -110,7 +110,7 @@ def mutated(draw, doc: dict, most: int = 4) -> dict:
 
 def _lines(text: str, draw) -> str:
     lines = text.splitlines()
-    op = draw(st.sampled_from(["truncate", "insert", "delete", "deep", "bytes"]))
+    op = draw(st.sampled_from(["truncate", "insert", "delete", "deep", "bytes", "key"]))
     if op == "truncate":
         return text[: draw(st.integers(0, len(text)))]
     if op == "insert":
@@ -125,6 +125,10 @@ def _lines(text: str, draw) -> str:
     if op == "delete" and lines:
         i = draw(st.integers(0, len(lines) - 1))
         return "\n".join(lines[:i] + lines[i + 1 :]) + "\n"
+    if op == "key":  # a long dotted key, or many keys, in a line of its own
+        key = draw(dotted_keys(hi=5_000)) if draw(st.booleans()) else draw(many_keys(hi=30_000))
+        i = draw(st.integers(0, len(lines)))
+        return "\n".join(lines[:i] + [key[0]] + lines[i:]) + "\n"
     if op == "deep":
         n = draw(st.sampled_from([200, 600, 3000]))
         opener, closer = draw(st.sampled_from([("[", "]"), ("{ a = ", " }")]))
@@ -132,6 +136,80 @@ def _lines(text: str, draw) -> str:
     i = draw(st.integers(0, len(text)))
     junk = draw(st.sampled_from(["\x00", "\x1b", "\r", '"', "'''", "[", "]]", "\ufeff", "\\u", "#"]))
     return text[:i] + junk + text[i:]
+
+
+@st.composite
+def dotted_keys(draw, lo: int = 2, hi: int = 30_000) -> tuple[str, int]:
+    """(a TOML key of ``lo`` to ``hi`` parts, its parts) in one of the forms TOML writes a key in:
+    dotted bare, numeric or quoted parts, spaces around the dots, as a key, a table header, an
+    array-of-tables header or inside an inline table (issue 48: the reader was quadratic in them)."""
+    n = draw(st.one_of(st.integers(lo, min(hi, 40)), st.integers(lo, hi)))
+    part = draw(st.sampled_from(["a", "1", '"a.b"', "'x'", "k-_9", '""']))
+    dot = draw(st.sampled_from([".", " . ", "\t.\t"]))
+    key = dot.join([part] * n)
+    form = draw(st.sampled_from(["{} = 1", "[{}]", "[[{}]]", "v = {{ {} = 1 }}", "[links.{}]"]))
+    return form.format(key), n + (form == "[links.{}]")
+
+
+@st.composite
+def many_keys(draw, lo: int = 1, hi: int = 40_000) -> tuple[str, int]:
+    """(TOML text of distinct keys, tables or arrays of tables, their parts in all)."""
+    n, depth = draw(st.integers(lo, hi)), draw(st.sampled_from([1, 2, 4, 16]))
+    form = draw(st.sampled_from(["k{} = 1\n", "[k{}]\n", "[[k{}]]\n", "v{} = {{ a = 1 }}\n"]))
+    tail = ".a" * (depth - 1)
+    per = depth + (form == "v{} = {{ a = 1 }}\n")
+    return "".join(form.format(f"{i}{tail}") for i in range(n // per + 1)), (n // per + 1) * per
+
+
+def odd_names() -> st.SearchStrategy:
+    """Names as MJCF bytes (in an XML attribute): not UTF-8 (Latin-1, a lone continuation byte,
+    a truncated sequence, an encoded surrogate) or holding a control or format character as a
+    character reference (a newline, a tab, an escape, a C1 control, a bidi override); issue 48:
+    each ended in a traceback or an error about a line of a generated file."""
+    bad_bytes = st.sampled_from([b"\xe9", b"\x80", b"\xc3", b"\xed\xa0\x80", b"\xff\xfe", b"caf\xe9"])
+    controls = st.sampled_from(["&#10;", "&#9;", "&#13;", "&#27;[2J", "&#x85;", "&#x9b;31m", "&#x202e;", "&#x7f;"])
+    word = st.sampled_from([b"", b"a", b"leg", b"x y"])
+    return st.one_of(
+        st.builds(lambda a, x, b: a + x + b, word, bad_bytes, word),
+        st.builds(lambda a, x, b: a + x.encode() + b, word, controls, word),
+    )
+
+
+def bad_widths() -> st.SearchStrategy:
+    """Picture widths a Gymnasium environment refuses (issue 48: 0 and -5 gave 64 px, 20,000 a
+    MemoryError, 100,000 18 GB): outside [64, 4096], or not an integer."""
+    return st.one_of(
+        st.sampled_from([0, -5, 63, 4097, 20_000, 100_000, 2**63, -(2**70), 640.0, 1e9, math.nan, "640", None, True, [640]]),
+        st.integers(max_value=63), st.integers(min_value=4097),
+    )
+
+
+def huge_ints() -> st.SearchStrategy:
+    """Integers too large for a float64 (``10**400``), either sign: np.asarray(..., float)
+    raises OverflowError on them, not ValueError."""
+    return st.builds(lambda m, neg: -m if neg else m, st.integers(min_value=2**1024, max_value=10**5000), st.booleans())
+
+
+@st.composite
+def page_damage(draw, pages: int, page_size: int = 4096) -> list[tuple[int, int, int]]:
+    """(offset, byte, count) writes that damage a library file of ``pages`` pages (never the
+    first, the header: a file without one is refused as no database at all): whole pages
+    overwritten, a page's header or cells, single bytes changed (issue 48: `sanlab search` then
+    wrote into such a file)."""
+    out = []
+    for _ in range(draw(st.integers(1, 4))):
+        page = draw(st.integers(1, pages - 1)) * page_size
+        fill = draw(st.sampled_from([0x00, 0xFF, 0xAA, 0x0D]))
+        kind = draw(st.sampled_from(["page", "header", "cells", "byte"]))
+        if kind == "page":
+            out.append((page, fill, page_size))
+        elif kind == "header":
+            out.append((page, fill, draw(st.integers(1, 12))))
+        elif kind == "cells":
+            out.append((page + draw(st.integers(12, page_size - 64)), fill, draw(st.integers(1, 64))))
+        else:
+            out.append((page + draw(st.integers(0, page_size - 1)), draw(st.integers(0, 255)), 1))
+    return out
 
 
 @st.composite

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from sanlab.check import _ground, at_rest, radian_ranges, simulate, static, strength, warnings
 from sanlab.cli import app
-from sanlab.creature import builtin_names, load, loads
+from sanlab.creature import builtin_names, load, loads, read_source
 from tests.helpers import BASE, DATA
 
 runner = CliRunner()
@@ -273,3 +273,54 @@ def test_the_servos_line_says_which_servos_ring():
     assert not b.warning and b.message == "servos: the step resolves every one (every one is overdamped: none rings)"
     (c,) = resolution(load("cart"))
     assert not c.warning and "rad per step of those that ring, at most 1" in c.message
+
+
+# -- issue 48: springs, stops and linear actuators the step cannot resolve -----------------------
+
+SPRING = 'anchor = [0.2, 0.0]'  # twolink's joint, where a spring or a stop goes
+
+
+def _stiff(kind: str, damping: float) -> str:
+    """A built-in with one element made stiff (1e6 in the file's units) and damped by ``damping``
+    (the file's units): twolink's joint spring at a 90 degree rest angle (the issue's case) or
+    its stop, the crawler's linear spring or linear actuator."""
+    import re
+
+    if kind in ("spring", "limit"):
+        text, _ = read_source("twolink")
+        extra = (f"spring = {{ stiffness = 1e6, damping = {damping}, rest_deg = 90 }}" if kind == "spring"
+                 else f"limit = {{ min_deg = -10, max_deg = 10, stiffness = 1e6, damping = {damping} }}")
+        return text.replace(SPRING, SPRING + "\n" + extra, 1)
+    text, _ = read_source("crawler")
+    if kind == "linear spring":
+        return re.sub(r'(name = "rear"\n(?:.*\n)*?)stiffness = 50\.0\ndamping = 1\.0', rf"\1stiffness = 1e6\ndamping = {damping}", text, count=1)
+    return text.replace("ks = 8.0             # N/m\nkd = 0.8", f"ks = 1e6\nkd = {damping}", 1)
+
+
+@pytest.mark.parametrize("kind, what", [("spring", "link L2 spring"), ("limit", "link L2 limit"),
+                                        ("linear spring", "spring rear"), ("linear actuator", "actuator A1")])
+def test_a_stiff_undamped_spring_stop_or_linear_actuator_is_flagged_like_a_servo(kind, what):
+    """Issue 48: the twolink with a 1e6 N m/deg joint spring at a 90 degree rest angle topped the
+    search table at 67 cm/s (4x the built-in) unflagged: the step-size flag looked at angular
+    servos only. Now each kind of spring is the same check; heavily damped, none rings."""
+    from sanlab.check import resolution
+    from sanlab.evaluate.resolution import Servos
+
+    spec = loads(_stiff(kind, 0.0), "stiff.toml")
+    sv = Servos.of(spec)
+    ks, kd = [a.ks for a in spec.actuators], [a.kd for a in spec.actuators]
+    assert sv.unresolved(ks, kd, spec.dt) and sv.unresolved(np.array([ks, ks]), np.array([kd, kd]), spec.dt).all()
+    warned = [f.message for f in resolution(spec) if f.warning]
+    assert len(warned) == 1 and warned[0].startswith(f"{what}: rings at ") and "cannot follow it" in warned[0], warned
+    damped = loads(_stiff(kind, 1e5), "damped.toml")
+    sv = Servos.of(damped)
+    assert not sv.unresolved([a.ks for a in damped.actuators], [a.kd for a in damped.actuators], damped.dt)
+    assert not [f for f in resolution(damped) if f.warning]
+
+
+def test_the_springs_line_says_whether_any_rings():
+    from sanlab.check import resolution
+
+    lines = [f.message for f in resolution(load("crawler")) if f.message.startswith("springs and stops")]
+    assert lines == ["springs and stops: the step resolves every one (largest omega dt 0.032 rad per step of those that "
+                     "ring, at most 1)"]

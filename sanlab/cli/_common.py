@@ -154,7 +154,8 @@ def open_library(path: str, *, create: bool = False, readonly: bool = False) -> 
 
     Only commands that start new runs pass ``create=True``: everywhere else a missing file is a
     mistyped ``--db``, refused rather than silently created empty. Commands that only read pass
-    ``readonly=True``: they write nothing, so they work on a library in a read-only folder. An
+    ``readonly=True``: they write nothing, so they work on a library in a read-only folder; the
+    others get a library that passes SQLite's quick check (``Library.check_intact``). An
     empty path (``--db ''``) is refused: SQLite would make a temporary database of it, and a run
     stored there could never be found again.
     """
@@ -165,9 +166,16 @@ def open_library(path: str, *, create: bool = False, readonly: bool = False) -> 
     if not create and not path.startswith("file:") and path != ":memory:" and not os.path.exists(path):
         raise fail(f"{path}: no such gait library (give --db PATH)")
     try:
-        return Library(path, readonly=readonly)
+        lib = Library(path, readonly=readonly)
     except LibraryError as e:
         raise fail(str(e)) from None
+    if not readonly:  # a command that writes: a damaged file takes no new run (issue 48)
+        try:
+            lib.check_intact()
+        except LibraryError as e:
+            lib.close()
+            raise fail(str(e)) from None
+    return lib
 
 
 # -- arguments, checked before anything is created -----------------------------------------------

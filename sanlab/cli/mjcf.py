@@ -48,8 +48,10 @@ def import_mjcf(
     MuJoCo compiles the model; links, masses, inertias, joint ranges and springs, servos from its
     motors, touch sensors on its feet and angle sensors at its joints' ends, and its fall test (the
     healthy height and angle of Gymnasium's hopper and walker2d) come from the compiled model. Each
-    thing the format cannot carry (armature, self-collision, ...) is one warning line on stderr; a
-    model that is not planar in the x-z plane is an error naming the joint. See docs/mjcf.md."""
+    thing the format cannot carry (armature, self-collision, ...) is one warning line on stderr (more
+    than three alike, e.g. static bodies, are folded into one); a model that is not planar in the x-z
+    plane, or a name that is not printable UTF-8, is an error naming the joint or element. See
+    docs/mjcf.md."""
     from sanlab.interop.mjcf_import import MjcfError, mjcf_to_toml
 
     try:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from .spec import Creature, Link, Vec2
+from .spec import Creature, Link, PointRef, Vec2
 
 Frame = tuple[float, float, float]  # a link frame in the world: origin x (m), y (m), angle (rad)
 
@@ -99,45 +99,93 @@ def size(creature: Creature) -> float:
     return max(max(xs) - min(xs), max(ys) - min(ys))
 
 
+def _dofs(creature: Creature) -> tuple[list[str], dict[str, list[int]]]:
+    """(the link owning each dof, each link's dofs), in ``Link.dofs`` order."""
+    owner: list[str] = []
+    dof_of: dict[str, list[int]] = {}
+    for link in creature.links:
+        dof_of[link.name] = list(range(len(owner), len(owner) + link.dofs))
+        owner += [link.name] * link.dofs
+    return owner, dof_of
+
+
+def _jacobian(creature: Creature, frames: dict[str, Frame], dof_of: dict[str, list[int]], link: Link,
+              p: Vec2) -> tuple[list[float], list[float], list[float]]:
+    """(dx/dq, dy/dq, dangle/dq) [n] of world point ``p`` fixed on ``link``, at ``frames``."""
+    by_name = {k.name: k for k in creature.links}
+    n = sum(len(d) for d in dof_of.values())
+    chain, k = [], link
+    while True:
+        chain.append(k)
+        if k.parent is None:
+            break
+        k = by_name[k.parent]
+    root = chain[-1]
+    jx, jy, rot = [0.0] * n, [0.0] * n, [0.0] * n
+    if not root.fixed:
+        jx[dof_of[root.name][0]], jy[dof_of[root.name][1]] = 1.0, 1.0
+    for k in chain:
+        d = dof_of[k.name]
+        if k.is_point or (k is root and (root.fixed or len(d) < 3)):
+            continue
+        i = d[-1]  # the link's own rotation: a joint angle, or a free root's angle
+        X, Y, _ = frames[k.name]
+        jx[i], jy[i], rot[i] = -(p[1] - Y), p[0] - X, 1.0
+    return jx, jy, rot
+
+
 def mass_matrix(creature: Creature) -> tuple[list[list[float]], list[str]]:
     """The mass matrix M (kg, kg m, kg m^2) at the file's start pose, in root coordinates (a free
     root's x, y, angle; each joint's angle, in ``Link.dofs`` order), and the name of the link
     that owns each dof: M = sum over links of m J_c^T J_c + I r r^T, J_c the Jacobian of the
     link's centre of mass and r the row of the joints that turn it."""
     frames = initial_frames(creature)
-    owner: list[str] = []
-    dof_of: dict[str, list[int]] = {}
-    for link in creature.links:
-        dof_of[link.name] = list(range(len(owner), len(owner) + link.dofs))
-        owner += [link.name] * link.dofs
+    owner, dof_of = _dofs(creature)
     n = len(owner)
     M = [[0.0] * n for _ in range(n)]
     by_name = {link.name: link for link in creature.links}
     for link in creature.links:
-        chain, k = [], link
-        while True:
-            chain.append(k)
-            if k.parent is None:
-                break
-            k = by_name[k.parent]
-        root = chain[-1]
+        root = link
+        while root.parent is not None:
+            root = by_name[root.parent]
         if root.fixed and link is root:
             continue
-        c = transform(frames[link.name], link.com)
-        jx, jy, rot = [0.0] * n, [0.0] * n, [0.0] * n
-        if not root.fixed:
-            jx[dof_of[root.name][0]], jy[dof_of[root.name][1]] = 1.0, 1.0
-        for k in chain:
-            d = dof_of[k.name]
-            if k.is_point or (k is root and (root.fixed or len(d) < 3)):
-                continue
-            i = d[-1]  # the link's own rotation: a joint angle, or a free root's angle
-            X, Y, _ = frames[k.name]
-            jx[i], jy[i], rot[i] = -(c[1] - Y), c[0] - X, 1.0
+        jx, jy, rot = _jacobian(creature, frames, dof_of, link, transform(frames[link.name], link.com))
         for a in range(n):
             for b in range(n):
                 M[a][b] += link.mass * (jx[a] * jx[b] + jy[a] * jy[b]) + link.inertia * rot[a] * rot[b]
     return M, owner
+
+
+def line_masses(creature: Creature, lines: Sequence[tuple[PointRef, PointRef]]) -> list[float]:
+    """The effective mass (kg) each line between two points meets at the file's start pose:
+    1 / (J M^-1 J^T), J the rate of the line's length in the dofs (:func:`mass_matrix`), every
+    dof free to move. A spring of stiffness k along it oscillates at sqrt(k / m) rad/s. inf for
+    a line no dof with mass changes (both points on one link, or on the world)."""
+    import numpy as np
+
+    M, owner = mass_matrix(creature)
+    frames = initial_frames(creature)
+    _, dof_of = _dofs(creature)
+    by_name = {link.name: link for link in creature.links}
+    A = np.asarray(M, float).reshape(len(owner), len(owner))
+    keep = np.flatnonzero(np.diag(A) > 0) if len(owner) else np.zeros(0, int)
+    inv = np.linalg.pinv(A[np.ix_(keep, keep)]) if len(keep) else np.zeros((0, 0))
+    out = []
+    for a, b in lines:
+        pa, pb = transform(frames[a.link], a.at), transform(frames[b.link], b.at)
+        d = np.subtract(pb, pa)
+        length = float(np.hypot(*d))
+        if length == 0.0:
+            out.append(math.inf)
+            continue
+        u = d / length
+        ja = _jacobian(creature, frames, dof_of, by_name[a.link], pa)
+        jb = _jacobian(creature, frames, dof_of, by_name[b.link], pb)
+        J = u[0] * (np.subtract(jb[0], ja[0])) + u[1] * (np.subtract(jb[1], ja[1]))
+        w = float(J[keep] @ inv @ J[keep]) if len(keep) else 0.0
+        out.append(1.0 / w if w > 1e-300 else math.inf)
+    return out
 
 
 def joint_inertias(creature: Creature) -> dict[str, float]:

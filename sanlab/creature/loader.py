@@ -43,6 +43,7 @@ from ._toml import (
     TOP,
     WORLD,
     _Table,
+    key_fault,
     radians_field,
     spec_default,
 )
@@ -98,6 +99,12 @@ def loads(text: str, source: str = "<string>") -> Creature:
     if len(text) > MAX_FILE_BYTES:
         raise CreatureError(f"{shown}: expected a creature file of at most {MAX_FILE_BYTES >> 20} MiB, "
                             f"got {len(text)} characters")
+    fault = key_fault(text)
+    if fault is not None:
+        pos, what, got = fault
+        line = text.count("\n", 0, pos) + 1
+        column = pos - text.rfind("\n", 0, pos)
+        raise CreatureError(f"{shown}: line {line}, column {column}: expected {what}, got {got}")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:

@@ -35,6 +35,11 @@ SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hoppin
 # network within memory, and numbers that keep a run meaningful in float32. Written once here;
 # the loader enforces them with its usual one-line errors.
 MAX_FILE_BYTES = 1 << 20  # a creature file
+# Keys, checked before the TOML is parsed (Python's reader spends about 1 KB per key part, and
+# time quadratic in the parts of one dotted key): parts of one dotted key or table header (the
+# format's deepest is 3, world.ground.stiffness), and in the whole file (walker.toml: 197).
+MAX_KEY_PARTS = 16
+MAX_KEY_PARTS_TOTAL = 20_000
 MAX_NAME = 64  # characters in a name (links, sensors, actuators, springs, the creature)
 MAX_DESCRIPTION = 500  # characters in the description
 MAX_LINKS = 32

@@ -41,6 +41,45 @@ ACTIONS = ("target", "activation")
 VELOCITY_LIMIT = 1e4  # |qd| beyond this counts as blown up, as at the end of a rollout
 
 
+def check_width(width: Any) -> int:
+    """A picture's ``width`` (px), an integer in render.film.WIDTH_RANGE ([64, 4096], as
+    ``sanlab render --width``); raises ValueError naming it. Checked whether or not the
+    environment renders, so that a wrong width never passes silently (0 and -5 once gave 64 px,
+    100,000 grew the process to 18 GB)."""
+    from sanlab.render.film import WIDTH_RANGE
+
+    lo, hi = WIDTH_RANGE
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or not lo <= width <= hi:
+        raise ValueError(f"width: expected an integer in [{lo}, {hi}] (px), got {width!r}")
+    return int(width)
+
+
+def _floats(action: Any) -> np.ndarray:
+    """``action`` as float64, an integer too large for a float (``10**400``) as +-inf (then
+    refused as outside its range, naming its actuator). TypeError/ValueError as np.asarray."""
+    try:
+        return np.asarray(action, dtype=np.float64)
+    except OverflowError:
+        obj = np.asarray(action, dtype=object)
+
+        def one(x: Any) -> float:
+            try:
+                return float(x)
+            except OverflowError:
+                return math.inf if x > 0 else -math.inf
+
+        return np.vectorize(one, otypes=[np.float64])(obj) if obj.size else obj.astype(np.float64)
+
+
+def _shown(action: Any, a: np.ndarray, r: int, k: int) -> str:
+    """Value [r, k] of an action as given: an integer too large for a float by its magnitude."""
+    if np.isinf(a[r, k]):
+        x = np.asarray(action, dtype=object).reshape(a.shape)[r, k]
+        if isinstance(x, (int, np.integer)) and not isinstance(x, bool):  # not a float: beyond one
+            return f"an integer of about {'-' if x < 0 else ''}1e{int(abs(int(x)).bit_length() * math.log10(2))}"
+    return repr(a[r, k])
+
+
 def resolve(creature: str | Creature | None, path: str | None) -> Creature:
     """The creature an environment simulates: ``creature`` (a built-in name, a file path or a
     ``Creature``) or ``path`` (a creature file), exactly one of them. Raises ValueError when
@@ -156,7 +195,7 @@ class Core:
         number), or a wrong shape."""
         A = self.n_actuators
         try:
-            a = np.asarray(action, dtype=np.float64)
+            a = _floats(action)
         except (TypeError, ValueError):
             raise ValueError(f"action: expected {A} numbers per environment, got {type(action).__name__}") from None
         if n == 1 and a.shape == (A,):
@@ -169,7 +208,8 @@ class Core:
             r, k = np.argwhere(bad)[0]
             unit = self.act_units[k] if self.settings.action == "target" else "activation"
             where = f"action[{r}, {k}]" if n > 1 else f"action[{k}]"
-            raise ValueError(f"{where} (actuator {self.act_names[k]!r}): {a[r, k]!r} is outside its range "
+            got = _shown(action, a, r, k)
+            raise ValueError(f"{where} (actuator {self.act_names[k]!r}): {got} is outside its range "
                              f"[{lo[k]:.9g}, {hi[k]:.9g}] {unit}")
         if self.settings.action == "target":
             # float64 throughout, so that any float32 activation (a SAN's) survives the trip to a

@@ -54,7 +54,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sanlab.creature import Creature
-from sanlab.gym._core import Core, Settings, resolve
+from sanlab.gym._core import Core, Settings, check_width, resolve
 
 
 def observation_space(core: Core) -> spaces.Space:
@@ -105,7 +105,7 @@ class SanlabEnv(gym.Env):
     episode when the fall test says so. reset_noise_scale: the start's perturbation (0: exact).
     dtype: "float32" (as searches run) or "float64". overrides: {``sanlab.sim.Params`` field:
     array}, e.g. a tuned gait's ``params.model``. render_mode: None or "rgb_array"; width: its
-    picture's width (px).
+    picture's width (px), an integer in [64, 4096] (checked even when nothing is rendered).
 
     Raises ``sanlab.creature.CreatureError`` (a ValueError) for an unknown creature or a bad
     file, ValueError for any other bad option (each one line naming it). Warns when the
@@ -126,6 +126,7 @@ class SanlabEnv(gym.Env):
         configure()
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected None or one of {self.metadata['render_modes']}, got {render_mode!r}")
+        width = check_width(width)
         spec = resolve(creature, path)
         settings = Settings(observation, action, frame_skip, bool(terminate_on_fall), reset_noise_scale)
         # two rows on one device: a batch of one compiles as scalar code, rounded differently

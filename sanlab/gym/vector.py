@@ -37,7 +37,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from sanlab.creature import Creature
-from sanlab.gym._core import Core, Settings, resolve
+from sanlab.gym._core import Core, Settings, check_width, resolve
 from sanlab.gym.env import action_space, observation_space, observations
 
 ROWS_TO_SPREAD = 32  # sub-environments per device from which the default spreads them over every device
@@ -79,6 +79,7 @@ class SanlabVectorEnv(VectorEnv):
             raise ValueError(f"autoreset_mode: expected one of {[m.value for m in AutoresetMode]}, got {autoreset_mode!r}") from None
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected None or one of {self.metadata['render_modes']}, got {render_mode!r}")
+        width = check_width(width)
         spec = resolve(creature, path)
         settings = Settings(observation, action, frame_skip, bool(terminate_on_fall), reset_noise_scale)
         n = int(num_envs)

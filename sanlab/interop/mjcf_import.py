@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import stat
 import textwrap
 from collections.abc import Iterable
@@ -116,7 +117,31 @@ def mjcf_to_toml(path: str | os.PathLike) -> tuple[str, list[str]]:
     importer = _Importer(m, shown, Path(path).name)
     for line in said:
         importer.warn(f"MuJoCo: {' '.join(line.split())}")
-    return importer.run()
+    try:
+        return importer.run()
+    except importer.mj.FatalError as e:  # MuJoCo's own limits (its memory arena, ...): one line too
+        raise MjcfError(f"{shown}: MuJoCo could not compute the model ({printable(' '.join(str(e).split()))[:300]})") from None
+
+
+FOLD = 3  # warnings of one kind printed one by one; beyond, one line says how many more
+
+
+def fold(warnings: list[str]) -> list[str]:
+    """``warnings`` with those that differ only in the names they quote ('s0', 's1', ...) folded
+    into their first, which then says how many more there were and names a few: a model of 1,500
+    static bodies gave 1,500 lines. Order of first appearance kept."""
+    groups: dict[str, list[str]] = {}
+    for line in warnings:
+        groups.setdefault(re.sub(r"'[^']*'", "'*'", line), []).append(line)
+    out = []
+    for lines in groups.values():
+        if len(lines) <= FOLD:
+            out.extend(lines)
+            continue
+        names = [m.group() for m in (re.search(r"'[^']*'", x) for x in lines[1:]) if m]
+        shown = ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
+        out.append(f"{lines[0]} (and {len(lines) - 1:,} more like it: {shown})")
+    return out
 
 
 # -- compiling -------------------------------------------------------------------------------------
@@ -239,8 +264,9 @@ def _pts(ps: Iterable[Iterable[float]]) -> str:
 
 
 def _q(s: str) -> str:
-    """A TOML basic string."""
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """A TOML basic string; every control character escaped (TOML allows none raw in one)."""
+    body = s.replace("\\", "\\\\").replace('"', '\\"')
+    return '"' + "".join(f"\\u{ord(c):04x}" if ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 else c for c in body) + '"'
 
 
 @dataclass
@@ -275,7 +301,8 @@ class _Importer:
         import mujoco
 
         self.mj: Any = mujoco
-        self.m, self.shown, self.filename = m, shown, filename
+        # the file's name goes into comments and strings of the creature file: printable there
+        self.m, self.shown, self.filename = m, shown, printable(filename)
         self.d = self.mj.MjData(m)
         self.d.qpos[:] = m.qpos0
         self.mj.mj_kinematics(m, self.d)
@@ -286,10 +313,27 @@ class _Importer:
 
     # -- names and messages
 
+    def raw_name(self, kind: str, i: int) -> str:
+        """The MJCF name of element ``i`` of ``kind`` (body, joint, geom, actuator, sensor; model:
+        the model's), "" if it has none. Raises MjcfError naming the element for a name that is
+        not UTF-8 (MuJoCo compiles one; its bindings then raise UnicodeDecodeError) or holds a
+        control or format character (a newline would end a line of the creature file)."""
+        m = self.m
+        start = 0 if kind == "model" else int({"body": m.name_bodyadr, "joint": m.name_jntadr, "geom": m.name_geomadr,
+                                                "actuator": m.name_actuatoradr, "sensor": m.name_sensoradr}[kind][i])
+        raw = bytes(m.names[start : m.names.index(b"\0", start)]) if m.names else b""
+        element = "the model's name (<mujoco model=...>)" if kind == "model" else f"the name of {kind} {i} (<{kind}>)"
+        try:
+            name = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise self.fail(f"{element}: expected UTF-8 text, got {raw!r} (undecodable at byte {e.start}; save the model "
+                            "as UTF-8)") from None
+        if not name.isprintable():
+            raise self.fail(f"{element}: expected a printable name (no newline, tab or escape sequence), got {name!r}")
+        return name
+
     def name(self, kind: str, i: int) -> str:
-        obj = {"body": self.m.body, "joint": self.m.joint, "geom": self.m.geom, "actuator": self.m.actuator,
-               "sensor": self.m.sensor}[kind](i)
-        return obj.name or f"{kind}{i}"
+        return self.raw_name(kind, i) or f"{kind}{i}"
 
     def fail(self, what: str) -> MjcfError:
         return MjcfError(f"{self.shown}: {printable(what)}")
@@ -330,6 +374,7 @@ class _Importer:
         self.dt = min(max(float(m.opt.timestep), 1e-5), 0.01)
         if self.dt != float(m.opt.timestep):
             self.warn(f"timestep {float(m.opt.timestep):g} s: outside sanlab's [1e-05, 0.01] s, {self.dt:g} s used")
+        self.warnings = fold(self.warnings)
         text = self._write()
         try:
             loads(text, self.filename)
@@ -552,7 +597,12 @@ class _Importer:
         try:
             d = self.mj.MjData(m)
             d.qpos[:] = m.qpos0
-            self.mj.mj_forward(m, d)
+            # the mass matrix only: mj_forward would also run collision detection, whose arena a
+            # model of thousands of static geoms overflows (mujoco.FatalError: mj_stackAlloc)
+            self.mj.mj_kinematics(m, d)
+            self.mj.mj_comPos(m, d)
+            make_m = getattr(self.mj, "mj_makeM", None)  # MuJoCo >= 3.2; before, mj_crb fills qM
+            make_m(m, d) if make_m is not None else self.mj.mj_crb(m, d)
             diag = np.zeros(m.nv)
             for i in range(m.nv):  # mj_mulM: the same call in MuJoCo 3 and 4 (mj_fullM's changed)
                 e, out = np.zeros(m.nv), np.zeros(m.nv)
@@ -612,7 +662,7 @@ class _Importer:
         hinge_link = {lk.joint: lk for lk in self.links if lk.parent is not None}
         for a in range(m.nu):
             trn, j = int(m.actuator_trntype[a]), int(m.actuator_trnid[a][0])
-            an = m.actuator(a).name or (self.name("joint", j) if trn == int(self.mj.mjtTrn.mjTRN_JOINT) else f"actuator{a}")
+            an = self.raw_name("actuator", a) or (self.name("joint", j) if trn == int(self.mj.mjtTrn.mjTRN_JOINT) else f"actuator{a}")
             if trn != int(self.mj.mjtTrn.mjTRN_JOINT) or j not in hinge_link:
                 what = "a tendon, site or body" if trn != int(self.mj.mjtTrn.mjTRN_JOINT) else f"root joint {self.name('joint', j)!r}"
                 self.warn(f"actuator {an!r} drives {what}: not carried over (sanlab's servos drive hinges below the root)")
@@ -674,10 +724,9 @@ class _Importer:
 
     def _evaluation(self) -> dict:
         """The fall test: Gymnasium's, for its models, else the root tilted past 90 degrees."""
-        m = self.m
         roots = [lk for lk in self.links if lk.parent is None]
         root = roots[0]
-        model = m.names[: m.names.index(b"\0")].decode() if m.names else ""
+        model = self.raw_name("model", 0)
         gym = GYMNASIUM.get(model)
         ev: dict[str, Any] = {"metric": "distance_upright", "direction": "forward", "fell_link": root.name,
                               "fell_angle_deg": 90.0, "why": [], "height": None}
@@ -828,8 +877,7 @@ class _Importer:
         return None if abs(mu - mu_floor) < 1e-12 else mu
 
     def _write(self) -> str:
-        m = self.m
-        model = m.names[: m.names.index(b"\0")].decode() if m.names else ""
+        model = self.raw_name("model", 0)
         name = model or Path(self.filename).stem
         ground, dt, ev = self.ground, self.dt, self.evaluation
         L: list[str] = []

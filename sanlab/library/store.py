@@ -69,6 +69,9 @@ class Library:
       the user cannot write (where SQLite cannot make its ``-shm`` file, the file is read as
       immutable, which is exact as long as no ``-wal`` file holds uncheckpointed commits) and
       refuses a missing or empty file.
+    - **Damaged files.** :meth:`check_intact` runs SQLite's quick check; the commands that write
+      (search, tune, import, audit, reproduce, the studio's jobs) call it first and refuse a file
+      that fails it (pages overwritten), in one line, before doing any work.
     - **Damaged cells.** A stored value that cannot be read back (text that is not UTF-8, JSON
       that does not parse, a value of the wrong type) never ends in a traceback: :meth:`runs`
       lists such a run with status "damaged", and reading it (:meth:`get_run`, :meth:`gait`,
@@ -165,6 +168,24 @@ class Library:
         return LibraryError(f"{self.path}: not a usable database file ({e})",
                             sqlite_errorname=name or None)
 
+    def check_intact(self) -> None:
+        """Raise :class:`LibraryError` (one line naming the file) unless SQLite's quick check
+        (``PRAGMA quick_check``: every page, cell and record readable, without the slower index
+        cross-check of ``integrity_check``) passes. Commands that write call it before doing any
+        work, so that a damaged file takes no new run. It reads the whole file: 0.02 s for
+        100,000 evaluations (14 MiB)."""
+        with self._sql() as conn:
+            try:
+                rows = conn.execute("PRAGMA quick_check(1)").fetchall()
+                first = str(rows[0][0]) if rows else "no answer"
+            except sqlite3.Error as e:  # so damaged that the check itself cannot read it
+                first = str(e)
+        if first != "ok":
+            why = " ".join(first.replace("*** in database main ***", "").split())[:200]
+            raise LibraryError(f"{self.path}: damaged: SQLite's quick check fails ({why}); commands that write "
+                               "refuse it (read what is left with sanlab runs / export, or rebuild it with "
+                               f"sqlite3 {self.path} .recover)")
+
     # -- plumbing --------------------------------------------------------------------------------
 
     def close(self) -> None:
@@ -200,11 +221,14 @@ class Library:
             conn.execute("BEGIN IMMEDIATE")
             try:
                 yield conn
+                # A COMMIT that fails (a full disk: SQLITE_FULL) may leave the transaction open;
+                # rolled back here, or every later write of this connection would fail on BEGIN
+                # ("cannot start a transaction within a transaction"), the run's "interrupted" too.
+                conn.execute("COMMIT")
             except BaseException:
                 if conn.in_transaction:
                     conn.execute("ROLLBACK")
                 raise
-            conn.execute("COMMIT")
 
     def _resolve(self, ref: str) -> str:
         """The full run id for an exact id or an unambiguous prefix."""

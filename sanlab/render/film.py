@@ -34,6 +34,7 @@ from sanlab.render import draw
 from sanlab.render.canvas import PillowCanvas, View
 
 ASPECT = 9 / 16
+WIDTH_RANGE = (64, 4096)  # px: a picture's width (`sanlab render --width`, the Gymnasium envs' width=)
 WIDTHS_ACROSS = 2.8  # the view is this many creature widths wide ...
 HEIGHT_FILL = 0.6  # ... or more, so that the creature's height fills at most this much of it
 SMOOTH_S = 0.4

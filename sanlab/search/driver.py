@@ -20,7 +20,7 @@ import numpy as np
 
 from sanlab.evaluate.backends import Backend, Local
 from sanlab.evaluate.evaluator import Evaluator, Request
-from sanlab.library import Library
+from sanlab.library import Library, LibraryError
 from sanlab.search.base import Candidate, Strategy
 
 
@@ -106,7 +106,10 @@ def run(strategy: Strategy, evaluator: Evaluator, library: Library, reporter: Re
     except BaseException:
         for r in run_ids:
             if r not in finished:
-                library.set_status(r, "interrupted")
+                try:
+                    library.set_status(r, "interrupted")
+                except LibraryError:  # the disk that stopped the run may refuse this too: the cause is
+                    pass  # what to report; the run reads "interrupted" once this process is gone
         raise
     finally:
         backend.close()

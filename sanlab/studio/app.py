@@ -21,7 +21,11 @@ A job's status is queued, running, done, failed, or (after ``{"op": "job.cancel"
 cancelling, then cancelled: the batch in flight is committed and the run left interrupted; the
 job's ``resume`` is then the command that carries it on.
 
-A failed request changes nothing and the connection stays open.
+A failed request changes nothing and the connection stays open. What one message can cost is
+bounded: at most MAX_MESSAGE characters (a frame of over MAX_FRAME bytes closes the connection
+with 1009, as a text frame that is not UTF-8 closes it with 1007), at most MAX_IN_FLIGHT requests
+of one page at once (more are answered "busy"), and a creature file's text within
+service.MAX_CREATURE_BYTES and the format's limits (docs/studio.md, "Limits").
 
 Only the page's own origin may open the WebSocket, and while the studio listens on a loopback
 address only requests addressed to a loopback name are served (against DNS rebinding): another
@@ -61,7 +65,13 @@ from sanlab.studio.service import Service, StudioError
 log = logging.getLogger("sanlab.studio")
 
 LOOPBACK_NAMES = ["127.0.0.1", "localhost", "::1", "[::1]"]
-MAX_MESSAGE = 1 << 20  # bytes of one WebSocket message (an uploaded creature file fits easily)
+MAX_MESSAGE = 1 << 20  # characters of one WebSocket message (an uploaded creature file fits easily)
+# Bytes of one WebSocket frame the server receives at all (uvicorn's ws_max_size; beyond it the
+# connection is closed with 1009): a message of MAX_MESSAGE characters takes at most 4 bytes each.
+MAX_FRAME = 4 * MAX_MESSAGE
+# Requests of one page served at once; more are answered "busy" at once, so that a flood of large
+# messages holds at most this many (each at most MAX_FRAME bytes and what its request costs).
+MAX_IN_FLIGHT = 16
 LIVE_LEAD = 0.3  # s of simulated time live mode may run ahead of the wall clock (the page's buffer)
 PROGRESS_EVERY = 0.2  # s between two progress pushes of one job
 MAX_INT = (1 << 63) - 1  # the largest integer argument a request may carry
@@ -529,6 +539,11 @@ def create_app(service: Service, *, poll: float = 1.0, local_only: bool = True) 
                 except BadRequest as e:
                     await conn.send({"type": "reply", "id": getattr(e, "rid", None), "ok": False,
                                      "error": f"malformed message: {e}"})
+                    continue
+                if len(tasks) >= MAX_IN_FLIGHT:
+                    await conn.send({"type": "reply", "id": rid, "ok": False,
+                                     "error": f"busy: {len(tasks)} requests of this page are in flight, at most "
+                                              f"{MAX_IN_FLIGHT}; send it again once one is answered"})
                     continue
                 task = asyncio.create_task(studio.handle(conn, rid, op, args))
                 tasks.add(task)

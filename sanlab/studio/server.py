@@ -7,6 +7,7 @@ address it also refuses requests addressed to any other host name (see ``app``).
 from __future__ import annotations
 
 import ipaddress
+import logging
 import socket
 import threading
 import time
@@ -25,6 +26,21 @@ def is_loopback(host: str) -> bool:
         return False
 
 
+class _NotUtf8(logging.Filter):
+    """Drops uvicorn's record of a text frame that is not UTF-8, which carries a traceback
+    (uvicorn closes that connection with 1007 and serves on: a client's fault, not the server's),
+    and logs one line at INFO on ``sanlab.studio`` instead."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.getMessage().startswith("Invalid UTF-8 sequence received from client"):
+            logging.getLogger("sanlab.studio").info("closed a WebSocket (1007): a text frame was not UTF-8")
+            return False
+        return True
+
+
+_QUIET = _NotUtf8()
+
+
 class StudioServer:
     """A studio over the library ``db`` on ``host``:``port`` (port 0: any free port).
 
@@ -39,14 +55,15 @@ class StudioServer:
                  log_level: str = "warning"):
         import uvicorn
 
-        from sanlab.studio.app import create_app
+        from sanlab.studio.app import MAX_FRAME, create_app
         from sanlab.studio.service import Service
 
         self.host = host
         self.service = Service(db)
         self.app = create_app(self.service, poll=poll, local_only=is_loopback(host))
         config = uvicorn.Config(self.app, host=host, port=port, log_level=log_level, ws="websockets-sansio",
-                                lifespan="on", timeout_graceful_shutdown=2)
+                                ws_max_size=MAX_FRAME, lifespan="on", timeout_graceful_shutdown=2)
+        logging.getLogger("uvicorn.error").addFilter(_QUIET)  # after Config: it configures logging
         self.server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
         self.port = port

@@ -379,6 +379,7 @@ class Service:
                       "best": _num(p.best), "rate": _num(p.rate), "finished": p.done})
 
         with self._lib() as lib:
+            lib.check_intact()  # a damaged file takes no new run
             try:
                 return run_search(lib, args["text"], args["where"], controllers=args["controllers"],
                                   seconds=args["seconds"], seed=args["seed"], reporter=report)
@@ -414,6 +415,7 @@ class Service:
                       "best": _num(p.best), "rate": _num(p.rate), "finished": p.done})
 
         with self._lib() as lib:
+            lib.check_intact()  # a damaged file takes no new run
             try:
                 res = tune(lib, [args["gait"]], method=args["method"], trials=args["trials"],
                            seed=args["seed"], terrain=args["terrain"], reporter=report)

@@ -7,16 +7,20 @@ import os
 import re
 
 import pytest
+from hypothesis import HealthCheck, given, settings
 
 from sanlab.creature import CreatureError, load, loads, read_source
 from sanlab.creature.spec import (
     MAX_CONTACTS,
     MAX_FILE_BYTES,
     MAX_HIDDEN,
+    MAX_KEY_PARTS,
+    MAX_KEY_PARTS_TOTAL,
     MAX_LINKS,
     MAX_NAME,
     MAX_STEPS,
 )
+from tests.fuzz import dotted_keys, many_keys
 from tests.helpers import BASE, one_line_error, time_limit
 
 LINK = '[[links]]\nname = "{name}"\nmass = 0.1\nshape = "segment"\npoints = [[0, 0], [0.2, 0]]\n'
@@ -169,6 +173,59 @@ def test_a_file_over_the_size_limit_is_refused(tmp_path):
     big.write_text(BASE + "#" * MAX_FILE_BYTES + "\n")
     with pytest.raises(CreatureError, match=r"big\.toml: expected a creature file of at most 1 MiB"):
         read_source(big)
+
+
+# Issue 48: Python's TOML reader spends time and memory quadratic in the parts of one dotted key
+# (25,000 parts: 7.9 s, 2.5 GB; 12,000: 2 s, 0.6 GB) and about 1 KB per key part in all, so both
+# are bounded before the file is parsed. One CPU second is far above what a refusal costs (ms).
+KEYS = dict(database=None, deadline=None, derandomize=True, max_examples=60,
+            suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+@settings(**KEYS)
+@given(dotted_keys(lo=MAX_KEY_PARTS + 1, hi=12_000))
+def test_a_dotted_key_of_too_many_parts_is_refused_at_once(key):
+    text, parts = key
+    with time_limit(cpu=1.0):
+        msg = error(BASE + "\n" + text + "\n")
+    assert f"bad.toml: line {BASE.count(chr(10)) + 2}, column " in msg, msg
+    assert msg.endswith(f"expected a dotted key or table header of at most {MAX_KEY_PARTS} parts, got one of {parts:,} parts")
+
+
+@settings(**KEYS)
+@given(dotted_keys(lo=2, hi=MAX_KEY_PARTS))
+def test_a_dotted_key_within_the_bound_meets_the_usual_checks(key):
+    text, _ = key
+    msg = error(BASE + "\n" + text + "\n")
+    assert "dotted key" not in msg and "key parts" not in msg, msg
+
+
+@settings(**KEYS)
+@given(many_keys(lo=MAX_KEY_PARTS_TOTAL + 1, hi=40_000))
+def test_too_many_keys_in_all_are_refused_at_once(keys):
+    text, parts = keys
+    with time_limit(cpu=1.0):
+        msg = error(BASE + text)
+    assert f"expected at most {MAX_KEY_PARTS_TOTAL:,} key parts in all (keys and table headers; a.b.c counts 3), got more" in msg
+
+
+@settings(**KEYS)
+@given(many_keys(lo=1, hi=MAX_KEY_PARTS_TOTAL - 200))
+def test_keys_within_the_total_meet_the_usual_checks(keys):
+    text, parts = keys
+    msg = error(BASE + text)
+    assert "key parts" not in msg and ": unknown field" in msg, msg
+
+
+def test_dots_in_values_strings_and_comments_are_no_keys():
+    dots = ".".join(["a"] * 5_000)
+    for text in (BASE + f"# {dots}\n", f'description = "{dots}"\n' + BASE, BASE + f"[evaluation]\nfell_link = ['{dots}']\n",
+                 BASE + f'[world]\nx = """\n{dots}\n"""\n', BASE + "[world]\nx = [" + "0.5, " * 30_000 + "1.5]\n"):
+        with time_limit(cpu=5.0):
+            try:
+                loads(text, "ok.toml")
+            except CreatureError as e:
+                assert "dotted key" not in str(e) and "key parts" not in str(e), str(e)
 
 
 # -- files that are not files --------------------------------------------------------------------

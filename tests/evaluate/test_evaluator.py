@@ -214,3 +214,16 @@ def test_a_creature_whose_servos_the_step_cannot_resolve_scores_nothing():
 
     for name in builtin_names():  # every built-in is resolved
         assert not [f for f in resolution(creature.load(name)) if f.warning], name
+
+
+def test_a_creature_whose_joint_spring_the_step_cannot_resolve_scores_nothing():
+    """Issue 48: the twolink with a 1e6 N m/deg undamped joint spring at a 90 degree rest angle
+    topped the search table at 67 cm/s (4x the built-in) unflagged; now every evaluation of it is
+    flagged as a servo of that stiffness is, and scores 0."""
+    text, _ = creature.read_source("twolink")
+    text = text.replace("anchor = [0.2, 0.0]", "anchor = [0.2, 0.0]\nspring = { stiffness = 1e6, rest_deg = 90 }", 1)
+    spec = creature.loads(text, source="sprung.toml")
+    ev = Evaluator(spec, metric="distance", seconds=0.2, batch=4, ensemble=Ensemble(1))
+    w = np.stack([ev.san.random_weights(0, i) for i in range(4)])
+    r = ev(w, keys=[search_key(0, i) for i in range(4)])
+    assert r.nonfinite.all() and (r.score == 0).all() and (r.speed_cm_s == 0).all()

@@ -19,6 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 import sanlab.gym
@@ -29,6 +31,7 @@ from sanlab.gait import Gait
 from sanlab.gym import SanPolicy, gait_env_kwargs
 from sanlab.library import Library
 from sanlab.metrics import Metric, scores
+from tests.fuzz import bad_widths, huge_ints
 from tests.helpers import BASE
 
 runner = CliRunner()
@@ -269,6 +272,36 @@ def test_bad_input_says_what_was_wrong(env, tmp_path):
         e.step(np.full(4, np.nan))
     with pytest.raises(ValueError, match=r"expected shape \(4,\)"):
         e.step(np.zeros(3))
+
+
+FUZZ = dict(database=None, deadline=None, derandomize=True, max_examples=30,
+            suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+@settings(**FUZZ)
+@given(width=bad_widths(), render_mode=st.sampled_from(["rgb_array", None]))
+def test_a_width_outside_its_range_is_refused_before_anything_is_built(width, render_mode):
+    """Issue 48: widths 0 and -5 gave a 64-pixel picture, 20,000 a MemoryError and 100,000 grew
+    the process to 18.6 GB; now each is one ValueError, raised before the creature is read."""
+    with pytest.raises(ValueError) as e:
+        gymnasium.make("sanlab/Bounder-v0", render_mode=render_mode, width=width)
+    assert str(e.value) == f"width: expected an integer in [64, 4096] (px), got {width!r}"
+
+
+@settings(**FUZZ)
+@given(value=huge_ints(), k=st.integers(0, 3))
+def test_an_action_too_large_for_a_float_is_refused_naming_its_actuator(env, value, k):
+    """Issue 48: [10**400] raised OverflowError, not the ValueError naming the actuator."""
+    e = env.unwrapped
+    e.reset(seed=0)
+    action = [0.0] * 4
+    action[k] = value
+    sign = "-" if value < 0 else ""
+    with pytest.raises(ValueError, match=rf"^action\[{k}\] \(actuator 'A{k + 1}'\): an integer of about {sign}1e\d+ "
+                                         r"is outside its range \["):
+        e.step(action)
+    with pytest.raises(ValueError, match=rf"^action\[{k}\] \(actuator 'A{k + 1}'\)"):
+        e.step(np.array(action, dtype=object))
 
 
 def test_step_before_reset_raises(tippy_file):

@@ -221,6 +221,21 @@ def test_sans_through_the_batch_score_as_through_the_single_env(envs):
     single.close()
 
 
+def test_bad_widths_and_actions_too_large_for_a_float(envs):
+    """Issue 48: a width outside [64, 4096] is refused before anything is built (0 gave 64 px,
+    100,000 18 GB); an action of 10**400 raises the ValueError naming its row and actuator, not
+    OverflowError."""
+    for width in (0, -5, 20_000, 100_000, 640.5):
+        with pytest.raises(ValueError, match=rf"^width: expected an integer in \[64, 4096\] \(px\), got {width!r}$"):
+            make(render_mode="rgb_array", width=width)
+    envs.reset(seed=0)
+    for value, shown in ((10**400, "1e400"), (-(10**1000), "-1e1000")):
+        action = np.tile(envs.single_action_space.low, (N, 1)).tolist()
+        action[1][2] = value
+        with pytest.raises(ValueError, match=rf"^action\[1, 2\] \(actuator 'A3'\): an integer of about {shown} is outside"):
+            envs.step(action)
+
+
 def test_render_and_bad_input(envs):
     """One picture per sub-environment with rgb_array (None without); bad options, policies and
     actions raise ValueError naming what was wrong."""

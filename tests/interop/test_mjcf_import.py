@@ -13,13 +13,16 @@ import tomllib
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 mujoco = pytest.importorskip("mujoco")
 gymnasium_mujoco = pytest.importorskip("gymnasium.envs.mujoco")
 
 from sanlab.creature import loads  # noqa: E402
 from sanlab.interop import mjcf  # noqa: E402
-from sanlab.interop.mjcf_import import SNAP_GAP, MjcfError, mjcf_to_toml  # noqa: E402
+from sanlab.interop.mjcf_import import SNAP_GAP, MjcfError, fold, mjcf_to_toml  # noqa: E402
+from tests.fuzz import odd_names  # noqa: E402
 
 ASSETS = os.path.join(os.path.dirname(gymnasium_mujoco.__file__), "assets")
 GYM = {"hopper": os.path.join(ASSETS, "hopper.xml"), "walker2d": os.path.join(ASSETS, "walker2d_v5.xml")}
@@ -358,3 +361,68 @@ def test_what_is_not_carried_over_is_one_warning_each(tmp_path):
         assert sum(word in w for w in warnings) == 1, (word, warnings)
     assert all("\n" not in w for w in warnings)
     assert all(w.split(":")[0] in text for w in warnings)  # and listed in the file's header
+
+
+# -- issue 48: names that are not UTF-8 or not printable, thousands of static bodies ----------
+
+# (the XML attribute holding the name, the element the error names)
+NAMED = [('<mujoco model="bent"', "the model's name"), ('<body name="leg"', "the name of body 2 (<body>)"),
+         ('<joint name="hip"', "the name of joint 1 (<joint>)"), ('<body name="body"', "the name of body 1 (<body>)"),
+         ('<position name="hip_servo"', "the name of actuator 0 (<actuator>)")]
+
+
+COMPILED: list[bool] = []
+
+
+@settings(database=None, deadline=None, derandomize=True, max_examples=40,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(name=odd_names(), where=st.sampled_from(NAMED))
+def test_a_name_not_utf8_or_not_printable_is_one_line_naming_the_element(tmp_path, name, where):
+    """MuJoCo compiles such names; the importer raised UnicodeDecodeError on one that is not
+    UTF-8, and wrote a newline into a TOML string (then refused its own file's line 52)."""
+    attribute, element = where
+    xml = CONVENTIONS.encode().replace(attribute.encode(), attribute[: attribute.index('"') + 1].encode() + name + b'"')
+    path = tmp_path / "odd.xml"
+    path.write_bytes(xml)
+    try:
+        mujoco.MjModel.from_xml_path(str(path))
+    except ValueError:  # MuJoCo's parser refuses it itself: then so does the importer, in one line
+        element = "expected a MuJoCo model"
+    COMPILED.append(element != "expected a MuJoCo model")
+    with pytest.raises(MjcfError) as e:
+        mjcf_to_toml(path)
+    msg = str(e.value)
+    assert msg.startswith(f"{path}: ") and msg.isprintable() and element in msg, msg
+
+
+def test_most_odd_names_are_compiled_by_mujoco_and_reach_the_importer():
+    if not COMPILED:
+        pytest.skip("run with the test above")
+    assert sum(COMPILED) >= len(COMPILED) // 2, COMPILED
+
+
+def test_a_name_with_quotes_and_backslashes_is_kept_as_it_is(tmp_path):
+    xml = CONVENTIONS.replace('<body name="leg"', '<body name="le&quot;g\\ \'x\'"')
+    spec, text, _ = _import(tmp_path, xml)
+    assert [link.name for link in spec.links] == ["body", 'le"g\\ \'x\'']
+
+
+def test_thousands_of_static_bodies_import_with_their_warnings_folded(tmp_path):
+    """2,000 static bodies ended in mujoco.FatalError (mj_stackAlloc: out of memory, in the
+    collision detection of mj_forward, which the mass matrix does not need); 1,500 imported
+    with 1,501 warning lines."""
+    statics = "".join(f'<body name="s{i}" pos="{i} 0 0"><geom type="box" size="0.1 0.1 0.1"/></body>' for i in range(2000))
+    xml = CONVENTIONS.replace('<geom name="floor" type="plane" size="5 5 .1"/>',
+                              '<geom name="floor" type="plane" size="5 5 .1"/>' + statics)
+    spec, text, warnings = _import(tmp_path, xml)
+    assert [link.name for link in spec.links] == ["body", "leg"]
+    scenery = [w for w in warnings if "fixed to the world" in w]
+    assert scenery == ["body 's0' is fixed to the world: static scenery, not carried over (sanlab's world is its ground) "
+                       "(and 1,999 more like it: 's1', 's2', 's3', 's4', ...)"]
+    assert len(warnings) < 10 and len(text) < 20_000
+
+
+def test_fold_keeps_a_few_alike_and_folds_more():
+    assert fold(["body 'a' x", "body 'b' x", "y"]) == ["body 'a' x", "body 'b' x", "y"]
+    assert fold([f"geom 'g{i}' (mesh): no outline" for i in range(5)] + ["other"]) == [
+        "geom 'g0' (mesh): no outline (and 4 more like it: 'g1', 'g2', 'g3', 'g4')", "other"]

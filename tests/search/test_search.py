@@ -58,3 +58,55 @@ def test_progress_reaches_the_reporter(tmp_path):
     search(tmp_path / "a.db", n=64, reporter=seen.append)
     assert [p.evaluated for p in seen] == [0, 32, 64, 64]
     assert seen[-1].done and seen[-1].best == max(p.best for p in seen)
+
+
+def test_a_run_stopped_by_a_full_disk_reports_the_disk_not_the_status_it_could_not_write(tmp_path, monkeypatch):
+    """Issue 48: when the write that stops a run (a full disk) also refuses the status
+    "interrupted", the driver raised the second failure instead of the first and left the other
+    runs unmarked. Now it tries each run, and the cause is what comes out. No simulation: a
+    strategy, evaluator and backend that only count."""
+    import pytest
+
+    from sanlab.library import LibraryError
+    from sanlab.search import driver
+    from tests.library.test_library import new_run
+
+    lib = Library(str(tmp_path / "g.db"))
+    runs = [new_run(lib).run_id for _ in range(2)]
+    marked: list[str] = []
+
+    class Strategy:
+        run_ids, done = tuple(runs), False
+
+        def ask(self, n):
+            return ["candidate"]
+
+        def tell(self, cands, scores):
+            return type("Told", (), {"evaluations": [], "trace": [], "finished": []})()
+
+        def progress(self):
+            return 0, 1, None
+
+    class Backend:
+        slots = 1
+
+        def start(self, evaluator): ...
+        def submit(self, request): return 0
+        def next(self): return 0, None
+        def close(self): ...
+
+    def commit(*a, **k):
+        raise LibraryError("g.db: database or disk is full")
+
+    def set_status(run_id, status):
+        if status == "interrupted":
+            marked.append(run_id)
+            raise LibraryError("g.db: database or disk is full (the status)")
+
+    monkeypatch.setattr(lib, "commit", commit)
+    monkeypatch.setattr(lib, "set_status", set_status)
+    monkeypatch.setattr(driver, "_request", lambda cands: None)
+    with pytest.raises(LibraryError) as e:
+        driver.run(Strategy(), type("Evaluator", (), {"batch": 1})(), lib, backend=Backend())  # type: ignore[arg-type]
+    assert str(e.value) == "g.db: database or disk is full" and marked == runs
+    lib.close()
