@@ -470,6 +470,55 @@ class ProgressBar:
         self.progress.__exit__(*exc)
 
 
+def duration(seconds: float) -> str:
+    """``seconds`` as a person says it: "45 s", "3 min 20 s", "1 h 05 min"."""
+    s = max(0, round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+class ProgressLines:
+    """Progress as plain lines on stderr, for output that is not a terminal (a log file, a pipe),
+    where :class:`ProgressBar` draws nothing: a line each time another tenth of the work is done,
+    and at least every ``every_s`` seconds while it goes on, e.g. "tune: 30/100 trials (30 %),
+    2.1 eval/s, best 1.234, 1 min 05 s elapsed, about 2 min 30 s left"."""
+
+    def __init__(self, show: bool, what: str, unit: str, every_s: float = 60.0):
+        import time
+
+        self.show, self.what, self.unit, self.every_s = show, what, unit, every_s
+        self._clock = time.perf_counter
+        self._t0 = self._clock()
+        self._last_t = self._t0
+        self._last_tenth = 0
+        self._mark: tuple[float, int] | None = None  # (time, done) of the first report with work done
+
+    def update(self, done: int, total: int, rate: float, best: float) -> None:
+        now = self._clock()
+        if self._mark is None or done <= self._mark[1]:
+            self._mark = (now, done)  # the rate is measured after the first batch, which compiles
+        tenth = 10 * done // max(total, 1)
+        if not self.show or done == 0 or (tenth <= self._last_tenth and now - self._last_t < self.every_s
+                                          and done < total):
+            return
+        self._last_tenth, self._last_t = tenth, now
+        left = self.left(done, total, now)
+        tail = f", about {duration(left)} left" if left is not None and done < total else ""
+        warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {rate:.1f} eval/s, "
+             f"best {best:.3f}, {duration(now - self._t0)} elapsed{tail}")
+
+    def left(self, done: int, total: int, now: float | None = None) -> float | None:
+        """Seconds left at the pace since the first report (None until work was done after it)."""
+        now = self._clock() if now is None else now
+        if self._mark is None or done <= self._mark[1]:
+            return None
+        t, d = self._mark
+        return (now - t) / (done - d) * (total - done)
+
+
 def print_static_warnings(spec, creature: str) -> None:
     """The warnings of `sanlab check` that need no simulation (angle ranges that look like
     radians, actuators too weak or too strong for their load, servos the step cannot resolve,

@@ -1,0 +1,48 @@
+"""A newcomer's first creature (issue 49): what got in the way, each checked where it showed.
+
+tune's default batch and its progress in a log; the search's refusal of a creature that can never
+move; export's closing lines; help without ``<bool>``; read-only commands leaving no ``-wal`` or
+``-shm`` beside the library; a mistyped built-in name answered fast with a suggestion."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+
+import pytest
+from typer.testing import CliRunner
+
+from sanlab.cli import app
+from sanlab.library import Library, TuneSettings
+from tests.helpers import BASE, ROOT, SANLAB
+
+runner = CliRunner()
+
+
+def test_default_batch_is_small_on_the_cpu_and_one_per_chain_beyond():
+    from sanlab.search.tune import default_batch
+
+    assert default_batch(1, "cpu") == 8 and default_batch(4, "cpu") == 8
+    assert default_batch(20, "cpu") == 20 and default_batch(500, "cpu") == 128
+    assert default_batch(1, "gpu") == 128
+    with pytest.raises(ValueError, match="chains"):
+        default_batch(0, "cpu")
+
+
+def test_tune_in_a_log_prints_progress_lines_and_how_long_it_will_take(lib_run, tmp_path, monkeypatch):
+    import sanlab.cli._common as common
+    import sanlab.cli.tune as tune_cli
+
+    src, run_id = lib_run
+    db = str(tmp_path / "copy.db")
+    shutil.copy(src, db)
+    monkeypatch.setattr(tune_cli, "LONG_TUNE_S", 0.0)  # every tune is "long": the estimate is said
+    r = runner.invoke(app, ["tune", f"{run_id}/1", "--trials", "6", "--ensemble", "1", "--db", db])
+    assert r.exit_code == 0, r.output
+    assert "tune: about" in r.stderr and "for 6 trials (1 chain, --batch 8)" in r.stderr, r.stderr
+    assert "tune: 6/6 trials (100 %)" in r.stderr, r.stderr  # a line at the end, at least
+    assert common.duration(200) == "3 min 20 s" and common.duration(3720) == "1 h 02 min"
+    with Library(db, readonly=True) as lib:
+        tuned = next(x for x in lib.runs() if x.kind == "tune")
+        assert isinstance(tuned.settings, TuneSettings) and tuned.settings.batch == 8  # the CPU's default
