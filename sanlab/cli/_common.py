@@ -519,6 +519,18 @@ class ProgressLines:
         return (now - t) / (done - d) * (total - done)
 
 
+def refuse_still(spec: Creature, creature: str, command: str = "search") -> None:
+    """Exit 2 with one line (the reason and the fix) when ``spec`` can never move: no sensor is
+    on at rest, so every SAN holds every servo at mid range (``sanlab.check.at_rest``, which
+    needs no simulation and says nothing where it cannot tell). ``--force`` skips this."""
+    from sanlab.check import at_rest
+
+    still = [f for f in at_rest(spec) if f.warning]
+    if still:
+        raise fail(f"{command}: {creature} can never move: {still[0].message.replace('sensors at rest: none', 'no sensor').removeprefix('sensors at rest: ')} "
+                   f"(or give --force to {command} it anyway)")
+
+
 def print_static_warnings(spec, creature: str) -> None:
     """The warnings of `sanlab check` that need no simulation (angle ranges that look like
     radians, actuators too weak or too strong for their load, servos the step cannot resolve,

@@ -46,3 +46,33 @@ def test_tune_in_a_log_prints_progress_lines_and_how_long_it_will_take(lib_run, 
     with Library(db, readonly=True) as lib:
         tuned = next(x for x in lib.runs() if x.kind == "tune")
         assert isinstance(tuned.settings, TuneSettings) and tuned.settings.batch == 8  # the CPU's default
+
+
+CANNOT_MOVE = BASE.replace('min_deg = -90\nmax_deg = 45', 'min_deg = 150\nmax_deg = 170').replace(
+    '[[sensors]]\ntype = "touch"\nlink = "L1"\ncontact = 0\n\n', '')
+
+
+def test_search_refuses_a_creature_that_can_never_move_unless_forced(tmp_path):
+    path = tmp_path / "still.toml"
+    path.write_text(CANNOT_MOVE)
+    db = str(tmp_path / "g.db")
+    r = runner.invoke(app, ["search", str(path), "-n", "2", "--seconds", "0.05", "--db", db])
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "can never move" in lines[0] and "--force" in lines[0] and "add a sensor" in lines[0]
+    assert not os.path.exists(db)  # refused before a library or a run was made
+    forced = runner.invoke(app, ["search", str(path), "-n", "2", "--seconds", "0.05", "--ensemble", "1",
+                                 "--force", "--db", db])
+    assert forced.exit_code == 0, forced.output
+
+
+def test_check_strict_exits_non_zero_on_warnings(tmp_path):
+    path = tmp_path / "still.toml"
+    path.write_text(CANNOT_MOVE)
+    assert runner.invoke(app, ["check", str(path)]).exit_code == 0  # warnings, not errors
+    r = runner.invoke(app, ["check", str(path), "--strict"])
+    assert r.exit_code == 1 and "--strict" in r.stderr, r.output
+    fine = tmp_path / "fine.toml"
+    fine.write_text(BASE)
+    ok = runner.invoke(app, ["check", str(fine), "--strict"])
+    assert ok.exit_code == 0, ok.output
