@@ -165,9 +165,22 @@ def open_library(path: str, *, create: bool = False, readonly: bool = False) -> 
     if not create and not path.startswith("file:") and path != ":memory:" and not os.path.exists(path):
         raise fail(f"{path}: no such gait library (give --db PATH)")
     try:
-        return Library(path, readonly=readonly)
+        lib = Library(path, readonly=readonly)
     except LibraryError as e:
         raise fail(str(e)) from None
+    _opened.append(lib)
+    return lib
+
+
+_opened: list[Library] = []  # closed when the command ends (close_libraries), whatever way it ends
+
+
+def close_libraries() -> None:
+    """Close every library a command opened: a read-only one then removes the empty ``-wal`` and
+    ``-shm`` files SQLite made for it (``Library.close``)."""
+    while _opened:
+        with contextlib.suppress(Exception):  # closing must not hide what ended the command
+            _opened.pop().close()
 
 
 # -- arguments, checked before anything is created -----------------------------------------------

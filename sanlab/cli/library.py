@@ -7,6 +7,7 @@ write lock); a damaged run is listed as "damaged" and reading it is a one-line e
 from __future__ import annotations
 
 import json
+import shlex
 from typing import TYPE_CHECKING, Annotated
 
 import typer
@@ -262,6 +263,14 @@ def export_(
     if out:
         with output_file(out, "--out") as path, open(path, "w", encoding="utf-8") as f:
             f.write(data)
+        what = "C header" if c else "creature file" if toml else "gait (JSON)"
+        console.print(f"wrote {safe(out)}: the {what} of gait {safe(gait)}, {len(data.encode()):,} bytes", soft_wrap=True)
+        q = shlex.quote(out)
+        db_opt = "" if db == "sanlab.db" else f" --db {shlex.quote(db)}"
+        steps = ([f"#include {q} in a C program (docs/san-in-c.md)"] if c else
+                 [f"sanlab check {q}", f"sanlab search {q}{db_opt}"] if toml else
+                 [f"sanlab import {q} --db OTHER.db (another library)"])
+        console.print("next: " + "    ".join(safe(x) for x in steps), soft_wrap=True)
     else:
         typer.echo(data, nl=False)
 

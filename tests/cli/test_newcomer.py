@@ -76,3 +76,49 @@ def test_check_strict_exits_non_zero_on_warnings(tmp_path):
     fine.write_text(BASE)
     ok = runner.invoke(app, ["check", str(fine), "--strict"])
     assert ok.exit_code == 0, ok.output
+
+
+def test_export_to_a_file_says_what_it_wrote_and_what_next(lib_run, tmp_path):
+    db, run_id = lib_run
+    out = tmp_path / "best.json"
+    r = runner.invoke(app, ["export", f"{run_id}/1", "-o", str(out), "--db", db])
+    assert r.exit_code == 0 and out.exists(), r.output
+    said = " ".join(r.stdout.split())
+    assert f"wrote {out}" in said and "next: sanlab import" in said
+    toml = tmp_path / "best.toml"
+    r = runner.invoke(app, ["export", f"{run_id}/1", "--toml", "-o", str(toml), "--db", db])
+    assert r.exit_code == 0 and f"sanlab check {toml}" in " ".join(r.stdout.split()), r.output
+
+
+def test_help_shows_no_type_after_plain_flags():
+    for args in (["--help"], ["runs", "--help"], ["search", "--help"], ["check", "--help"]):
+        r = runner.invoke(app, args, terminal_width=100)
+        assert r.exit_code == 0 and "<bool>" not in r.output, r.output
+    assert "<int>" in runner.invoke(app, ["search", "--help"], terminal_width=100).output  # values keep theirs
+
+
+def test_read_only_commands_leave_no_wal_or_shm(lib_run, tmp_path):
+    src, run_id = lib_run
+    db = str(tmp_path / "g.db")
+    shutil.copy(src, db)
+    assert sorted(os.listdir(tmp_path)) == ["g.db"]
+    with Library(db, readonly=True) as lib:
+        assert lib._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"  # type: ignore[union-attr]
+    for leftover in ("g.db-wal", "g.db-shm"):  # what that read left, as read-only commands did (issue 49)
+        if os.path.exists(tmp_path / leftover):
+            os.unlink(tmp_path / leftover)
+    for args in (["runs"], ["show", run_id], ["export", f"{run_id}/1"]):
+        r = runner.invoke(app, [*args, "--db", db])
+        assert r.exit_code == 0, r.output
+        assert sorted(os.listdir(tmp_path)) == ["g.db"], (args, os.listdir(tmp_path))
+
+
+def test_a_mistyped_builtin_is_answered_fast_with_the_close_name(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # -X importtime: each module imported, one line each on stderr, the message last
+    r = subprocess.run(SANLAB[:1] + ["-X", "importtime", "-m", "sanlab", "search", "bouncer", "--db",
+                                     str(tmp_path / "g.db")], capture_output=True, text=True, env=env, cwd=tmp_path)
+    said = [line for line in r.stderr.splitlines() if not line.startswith("import time:")]
+    assert r.returncode == 2 and len(said) == 1 and "did you mean 'bounder'?" in said[0], r.stderr
+    # answered before JAX is imported (importing it, and what imports it, took the 8.5 s)
+    assert not any(line.rstrip().endswith("| jax") for line in r.stderr.splitlines())
