@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.table import Table
+from rich.table import Column, Table
 
 from sanlab.creature import Creature, CreatureError, load, printable, read_source
 from sanlab.creature.spec import MAX_STEPS, METRICS
@@ -389,11 +389,18 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
     return rows
 
 
+def id_column(header: str, ids: list[str]) -> Column:
+    """A table column of ids (gaits, runs): never cut nor wrapped, as wide as the longest; a
+    narrow terminal folds the other columns instead. The id is what a user copies."""
+    return Column(header, no_wrap=True, overflow="fold", min_width=max((len(i) for i in ids), default=0))
+
+
 def print_top(rows: list[dict], title: str, unit: str = "") -> None:
     """The table of a run's best gaits; the speed column carries an arrow for the direction of
     motion along x (→ +x, ← -x) where the run stored it. ``unit``: the score's unit."""
     score = f"score ({unit})" if unit else "score"
-    table = Table("rank", "gait", score, "speed (cm/s)", "flags", title=safe(title))
+    table = Table("rank", id_column("gait", [r["gait"] for r in rows]), score, "speed (cm/s)", "flags",
+                  title=safe(title))
     for rank, r in enumerate(rows, 1):
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
                                           ("not reproduced", r.get("reproduced") is False),

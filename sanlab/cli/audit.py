@@ -109,7 +109,7 @@ def print_audits(results: list, threshold: float, db: str = "sanlab.db") -> None
     table = Table(title="audit: mean speed (cm/s) of the audit's perturbed starts under each nudge, "
                         "its change and 95 % interval",
                   box=box.SIMPLE_HEAD, padding=(0, 0), show_edge=False)
-    table.add_column("gait", no_wrap=True)
+    table.add_column("gait", no_wrap=True, min_width=max((len(a.gait_id) for a in results), default=0))
     for name in ("stored", "rescored", "at dt", *names, "verdict"):
         table.add_column(name, overflow="fold")
     for a in results:

@@ -20,6 +20,7 @@ from sanlab.cli._common import (
     direction,
     dump_json,
     fail,
+    id_column,
     library_call,
     open_library,
     output_file,
@@ -66,7 +67,7 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     if as_json:
         typer.echo(dump_json([record("run-entry", {k: v for k, v in r.items() if k != "progress"}) for r in rows]))
         return
-    table = Table("run", "kind", "creature", "status", "progress", "created")
+    table = Table(id_column("run", [r["run_id"] for r in rows]), "kind", "creature", "status", "progress", "created")
     for r in rows:
         created = r["created"][:19].replace("T", " ")
         done, planned, unit = r["progress"]

@@ -8,7 +8,18 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record, safe
+from sanlab.cli._common import (
+    DbOpt,
+    JsonOpt,
+    console,
+    dump_json,
+    fail,
+    id_column,
+    library_call,
+    open_library,
+    record,
+    safe,
+)
 
 if TYPE_CHECKING:
     from sanlab.modes import Mode
@@ -65,7 +76,8 @@ def print_modes(found: list[Mode], title: str) -> None:
     median turns over the run, airborne fraction and period (its signature: ``--json``)."""
     from sanlab.cli._common import ARROWS, direction
 
-    table = Table("mode", "size", "best gait", "cm/s", "turns", "airborne", "period s", title=safe(title))
+    table = Table("mode", "size", id_column("best gait", [m.best.gait_id for m in found]), "cm/s", "turns", "airborne",
+                  "period s", title=safe(title))
     for m in found:
         s = m.summary
         f = lambda v, fmt: "-" if not math.isfinite(v) else format(v, fmt)

@@ -33,6 +33,7 @@ from sanlab.cli._common import (
     duration,
     ensemble_or_exit,
     fail,
+    id_column,
     library_call,
     open_library,
     print_next,
@@ -173,7 +174,8 @@ def tune(
     if as_json:
         typer.echo(dump_json(rows))  # always a list, one element per chain (one gait: a list of one)
         return
-    table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
+    table = Table(id_column("gait", [r.gait for r in results]), id_column("tuned gait", [r.tuned_gait for r in results]),
+                  "score before", "after", "speed before (cm/s)", "after", "accepted")
     for r, (dx0, dx1) in zip(results, dxs):  # the arrow: which way along x the stored gait moved (→ +x, ← -x)
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
                       f"{ARROWS[direction(dx0)]} {r.before['speed_cm_s']:.1f}",

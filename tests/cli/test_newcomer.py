@@ -38,8 +38,14 @@ def test_tune_in_a_log_prints_progress_lines_and_how_long_it_will_take(lib_run, 
     db = str(tmp_path / "copy.db")
     shutil.copy(src, db)
     monkeypatch.setattr(tune_cli, "LONG_TUNE_S", 0.0)  # every tune is "long": the estimate is said
+    monkeypatch.setenv("COLUMNS", "80")
     r = runner.invoke(app, ["tune", f"{run_id}/1", "--trials", "6", "--ensemble", "1", "--db", db])
     assert r.exit_code == 0, r.output
+    with Library(db, readonly=True) as lib:
+        parent = lib.gait(f"{run_id}/1").gait_id
+        tuned_gait = next(x for x in lib.runs() if x.kind == "tune").run_id + "#0"
+    row = next(line for line in r.stdout.splitlines() if tuned_gait in line)  # the table's ids, whole
+    assert parent in row and max(len(line) for line in r.stdout.splitlines() if "│" in line) <= 80, r.stdout
     assert "tune: about" in r.stderr and "for 6 trials (1 chain, --batch 8)" in r.stderr, r.stderr
     assert "tune: 6/6 trials (100 %)" in r.stderr, r.stderr  # a line at the end, at least
     assert common.duration(200) == "3 min 20 s" and common.duration(3720) == "1 h 02 min"
@@ -122,3 +128,27 @@ def test_a_mistyped_builtin_is_answered_fast_with_the_close_name(tmp_path):
     assert r.returncode == 2 and len(said) == 1 and "did you mean 'bounder'?" in said[0], r.stderr
     # answered before JAX is imported (importing it, and what imports it, took the 8.5 s)
     assert not any(line.rstrip().endswith("| jax") for line in r.stderr.splitlines())
+
+
+def test_tables_never_cut_a_gait_id_at_80_columns(monkeypatch):
+    from rich.console import Console
+
+    import sanlab.cli._common as common
+    import sanlab.cli.modes as modes_cli
+    from sanlab.modes import Gait, Mode
+
+    piped = Console(width=80, force_terminal=False, color_system=None)  # what a pipe or a log gets
+    monkeypatch.setattr(common, "console", piped)
+    monkeypatch.setattr(modes_cli, "console", piped)
+    rows = [{"gait": f"eec9bf55/{k}", "score": 2.5, "speed_cm_s": 43.0, "direction": "-x", "fell": True,
+             "nonfinite": True, "reproduced": False, "resolution_dependent": True, "verdict": "undecided"}
+            for k in (1, 1234)]
+    with piped.capture() as cap:
+        common.print_top(rows, "run eec9bf55: a long title " * 3, "m")
+    assert "eec9bf55/1234" in cap.get() and "…" not in cap.get().split("┃")[-1], cap.get()
+    g = Gait("eec9bf55#12345", 2.0, 40.0, {"vx_cm_s": -40.0})
+    mode = Mode("a mode with a long name, shuffling", (g,), {"airborne": 0.0, "period_s": 1.5, "turns_per_s": 0.1},
+                None, (), 6.0)
+    with piped.capture() as cap:
+        modes_cli.print_modes([mode], "run eec9bf55")
+    assert "eec9bf55#12345" in cap.get(), cap.get()
