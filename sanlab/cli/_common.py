@@ -514,6 +514,7 @@ class ProgressLines:
         self._t0 = self._clock()
         self._last_t = self._t0
         self._last_tenth = 0
+        self._last_done = 0
         self._mark: tuple[float, int] | None = None  # (time, done) of the first report with work done
 
     def update(self, done: int, total: int, rate: float, best: float) -> None:
@@ -521,10 +522,10 @@ class ProgressLines:
         if self._mark is None or done <= self._mark[1]:
             self._mark = (now, done)  # the rate is measured after the first batch, which compiles
         tenth = 10 * done // max(total, 1)
-        if not self.show or done == 0 or (tenth <= self._last_tenth and now - self._last_t < self.every_s
-                                          and done < total):
+        if not self.show or done == 0 or done == self._last_done or (
+                tenth <= self._last_tenth and now - self._last_t < self.every_s and done < total):
             return
-        self._last_tenth, self._last_t = tenth, now
+        self._last_tenth, self._last_t, self._last_done = tenth, now, done
         left = self.left(done, total, now)
         tail = f", about {duration(left)} left" if left is not None and done < total else ""
         warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {rate:.1f} eval/s, "
