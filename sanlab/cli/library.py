@@ -96,7 +96,7 @@ def show(
     if by_mode:
         from sanlab.cli.modes import modes
 
-        modes(run.run_id, None, top, 3, False, db, as_json)
+        modes(run.run_id, min_score=None, top=top, singletons=False, min_cluster=3, rescore=False, db=db, as_json=as_json)
         return
     rows = library_call(top_rows, lib, run.run_id, top)
     if network:
