@@ -114,6 +114,9 @@ def test_modes_hides_single_gait_modes_and_says_how_many(lib_run, monkeypatch):
     assert "5 modes of 8 controllers" in out and "mode 4" in out and "hidden" not in out
     r = CliRunner().invoke(app, ["modes", run_id, "--db", db, "--json"])
     assert [m["size"] for m in json.loads(r.output)["modes"]] == [3, 1, 2, 1, 1]  # --json: every mode
+    found[:] = [mode("mode 1", 1), mode("mode 2", 1)]  # nothing but single gaits: shown, and why
+    out = " ".join(CliRunner().invoke(app, ["modes", run_id, "--db", db], terminal_width=120).output.split())
+    assert "every mode is a single gait" in out and "2 modes of 2 controllers" in out and "hidden" not in out
 
 
 def test_a_gait_without_descriptors_is_an_error():

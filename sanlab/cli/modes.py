@@ -70,6 +70,10 @@ def modes(
     if missing:
         console.print(f"{missing} useful controllers were stored without descriptors and are left out")
     shown = found if singletons else [m for m in found if m.size > 1]
+    if not shown and found:  # nothing but single gaits: a table of them says more than an empty one
+        shown = found
+        console.print("every mode is a single gait: too few useful controllers to group (search more with -n, "
+                      "or lower --min-score)")
     hidden = len(found) - len(shown)
     print_modes(shown[:top], f"run {run.run_id}: {run.creature}, {len(shown)} modes of "
                              f"{sum(m.size for m in shown)} controllers scoring at least {threshold:.3g}")
