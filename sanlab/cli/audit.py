@@ -130,12 +130,12 @@ def print_audits(results: list, threshold: float, db: str = "sanlab.db") -> None
                       f"after looks on up to {max(a.audit_members for a in undecided)} members (--max-members)")
         for a in undecided:
             n = advice(a.audit_members, a.needed)
-            if n is not None:
-                console.print(f"  {a.gait_id}: about {a.needed} members would decide it: "
-                              f"sanlab audit {a.gait_id} --members {n}{db_opt}", soft_wrap=True)
+            if n is not None:  # the command on a line of its own: never folded inside
+                console.print(f"  {a.gait_id}: about {a.needed} members would likely decide it:")
+                console.print(f"    sanlab audit {a.gait_id} --members {n}{db_opt}", soft_wrap=True)
             else:
                 console.print(f"  {a.gait_id}: more than {MAX_MEMBERS_ADVISED} members would be needed to decide it: "
-                              "take it as not vouched for (or --threshold wider)", soft_wrap=True)
+                              "take it as not vouched for (or --threshold wider)")
 
 
 def shift_cell(speed: float, sh) -> str:

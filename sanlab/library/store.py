@@ -143,9 +143,10 @@ class Library:
 
     def _cannot_share(self, e: sqlite3.Error) -> bool:
         """Whether ``e`` is SQLite failing to make the WAL index (-shm) of a library it may only
-        read, and the file can be read as immutable without missing a commit (no -wal)."""
+        read (a read-only folder, or a full disk: an I/O error), and the file can be read as
+        immutable without missing a commit (no -wal)."""
         name = errors.errorname(e)
-        if not (name.startswith("SQLITE_CANTOPEN") or name.startswith("SQLITE_READONLY")):
+        if not name.startswith(("SQLITE_CANTOPEN", "SQLITE_READONLY", "SQLITE_IOERR")):
             return False
         wal = self.path + "-wal"
         if os.path.exists(wal) and os.path.getsize(wal) > 0:
