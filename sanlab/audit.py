@@ -20,7 +20,8 @@ holds for the verdict as a whole), a nudge is
 - *robust* when the interval lies inside the band +-``threshold`` (default 10 %),
 - *resolution-dependent* when it lies wholly outside it (or a member blew up under the nudge),
 - *undecided* otherwise; the audit then says how many members would likely decide it (the
-  interval narrows as 1/sqrt(members)).
+  interval narrows about its estimate as 1/sqrt(members): the side that crosses the band's edge
+  says how far, always more than the members it had).
 
 The gait is robust when every nudge is, resolution-dependent when some nudge is, and undecided
 otherwise; undecided is not a pass. Why this statistic: it asks the question (did the step move
@@ -58,9 +59,10 @@ from sanlab.search.space import Space
 THRESHOLD = 0.10
 FLOOR_CM_S = 1.0
 MEMBERS = 32  # the audit's own ensemble
-MAX_MEMBERS = 256  # an undecided audit looks once more, with up to this many members
+MAX_MEMBERS = 256  # an undecided audit looks again, up to this many members
 LEVEL = 0.95  # confidence of the verdict, over all nudges together
 RESAMPLES = 2000  # bootstrap resamples
+MAX_MEMBERS_ADVISED = 4096  # the most `sanlab audit --members` takes
 MAX_MEMBERS_SAID = 100_000  # beyond this, "how many members would decide it" is not a useful answer
 
 ROBUST, DEPENDENT, UNDECIDED, NOT_REPRODUCED = "robust", "resolution-dependent", "undecided", "not reproduced"
@@ -122,9 +124,18 @@ def shift(nominal, nudged, threshold: float = THRESHOLD, *, level: float = LEVEL
         return Shift(change, lo, hi, ROBUST)
     if lo > t or hi < -t:
         return Shift(change, lo, hi, DEPENDENT)
-    gap = abs(t - abs(change))  # how far the estimate is from the band's edge
-    half = (hi - lo) / 2
-    needed = math.ceil(len(a) * (half / gap) ** 2) if gap > 0 else None
+    # The interval narrows about its estimate as 1/sqrt(members): it decides once every side that
+    # crosses the band's edge no longer does. (The half-width would do for a symmetric interval; a
+    # bootstrap one is not, and the half-width named fewer members than the audit had used.)
+    if -t < change < t:  # robust, once both ends are inside the band
+        ratio = max((hi - change) / (t - change), (change - lo) / (t + change))
+    elif change > t:  # resolution-dependent, once its lower end is above the band
+        ratio = (change - lo) / (change - t)
+    elif change < -t:
+        ratio = (hi - change) / (-t - change)
+    else:  # on the edge: no number of members decides it
+        ratio = math.inf
+    needed = max(len(a) + 1, math.ceil(len(a) * ratio**2)) if math.isfinite(ratio) else None
     return Shift(change, lo, hi, UNDECIDED, needed if needed is not None and needed <= MAX_MEMBERS_SAID else None)
 
 
@@ -300,7 +311,7 @@ class Look:
 
 
 def second_look(members: int, need: int | None, max_members: int) -> int | None:
-    """The members of an undecided audit's second look: about what it said would decide it (a
+    """The members of an undecided audit's next look: about what it said would decide it (a
     quarter more, in multiples of 32, at least twice the first), at most ``max_members``; None
     when it asked for far more than that, or no more can be had."""
     if need is None or max_members <= members or need > 2 * max_members:
@@ -311,10 +322,12 @@ def second_look(members: int, need: int | None, max_members: int) -> int | None:
 def decide(evaluate, n: int, members: int, max_members: int, threshold: float, level: float,
            log=None) -> list[Look]:
     """Audit ``n`` evaluations: ``evaluate(M)`` -> (ScoreBatch at the gait's own step, {nudge
-    name: ScoreBatch}) for ``M`` members each. Those left undecided get one second look, all at
-    the size the most demanding of them asked for (:func:`second_look`); that look's verdict
-    stands. (Two looks at a 95 % interval each: the chance of a false verdict at most doubles,
-    which the Bonferroni split over three nudges more than pays for in practice.)"""
+    name: ScoreBatch}) for ``M`` members each. Those left undecided are looked at again, all at
+    the size the most demanding of them asked for (:func:`second_look`: at least twice the last
+    look), until each is decided, or a look on ``max_members`` is made, or one asks for far more;
+    the last look's verdict stands. (Each look is a 95 % interval: the chance of a false verdict
+    grows with the looks, which the Bonferroni split over three nudges more than pays for in
+    practice; at the defaults there are at most four looks, 32 to 256 members.)"""
     def looks(M: int) -> list[Look]:
         ref, nudged = evaluate(M)
         out = []
@@ -325,24 +338,35 @@ def decide(evaluate, n: int, members: int, max_members: int, threshold: float, l
                             speeds, shifts, fell))
         return out
 
-    first = looks(members)
-    again = [k for k, x in enumerate(first) if combine(x.shifts) == UNDECIDED]
-    sizes = [second_look(members, needed(first[k].shifts), max_members) for k in again]
-    if all(m is None for m in sizes):  # none undecided, or none a second look could decide
-        return first
-    M = max(m for m in sizes if m is not None)
-    if log:
-        log(f"{len(again)} undecided on {members} members: a second look on {M}")
-    second = looks(M)
-    return [second[k] if k in again and sizes[again.index(k)] is not None else x for k, x in enumerate(first)]
+    result = looks(members)
+    while True:
+        again = [k for k, x in enumerate(result) if combine(x.shifts) == UNDECIDED]
+        sizes = [second_look(result[k].members, needed(result[k].shifts), max_members) for k in again]
+        if all(m is None for m in sizes):  # none undecided, or none another look could decide
+            return result
+        M = max(m for m in sizes if m is not None)
+        if log:
+            log(f"{len(again)} undecided on {max(result[k].members for k in again)} members: another look on {M}")
+        nxt = looks(M)
+        result = [nxt[k] if k in again and sizes[again.index(k)] is not None else x for k, x in enumerate(result)]
+
+
+def advice(audit_members: int, need: int | None, most: int = MAX_MEMBERS_ADVISED) -> int | None:
+    """The ``--members`` to audit an undecided gait with again: what its last look said would
+    decide it, a quarter more, in multiples of 32, and more than ``audit_members`` (that look's);
+    None when that is more than ``most`` (the command's limit) or it could not say."""
+    if need is None:
+        return None
+    m = max(32 * math.ceil(1.25 * need / 32), 32 * math.ceil((audit_members + 1) / 32))
+    return m if m <= most else None
 
 
 def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], ...] = NUDGES,
           threshold: float = THRESHOLD, members: int = MEMBERS, max_members: int = MAX_MEMBERS,
           level: float = LEVEL, log=None) -> Audit:
     """Audit the gait ``gait_id`` ("RUN/RANK" or "RUN#IDX") of ``lib`` (see the module
-    docstring) on an audit ensemble of ``members`` members, and once more on up to
-    ``max_members`` when that leaves it undecided (:func:`decide`); store nothing. Raises
+    docstring) on an audit ensemble of ``members`` members, and again on more, up to
+    ``max_members``, while that leaves it undecided (:func:`decide`); store nothing. Raises
     LibraryError for an unknown gait, ValueError for ``members`` < 2."""
     if members < 2:
         raise ValueError(f"members: expected >= 2 (the audit's statistic is over members), got {members}")
@@ -541,7 +565,7 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
                   log=None) -> Selection:
     """Audited selection of a finished tuning run's gait. ``top`` vectors of its chain (the
     rungs of its climb, :func:`ladder`: its start, its best and the steps between) are audited
-    (:func:`audit`'s statistic, ``members`` members of their own and a second look on up to
+    (:func:`audit`'s statistic, ``members`` members of their own and further looks on up to
     ``max_members`` for the undecided, every nudge of :data:`NUDGES`); the robust ones are ranked by the audit members' median score, and the
     first that is robust again on fresh draws (:func:`~sanlab.evaluate.ensemble.confirm_key`: a
     selection among many noisy tests would otherwise report the lucky pass) is stored as the

@@ -87,10 +87,12 @@ def periodic(signature: str | None) -> bool:
     return bool(signature) and "." in str(signature)
 
 
-def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_cluster: int = MIN_CLUSTER) -> list[Mode]:
+def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_cluster: int = MIN_CLUSTER,
+         plane: str = "vertical") -> list[Mode]:
     """Group ``gaits`` (the useful ones, with descriptors) into modes, best first (see the module
     docstring). ``seconds``: the evaluation time (s; for the rotation rules); ``water``: the
-    creature swims (``Structure.water``). Raises ValueError for a gait without descriptors."""
+    creature swims (``Structure.water``); ``plane``: its world's ("vertical" or "horizontal",
+    for the names: see :func:`name`). Raises ValueError for a gait without descriptors."""
     gaits = list(gaits)
     for g in gaits:
         if not g.descriptors:
@@ -130,7 +132,7 @@ def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_clus
     modes.sort(key=lambda m: -m.best.score)
     named, used = [], {}
     for k, m in enumerate(modes, 1):
-        n = name(m.summary, m.duty, seconds=seconds, water=water) or f"mode {k}"
+        n = name(m.summary, m.duty, seconds=seconds, water=water, plane=plane) or f"mode {k}"
         used[n] = used.get(n, 0) + 1
         named.append(Mode(n if used[n] == 1 else f"{n} {used[n]}", m.gaits, m.summary, m.signature, m.duty, seconds))
     return named
@@ -159,8 +161,8 @@ def of_run(lib: Library, run_id: str, min_score: float | None = None, min_cluste
     gaits = [Gait(e.gait_id, e.score, e.speed_cm_s, stored[e.idx]) for e in useful if e.idx in stored]
     spec = loads(run.creature_text, source=run.creature)
     seconds = float(run.params.get("seconds") or spec.evaluation.seconds)
-    return find(gaits, seconds=seconds, water=spec.world.water_drag > 0, min_cluster=min_cluster), threshold, \
-        len(useful) - len(gaits)
+    return find(gaits, seconds=seconds, water=spec.world.water_drag > 0, min_cluster=min_cluster,
+                plane=spec.world.plane), threshold, len(useful) - len(gaits)
 
 
 def _rescored(lib: Library, run_id: str, evaluations: Sequence[Any]) -> dict[int, dict]:
@@ -225,8 +227,19 @@ def _mode(gaits: list[Gait]) -> Mode:
     return Mode("", tuple(gaits), summary, sig, duty)
 
 
-def name(summary: dict[str, float], duty: Sequence[float], *, seconds: float, water: bool) -> str | None:
-    """The mode's name from its descriptor medians, first rule that fits:
+def name(summary: dict[str, float], duty: Sequence[float], *, seconds: float, water: bool,
+         plane: str = "vertical") -> str | None:
+    """The mode's name from its descriptor medians, first rule that fits. In the horizontal
+    plane (seen from above) the body's turns are turns of its heading, nothing leaves the floor
+    and every contact touches: the rules there are
+
+    - ``circling``: at least 1.5 net turns of its heading over the run;
+    - ``turning``: between 0.4 and 1.5 turns;
+    - ``swimming``: the creature is in water;
+    - ``undulating``: moving with its joints (at least 0.2 rad/s);
+    - ``sliding``: its joints all but still.
+
+    In the vertical plane:
 
     - ``rolling``: at least 1.5 net turns of the body over the run;
     - ``flipping``: between 0.4 and 1.5 turns (it went over, about once);
@@ -240,6 +253,16 @@ def name(summary: dict[str, float], duty: Sequence[float], *, seconds: float, wa
     turns = abs(_num(summary.get("turns_per_s"))) * seconds
     air = _num(summary.get("airborne"))
     joints = _num(summary.get("joint_speed_rad_s"))
+    if plane == "horizontal":  # a top view: nothing can roll, flip, hop or lift a foot
+        if turns >= 1.5:
+            return "circling"
+        if turns >= 0.4:
+            return "turning"
+        if water:
+            return "swimming"
+        if joints == joints:
+            return "undulating" if joints >= 0.2 else "sliding"
+        return None
     if turns >= 1.5:
         return "rolling"
     if turns >= 0.4:

@@ -123,6 +123,14 @@ def apply_to_file(gait: Gait) -> str:
 
     s, t = gait.spec, _tuned(gait)
     doc = tomlkit.parse(gait.creature_text)
+    written_out = "repeat" in doc
+    if written_out:  # each repeated part gets values of its own: write the copies out (comments are lost)
+        import tomllib
+
+        from sanlab.creature.loader import expand_repeats
+
+        doc = tomlkit.document()
+        doc.update(expand_repeats(tomllib.loads(gait.creature_text)))
     acts, sens = doc.get("actuators", []), doc.get("sensors", [])
     for a, act in enumerate(s.actuators):
         ang = act.kind == "angular"
@@ -155,7 +163,9 @@ def apply_to_file(gait: Gait) -> str:
         _apply_morphology(doc, s, np.asarray(gait.params.to_json()["scale"], float), t)
     head = (f"# Written by `sanlab export {gait.gait_id} --toml` (sanlab {__version__}): {s.name} with the\n"
             "# parameters of that gait applied (actuator and sensor ranges and gains, link sizes, and its\n"
-            "# node delays where every node has the same).\n")
+            "# node delays where every node has the same).\n" +
+            ("# Its [[repeat]] tables are written out, one table per part (its comments are not kept).\n"
+             if written_out else ""))
     text = head + note + tomlkit.dumps(doc)
     loads(text, f"the creature file of gait {gait.gait_id}")  # a CreatureError is a ValueError
     return text

@@ -91,3 +91,52 @@ def test_the_statistic_is_deterministic_and_checks_its_input():
     with pytest.raises(ValueError, match="equal, non-empty"):
         shift(a, b[:5])
     assert math.isinf(Shift.from_json(Shift(math.inf, math.inf, math.inf, DEPENDENT).to_json()).change)
+
+
+def _skewed(seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Members that moved 4 % under a nudge, and a few that ran off: a right-skewed interval
+    that straddles +10 % from an estimate of about +6 %."""
+    rng = np.random.default_rng(seed)
+    a = 10 + rng.normal(0, 0.1, n)
+    b = a * (1 + rng.normal(0.04, 0.01, n))
+    k = rng.integers(1, 4)
+    b[:k] += rng.uniform(5, 15, k)
+    return a, b
+
+
+def test_an_undecided_shift_never_asks_for_fewer_members_than_it_had():
+    # issue 49: after a look on 96 members the audit said "~88 members" would decide it; the
+    # half-width of a skewed interval said so (here 64), where its crossing side needs more
+    a, b = _skewed(5, 96)
+    s = shift(a, b)
+    assert s.verdict == UNDECIDED and s.lo < 0.10 < s.hi and s.needed is not None and s.needed > 96
+    for seed in range(40):
+        s = shift(*_skewed(seed, 96))
+        assert s.verdict != UNDECIDED or s.needed is None or s.needed > 96, seed
+
+
+def test_the_advice_names_more_members_than_were_used_or_none():
+    from sanlab.audit import advice
+
+    assert advice(96, 99) == 128 and advice(256, 300) == 384 and advice(32, 40) == 64
+    assert advice(96, 50) == 128  # never fewer than it had, whatever the estimate
+    assert advice(256, 5000) is None and advice(256, None) is None  # beyond --members' limit: say so
+
+
+def test_an_undecided_audit_goes_on_looking_up_to_max_members():
+    from types import SimpleNamespace
+
+    from sanlab.audit import decide
+
+    sizes = []
+
+    def evaluate(M: int):  # a gait whose nudge moved it by about the threshold: undecided at 32 and 96
+        sizes.append(M)
+        a, b = _skewed(42, M)
+        batch = lambda v: SimpleNamespace(member_speed_cm_s=v[None], score=np.array([1.0]),
+                                          nonfinite=np.array([False]), fell=np.array([False]))
+        return batch(a), {"dt/2": batch(b)}
+
+    [x] = decide(evaluate, 1, 32, 256, 0.10, 0.95)
+    # it used to stop after the second look (96), undecided, and ask for more --members
+    assert sizes == [32, 96, 256] and x.members == 256

@@ -77,6 +77,48 @@ def test_names_follow_the_rules_in_order():
     assert n(airborne=0.05) is None  # sometimes in the air, not hopping: numbered by the caller
 
 
+def test_names_respect_the_plane():
+    # issue 49: a top-view snake's mode was called "flipping"; seen from above nothing flips, rolls
+    # or hops, and every contact touches (a duty factor of 1)
+    top = lambda **d: name({"turns_per_s": 0.0, "airborne": 0.0, "joint_speed_rad_s": 1.0, **d}, (1.0, 1.0),
+                           seconds=6.0, water=False, plane="horizontal")
+    assert top(turns_per_s=-0.1) == "turning" and top(turns_per_s=0.25) == "circling"
+    assert top() == "undulating" and top(joint_speed_rad_s=0.0) == "sliding"
+    assert name({"turns_per_s": 0.0, "joint_speed_rad_s": 1.0}, (), seconds=6.0, water=True,
+                plane="horizontal") == "swimming"
+    assert {top(turns_per_s=t, airborne=a) for t in (0.0, 0.1, 0.3) for a in (0.0, 0.5)}.isdisjoint(
+        {"flipping", "rolling", "hopping", "walking", "shuffling"})
+    rng = np.random.default_rng(0)
+    found = find(gaits("s", 5, rng, 1.0, turns_per_s=0.1), seconds=6.0, plane="horizontal")
+    assert found and {m.name.split()[0] for m in found} == {"turning"}  # not "flipping", as before
+
+
+def test_modes_hides_single_gait_modes_and_says_how_many(lib_run, monkeypatch):
+    import sanlab.modes
+    from sanlab.modes import Mode
+
+    db, run_id = lib_run
+
+    def mode(label: str, size: int) -> Mode:
+        members = tuple(Gait(f"{run_id}#{label}{k}", 1.0 - 0.1 * k, 5.0, dict(BASE)) for k in range(size))
+        return Mode(label, members, {"airborne": 0.0, "period_s": 1.0, "turns_per_s": 0.0}, None, (), 6.0)
+
+    found = [mode("shuffling", 3), mode("mode 2", 1), mode("sliding", 2), mode("mode 4", 1), mode("mode 5", 1)]
+    monkeypatch.setattr(sanlab.modes, "of_run", lambda *a, **k: (found, 0.5, 0))
+    r = CliRunner().invoke(app, ["modes", run_id, "--db", db], terminal_width=120)
+    out = " ".join(r.output.split())
+    assert r.exit_code == 0 and "2 modes of 5 controllers" in out, out
+    assert "3 modes of a single gait hidden (--singletons shows them)" in out and "mode 2" not in out
+    r = CliRunner().invoke(app, ["modes", run_id, "--db", db, "--singletons"], terminal_width=120)
+    out = " ".join(r.output.split())
+    assert "5 modes of 8 controllers" in out and "mode 4" in out and "hidden" not in out
+    r = CliRunner().invoke(app, ["modes", run_id, "--db", db, "--json"])
+    assert [m["size"] for m in json.loads(r.output)["modes"]] == [3, 1, 2, 1, 1]  # --json: every mode
+    found[:] = [mode("mode 1", 1), mode("mode 2", 1)]  # nothing but single gaits: shown, and why
+    out = " ".join(CliRunner().invoke(app, ["modes", run_id, "--db", db], terminal_width=120).output.split())
+    assert "every mode is a single gait" in out and "2 modes of 2 controllers" in out and "hidden" not in out
+
+
 def test_a_gait_without_descriptors_is_an_error():
     with pytest.raises(ValueError, match="no descriptors"):
         find([Gait("run#1", 1.0, 1.0, {})], seconds=1.0)
@@ -99,7 +141,8 @@ def test_modes_of_a_small_search_from_the_command_line(tmp_path):
     assert all(s >= out["min_score"] for s in scores)
     r = CliRunner().invoke(app, ["modes", run, "--db", db, "--top", "1"])
     assert r.exit_code == 0 and "best gait" in r.output
-    assert ("more modes" in r.output) == (len(sizes) > 1)
+    assert ("more modes" in r.output) == (sum(s > 1 for s in sizes) > 1)
+    assert ("of a single gait hidden" in r.output) == (1 in sizes)
     shown = CliRunner().invoke(app, ["show", run, "--modes", "--db", db, "--json"])  # the best gait of each mode
     assert shown.exit_code == 0 and json.loads(shown.output) == out
 

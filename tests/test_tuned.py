@@ -98,3 +98,16 @@ def test_export_toml_of_a_phase_1_gait_sets_the_san_delays(lib_run, tmp_path):
     assert (c.san.delay_on, c.san.delay_off) == (load("cart").san.delay_on, load("cart").san.delay_off)
     r = runner.invoke(app, ["check", str(out)])
     assert r.exit_code == 0
+
+
+def test_a_file_with_repeated_parts_exports_them_written_out(tmp_path):
+    from tests.creature.test_repeat import repeated
+
+    path = tmp_path / "chain.toml"
+    path.write_text(repeated(3))
+    g = gait(*tuned(tmp_path, name=str(path), morphology=True))
+    text = apply_to_file(g)
+    assert "\n[[repeat" not in text and text.count("[[actuators]]") == 3 and "tables are written out" in text
+    again = loads(text, "export.toml")
+    assert [a.ks for a in again.actuators] == pytest.approx(list(g.params.model["act_ks"]), rel=1e-6)
+    assert [k.mass for k in again.links] == pytest.approx(list(g.params.model["mass"]), rel=1e-6)

@@ -23,6 +23,26 @@ import typer
 from sanlab import __version__
 from sanlab.cli import audit, creatures, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
 
+
+def _flag_types_hidden() -> None:
+    """Typer 0.2x writes a type after every option in --help, ``<bool>`` after plain flags
+    (``--json``, ``--version``, ``--help``), which reads as if they took a value. Flags show none;
+    options that take a value keep theirs (``<int>``, ``<str>``)."""
+    from typer.core import TyperOption
+
+    shown = TyperOption.display_type_rich
+    if getattr(shown, "_sanlab", False):
+        return
+
+    def display_type_rich(self, ctx):
+        return None if self.is_flag else shown(self, ctx)
+
+    display_type_rich._sanlab = True  # type: ignore[attr-defined]
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]
+
+
+_flag_types_hidden()
+
 app = typer.Typer(
     help="Discover how planar creatures can move with sensor-actuator networks.",
     no_args_is_help=True,
@@ -113,6 +133,9 @@ def main(
                                           help="Print sanlab's version and exit.")] = False,
 ) -> None:
     """Discover how planar creatures can move with sensor-actuator networks."""
+    from sanlab.cli._common import close_libraries
+
+    ctx.call_on_close(close_libraries)
     try:
         previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, _interrupt)}
     except ValueError:  # not the main thread (an embedding application): leave signals alone

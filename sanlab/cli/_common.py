@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.table import Table
+from rich.table import Column, Table
 
 from sanlab.creature import Creature, CreatureError, load, printable, read_source
 from sanlab.creature.spec import MAX_STEPS, METRICS
@@ -175,7 +175,19 @@ def open_library(path: str, *, create: bool = False, readonly: bool = False) -> 
         except LibraryError as e:
             lib.close()
             raise fail(str(e)) from None
+    _opened.append(lib)
     return lib
+
+
+_opened: list[Library] = []  # closed when the command ends (close_libraries), whatever way it ends
+
+
+def close_libraries() -> None:
+    """Close every library a command opened: a read-only one then removes the empty ``-wal`` and
+    ``-shm`` files SQLite made for it (``Library.close``)."""
+    while _opened:
+        with contextlib.suppress(Exception):  # closing must not hide what ended the command
+            _opened.pop().close()
 
 
 # -- arguments, checked before anything is created -----------------------------------------------
@@ -384,11 +396,18 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
     return rows
 
 
+def id_column(header: str, ids: list[str]) -> Column:
+    """A table column of ids (gaits, runs): never cut nor wrapped, as wide as the longest; a
+    narrow terminal folds the other columns instead. The id is what a user copies."""
+    return Column(header, no_wrap=True, overflow="fold", min_width=max((len(i) for i in ids), default=0))
+
+
 def print_top(rows: list[dict], title: str, unit: str = "") -> None:
     """The table of a run's best gaits; the speed column carries an arrow for the direction of
     motion along x (→ +x, ← -x) where the run stored it. ``unit``: the score's unit."""
     score = f"score ({unit})" if unit else "score"
-    table = Table("rank", "gait", score, "speed (cm/s)", "flags", title=safe(title))
+    table = Table("rank", id_column("gait", [r["gait"] for r in rows]), score, "speed (cm/s)", "flags",
+                  title=safe(title))
     for rank, r in enumerate(rows, 1):
         flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
                                           ("not reproduced", r.get("reproduced") is False),
@@ -476,6 +495,68 @@ class ProgressBar:
 
     def __exit__(self, *exc: Any) -> None:
         self.progress.__exit__(*exc)
+
+
+def duration(seconds: float) -> str:
+    """``seconds`` as a person says it: "45 s", "3 min 20 s", "1 h 05 min"."""
+    s = max(0, round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+class ProgressLines:
+    """Progress as plain lines on stderr, for output that is not a terminal (a log file, a pipe),
+    where :class:`ProgressBar` draws nothing: a line each time another tenth of the work is done,
+    and at least every ``every_s`` seconds while it goes on, e.g. "tune: 30/100 trials (30 %),
+    2.1 eval/s, best 1.234, 1 min 05 s elapsed, about 2 min 30 s left"."""
+
+    def __init__(self, show: bool, what: str, unit: str, every_s: float = 60.0):
+        import time
+
+        self.show, self.what, self.unit, self.every_s = show, what, unit, every_s
+        self._clock = time.perf_counter
+        self._t0 = self._clock()
+        self._last_t = self._t0
+        self._last_tenth = 0
+        self._last_done = 0
+        self._mark: tuple[float, int] | None = None  # (time, done) of the first report with work done
+
+    def update(self, done: int, total: int, rate: float, best: float) -> None:
+        now = self._clock()
+        if self._mark is None or done <= self._mark[1]:
+            self._mark = (now, done)  # the rate is measured after the first batch, which compiles
+        tenth = 10 * done // max(total, 1)
+        if not self.show or done == 0 or done == self._last_done or (
+                tenth <= self._last_tenth and now - self._last_t < self.every_s and done < total):
+            return
+        self._last_tenth, self._last_t, self._last_done = tenth, now, done
+        left = self.left(done, total, now)
+        tail = f", about {duration(left)} left" if left is not None and done < total else ""
+        warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {rate:.1f} eval/s, "
+             f"best {best:.3f}, {duration(now - self._t0)} elapsed{tail}")
+
+    def left(self, done: int, total: int, now: float | None = None) -> float | None:
+        """Seconds left at the pace since the first report (None until work was done after it)."""
+        now = self._clock() if now is None else now
+        if self._mark is None or done <= self._mark[1]:
+            return None
+        t, d = self._mark
+        return (now - t) / (done - d) * (total - done)
+
+
+def refuse_still(spec: Creature, creature: str, command: str = "search") -> None:
+    """Exit 2 with one line (the reason and the fix) when ``spec`` can never move: no sensor is
+    on at rest, so every SAN holds every servo at mid range (``sanlab.check.at_rest``, which
+    needs no simulation and says nothing where it cannot tell). ``--force`` skips this."""
+    from sanlab.check import at_rest
+
+    still = [f for f in at_rest(spec) if f.warning]
+    if still:
+        raise fail(f"{command}: {creature} can never move: {still[0].message.replace('sensors at rest: none', 'no sensor').removeprefix('sensors at rest: ')} "
+                   f"(or give --force to {command} it anyway)")
 
 
 def print_static_warnings(spec, creature: str) -> None:

@@ -24,7 +24,8 @@ def audit(
         "Perturbed starts the audit draws for itself; more narrow the interval (an undecided audit says how many "
         "would decide it)."))] = 32,
     max_members: Annotated[int, typer.Option(min=2, max=4096, help=(
-        "An undecided audit looks once more, on as many members as it said would decide it, up to this."))] = 256,
+        "An undecided audit looks again, each time on as many members as the last look said would decide it "
+        "(at least twice as many), up to this."))] = 256,
     select: Annotated[bool, typer.Option("--select", help=(
         "With a tuning run: audit the rungs of its climb and store the best-scoring one that no nudge "
         "moves by more than the threshold as its gait RUN#1."))] = False,
@@ -37,8 +38,9 @@ def audit(
     nudge, and the relative change of the mean speed is bootstrapped (a 95 % interval over the
     three nudges together): robust when every interval lies inside the band (--threshold),
     resolution-dependent when one lies outside it, undecided otherwise (not a pass). An
-    undecided gait is looked at once more, on as many starts as would likely decide it (at most
-    --max-members); if that still does not decide it, it says how many would. A gait whose stored speed is more than the threshold from
+    undecided gait is looked at again, on as many starts as would likely decide it (at least
+    twice as many, up to --max-members); if that still does not decide it, it names the
+    --members that would. A gait whose stored speed is more than the threshold from
     the speed re-scored exactly as stored is flagged not reproduced. The verdict is stored in
     the library (shown by `sanlab show` and carried by exports).
 
@@ -83,7 +85,7 @@ def audit(
     if as_json:
         typer.echo(dump_json([audit_record(a) for a in results]))
         return
-    print_audits(results, threshold)
+    print_audits(results, threshold, db)
 
 
 def audit_record(a) -> dict:
@@ -94,8 +96,12 @@ def audit_record(a) -> dict:
                             **{k: v for k, v in a.to_json().items() if k not in ("verdict", "resolution_dependent", "reproduced")}})
 
 
-def print_audits(results: list, threshold: float) -> None:
-    """The audit table (and what its flags mean) of ``results`` (:class:`sanlab.audit.Audit`)."""
+def print_audits(results: list, threshold: float, db: str = "sanlab.db") -> None:
+    """The audit table (and what its flags mean) of ``results`` (:class:`sanlab.audit.Audit`);
+    an undecided gait gets the command that would likely decide it (``db``: its library)."""
+    from sanlab.audit import MAX_MEMBERS_ADVISED, advice
+
+    db_opt = "" if db == "sanlab.db" else f" --db {db}"
     names = list(results[0].speeds) if results else []
     # borderless, and every cell at most 11 characters a line (a verdict or an interval on lines
     # of its own): the columns fit 80 characters, piped output included; a narrower terminal
@@ -103,7 +109,7 @@ def print_audits(results: list, threshold: float) -> None:
     table = Table(title="audit: mean speed (cm/s) of the audit's perturbed starts under each nudge, "
                         "its change and 95 % interval",
                   box=box.SIMPLE_HEAD, padding=(0, 0), show_edge=False)
-    table.add_column("gait", no_wrap=True)
+    table.add_column("gait", no_wrap=True, min_width=max((len(a.gait_id) for a in results), default=0))
     for name in ("stored", "rescored", "at dt", *names, "verdict"):
         table.add_column(name, overflow="fold")
     for a in results:
@@ -118,9 +124,18 @@ def print_audits(results: list, threshold: float) -> None:
     if any(a.resolution_dependent for a in results):
         console.print(f"resolution-dependent: a nudge moved the mean speed outside ±{100 * threshold:.0f} % "
                       "(its whole interval); `sanlab show` and exports say so")
-    if any(a.verdict == "undecided" for a in results):
-        console.print(f"undecided: an interval straddles ±{100 * threshold:.0f} % (the gait is not vouched for); "
-                      "audit again with more --members")
+    undecided = [a for a in results if a.verdict == "undecided"]
+    if undecided:
+        console.print(f"undecided: an interval straddles ±{100 * threshold:.0f} % (the gait is not vouched for), "
+                      f"after looks on up to {max(a.audit_members for a in undecided)} members (--max-members)")
+        for a in undecided:
+            n = advice(a.audit_members, a.needed)
+            if n is not None:  # the command on a line of its own: never folded inside
+                console.print(f"  {a.gait_id}: about {a.needed} members would likely decide it:")
+                console.print(f"    sanlab audit {a.gait_id} --members {n}{db_opt}", soft_wrap=True)
+            else:
+                console.print(f"  {a.gait_id}: more than {MAX_MEMBERS_ADVISED} members would be needed to decide it: "
+                              "take it as not vouched for (or --threshold wider)")
 
 
 def shift_cell(speed: float, sh) -> str:

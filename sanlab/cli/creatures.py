@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from sanlab.cli._common import CreatureArg, DtypeOpt, JsonOpt, check_dtype, console, dump_json, load_or_exit, record, safe
+from sanlab.cli._common import CreatureArg, DtypeOpt, JsonOpt, check_dtype, console, dump_json, fail, load_or_exit, record, safe
 from sanlab.creature import Creature, builtin_names
 
 
@@ -37,6 +37,8 @@ def check(
     simulate: Annotated[bool, typer.Option("--simulate", help="Also drop it for two seconds (servos at mid targets, then "
                                            "sweeping) and warn about what only a simulation shows.")] = False,
     dtype: DtypeOpt = "float32",
+    strict: Annotated[bool, typer.Option("--strict", help=(
+        "Exit 1 when there is any warning (for scripts and CI); the report is printed as usual."))] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Validate a creature file and summarise it; --simulate adds warnings from a short drop."""
@@ -61,6 +63,7 @@ def check(
     out["warnings"] = sum(f.warning for f in findings)
     if as_json:
         typer.echo(dump_json(out))
+        _strict(strict, out["warnings"], creature)
         return
     grid = Table.grid(padding=(0, 2))
     grid.add_column(style="bold")
@@ -89,6 +92,13 @@ def check(
         for f in findings:
             mark = "[yellow]warning[/yellow]" if f.warning else "[green]ok[/green]     "
             console.print(f"  {mark} {safe(f.message)}", soft_wrap=True)
+    _strict(strict, out["warnings"], creature)
+
+
+def _strict(strict: bool, warnings: int, creature: str) -> None:
+    """With --strict, a warning ends the command with exit status 1 (bad input stays 2)."""
+    if strict and warnings:
+        raise fail(f"check --strict: {creature}: {warnings} warning{'s' * (warnings != 1)} (listed above)", code=1)
 
 
 def creatures(as_json: JsonOpt = False) -> None:

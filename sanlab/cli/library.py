@@ -7,6 +7,7 @@ write lock); a damaged run is listed as "damaged" and reading it is a one-line e
 from __future__ import annotations
 
 import json
+import shlex
 from typing import TYPE_CHECKING, Annotated
 
 import typer
@@ -19,6 +20,7 @@ from sanlab.cli._common import (
     direction,
     dump_json,
     fail,
+    id_column,
     library_call,
     open_library,
     output_file,
@@ -65,7 +67,7 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
     if as_json:
         typer.echo(dump_json([record("run-entry", {k: v for k, v in r.items() if k != "progress"}) for r in rows]))
         return
-    table = Table("run", "kind", "creature", "status", "progress", "created")
+    table = Table(id_column("run", [r["run_id"] for r in rows]), "kind", "creature", "status", "progress", "created")
     for r in rows:
         created = r["created"][:19].replace("T", " ")
         done, planned, unit = r["progress"]
@@ -94,7 +96,7 @@ def show(
     if by_mode:
         from sanlab.cli.modes import modes
 
-        modes(run.run_id, None, top, 3, False, db, as_json)
+        modes(run.run_id, min_score=None, top=top, singletons=False, min_cluster=3, rescore=False, db=db, as_json=as_json)
         return
     rows = library_call(top_rows, lib, run.run_id, top)
     if network:
@@ -262,6 +264,14 @@ def export_(
     if out:
         with output_file(out, "--out") as path, open(path, "w", encoding="utf-8") as f:
             f.write(data)
+        what = "C header" if c else "creature file" if toml else "gait (JSON)"
+        console.print(f"wrote {safe(out)}: the {what} of gait {safe(gait)}, {len(data.encode()):,} bytes", soft_wrap=True)
+        q = shlex.quote(out)
+        db_opt = "" if db == "sanlab.db" else f" --db {shlex.quote(db)}"
+        steps = ([f"#include {q} in a C program (docs/san-in-c.md)"] if c else
+                 [f"sanlab check {q}", f"sanlab search {q}{db_opt}"] if toml else
+                 [f"sanlab import {q} --db OTHER.db (another library)"])
+        console.print("next: " + "    ".join(safe(x) for x in steps), soft_wrap=True)
     else:
         typer.echo(data, nl=False)
 

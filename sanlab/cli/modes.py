@@ -8,7 +8,18 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record, safe
+from sanlab.cli._common import (
+    DbOpt,
+    JsonOpt,
+    console,
+    dump_json,
+    fail,
+    id_column,
+    library_call,
+    open_library,
+    record,
+    safe,
+)
 
 if TYPE_CHECKING:
     from sanlab.modes import Mode
@@ -19,6 +30,9 @@ def modes(
     min_score: Annotated[float | None, typer.Option(help=(
         "Controllers scoring at least this are grouped (default: a fifth of the run's best score)."))] = None,
     top: Annotated[int, typer.Option(min=1, max=10_000, help="Modes to show, best first (--json: all).")] = 10,
+    singletons: Annotated[bool, typer.Option("--singletons", help=(
+        "Also show modes of a single gait (hidden by default: most are noise of the clustering; --json lists "
+        "them all)."))] = False,
     min_cluster: Annotated[int, typer.Option(min=2, max=1000, help="Smallest group the density clustering forms.")] = 3,
     rescore: Annotated[bool, typer.Option("--rescore", help=(
         "A search stored before sanlab computed descriptors: evaluate its useful gaits again, as the run did, "
@@ -31,8 +45,9 @@ def modes(
     Useful: not fallen, finite, scoring at least --min-score. Controllers are grouped by HDBSCAN on
     their standardised behaviour descriptors and, exactly, by their periodic sensor signature (the
     same cycle of sensor words is the same mode); each mode is named where a rule fits (rolling,
-    flipping, swimming, hopping, walking, shuffling, sliding; else "mode k") and shown with its best
-    gait, its size and its descriptors' medians."""
+    flipping, swimming, hopping, walking, shuffling, sliding; seen from above: circling, turning,
+    swimming, undulating, sliding; else "mode k") and shown with its best gait, its size and its
+    descriptors' medians. Modes of a single gait are hidden unless --singletons (the count is said)."""
     from sanlab.modes import of_run
 
     lib = open_library(db, readonly=True)
@@ -54,10 +69,19 @@ def modes(
         return
     if missing:
         console.print(f"{missing} useful controllers were stored without descriptors and are left out")
-    print_modes(found[:top], f"run {run.run_id}: {run.creature}, {len(found)} modes of "
-                             f"{sum(m.size for m in found)} controllers scoring at least {threshold:.3g}")
-    if len(found) > top:
-        console.print(f"and {len(found) - top} more modes (--top {len(found)} shows them all)")
+    shown = found if singletons else [m for m in found if m.size > 1]
+    if not shown and found:  # nothing but single gaits: a table of them says more than an empty one
+        shown = found
+        console.print("every mode is a single gait: too few useful controllers to group (search more with -n, "
+                      "or lower --min-score)")
+    hidden = len(found) - len(shown)
+    print_modes(shown[:top], f"run {run.run_id}: {run.creature}, {len(shown)} modes of "
+                             f"{sum(m.size for m in shown)} controllers scoring at least {threshold:.3g}")
+    if len(shown) > top:
+        console.print(f"and {len(shown) - top} more modes (--top {len(shown)} shows them all)")
+    if hidden:
+        console.print(f"{hidden} mode{'s' * (hidden > 1)} of a single gait hidden (--singletons shows "
+                      f"{'them' if hidden > 1 else 'it'})")
 
 
 def print_modes(found: list[Mode], title: str) -> None:
@@ -65,7 +89,8 @@ def print_modes(found: list[Mode], title: str) -> None:
     median turns over the run, airborne fraction and period (its signature: ``--json``)."""
     from sanlab.cli._common import ARROWS, direction
 
-    table = Table("mode", "size", "best gait", "cm/s", "turns", "airborne", "period s", title=safe(title))
+    table = Table("mode", "size", id_column("best gait", [m.best.gait_id for m in found]), "cm/s", "turns", "airborne",
+                  "period s", title=safe(title))
     for m in found:
         s = m.summary
         f = lambda v, fmt: "-" if not math.isfinite(v) else format(v, fmt)

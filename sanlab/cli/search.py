@@ -36,6 +36,7 @@ from sanlab.cli._common import (
     print_static_warnings,
     print_top,
     record,
+    refuse_still,
     refuse_with_resume,
     top_rows,
 )
@@ -71,18 +72,24 @@ def search(
     resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
     top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
+    force: Annotated[bool, typer.Option("--force", help=(
+        "Search a creature that `sanlab check` finds can never move (no sensor on at rest) all the same."))] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits.
 
     With --strategy map-elites, -n controllers are spent on a repertoire instead: the first tenth
     random, then mutants of the archive's elites, keeping the best gait of each cell of --grid."""
+    check_dtype(dtype)
+    # The creature is read, and refused, before JAX is imported: a mistyped name is answered at once
+    spec = load_or_exit(creature)[0] if creature is not None and resume is None else None
+    if spec is not None and not force:
+        refuse_still(spec, str(creature))
     configure()
     from sanlab.search import run_search
     from sanlab.search.map_elites import DEFAULT_GENERATION, archive_stats, parse_grid
     from sanlab.search.registry import names
 
-    check_dtype(dtype)
     ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     if (creature is None) == (resume is None):
         raise fail("search: give a CREATURE, or --resume RUN_ID (not both)")
@@ -96,7 +103,7 @@ def search(
     text = where = ""
     archive = None
     if creature is not None:
-        spec = load_or_exit(creature)[0]
+        spec = spec or load_or_exit(creature)[0]
         check_run_args(spec, controllers=controllers, seconds=seconds, metric=metric, seed=seed, batch=batch, top=top)
         if strategy == "map-elites":
             try:

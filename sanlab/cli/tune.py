@@ -21,6 +21,7 @@ from sanlab.cli._common import (
     EnsembleOpt,
     JsonOpt,
     ProgressBar,
+    ProgressLines,
     WorkersOpt,
     backend_or_exit,
     check_count,
@@ -29,14 +30,18 @@ from sanlab.cli._common import (
     console,
     direction,
     dump_json,
+    duration,
     ensemble_or_exit,
     fail,
+    id_column,
     library_call,
     open_library,
     print_next,
     record,
     refuse_with_resume,
 )
+
+LONG_TUNE_S = 60.0  # a tune expected to take longer says how long, once its pace is measured
 
 
 def tune(
@@ -48,7 +53,9 @@ def tune(
     top: Annotated[int | None, typer.Option(min=1, help="Tune a run's top K gaits as parallel chains.")] = None,
     morphology: Annotated[bool, typer.Option("--morphology", help="Also tune link lengths (and so masses).")] = False,
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
-    batch: Annotated[int, typer.Option(min=1, help="Evaluations simulated together per round.")] = 128,
+    batch: Annotated[int | None, typer.Option(min=1, help=(
+        "Evaluations simulated together per round (default: 8 on the CPU, or one per chain if more; 128 on a GPU: "
+        "benchmarks/tune_batch.py measured it)."))] = None,
     ensemble: EnsembleOpt = 8,
     dt_factors: DtFactorsOpt = None,
     dt_jitter: DtJitterOpt = 0.0,
@@ -82,7 +89,8 @@ def tune(
     limit = 0.10 if threshold is None else threshold
     select_opts = " --select" + ("" if threshold is None else f" --threshold {threshold:g}")
     check_count("--trials", trials)
-    check_count("--batch", batch, 1, MAX_BATCH)
+    if batch is not None:
+        check_count("--batch", batch, 1, MAX_BATCH)
     check_seed(seed)
     if (gait is None) == (not resume):
         raise fail("tune: give a GAIT, or --resume RUN_ID (not both)")
@@ -99,13 +107,33 @@ def tune(
     elif gait is not None:
         library_call(lib.gait, gait)
         gaits = [gait]
-    bar = ProgressBar(console.is_terminal and not as_json, f"tune ({method})")
+    if batch is None and gaits:
+        from sanlab.search.tune import default_batch
+
+        batch = default_batch(len(gaits))
+    shown = console.is_terminal and not as_json
+    bar = ProgressBar(shown, f"tune ({method})")
+    lines = ProgressLines(not console.is_terminal, "tune", "trials")  # a log gets lines instead of a bar
     run_ids: tuple[str, ...] = tuple(resume or ())
+    said = [False]
 
     def report(p) -> None:
         nonlocal run_ids
         run_ids = p.run_ids  # known from the first report on, so Ctrl-C names these runs
         bar.update("tune", p.trials, p.total, p.rate, p.best)
+        lines.update(p.trials, p.total, p.rate, p.best)
+        left = lines.left(p.trials, p.total)
+        if not said[0] and left is not None:
+            said[0] = True
+            if left >= LONG_TUNE_S:  # said once, at the first measured round: before most of the wait
+                what = (f"{p.total} trials ({len(run_ids)} chain{'s' * (len(run_ids) > 1)}"
+                        + (f", --batch {batch})" if batch is not None else ")"))
+                line = (f"tune: about {duration(left)} more for {what}, at the pace of the first round; "
+                        "Ctrl-C keeps every decided trial (--resume goes on)")
+                if shown:
+                    bar.progress.console.print(line, soft_wrap=True, highlight=False)
+                else:
+                    typer.echo(line, err=True)
 
     try:
         with bar:
@@ -146,7 +174,8 @@ def tune(
     if as_json:
         typer.echo(dump_json(rows))  # always a list, one element per chain (one gait: a list of one)
         return
-    table = Table("gait", "tuned gait", "score before", "after", "speed before (cm/s)", "after", "accepted")
+    table = Table(id_column("gait", [r.gait for r in results]), id_column("tuned gait", [r.tuned_gait for r in results]),
+                  "score before", "after", "speed before (cm/s)", "after", "accepted")
     for r, (dx0, dx1) in zip(results, dxs):  # the arrow: which way along x the stored gait moved (→ +x, ← -x)
         table.add_row(r.gait, r.tuned_gait, f"{r.before['score']:.3f}", f"{r.after['score']:.3f}",
                       f"{ARROWS[direction(dx0)]} {r.before['speed_cm_s']:.1f}",

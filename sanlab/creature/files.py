@@ -42,7 +42,7 @@ def read_source(name_or_path: str | Path) -> tuple[str, str]:
     try:
         data = read_regular_file(path, MAX_FILE_BYTES)
     except FileNotFoundError:
-        hint = "" if path.suffix else f" and no built-in creature of that name {builtin_names()}"
+        hint = "" if path.suffix else f" and no built-in creature of that name{_did_you_mean(s)} {builtin_names()}"
         raise CreatureError(f"{shown}: no such file{hint}") from None
     except NotRegularFile as e:
         raise CreatureError(f"{shown}: expected a creature file, got {e.kind} (give the path of a .toml file)") from None
@@ -56,6 +56,14 @@ def read_source(name_or_path: str | Path) -> tuple[str, str]:
         raise CreatureError(f"{shown}: expected a UTF-8 text file, got undecodable bytes at byte {e.start} "
                             "(save it as UTF-8)") from None
     return text, str(path.resolve())
+
+
+def _did_you_mean(name: str) -> str:
+    """"; did you mean 'bounder'?" for a name close to a built-in's ("bouncer"), else ""."""
+    import difflib
+
+    close = difflib.get_close_matches(name.lower(), builtin_names(), n=1, cutoff=0.6) if len(name) <= 100 else []
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 class NotRegularFile(OSError):

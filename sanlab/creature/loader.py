@@ -120,9 +120,61 @@ def loads(text: str, source: str = "<string>") -> Creature:
         raise CreatureError(f"{shown}: {_long_integer(text)}: expected valid TOML, got an integer of more than "
                             f"{sys.get_int_max_str_digits()} digits") from None
     try:
+        data = expand_repeats(data, shown)
         return _creature(_Table(shown, "", data, TOP), _stem(source))
     except RecursionError:  # a deeply nested value that parsed, met where a number was expected
         raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
+
+
+REPEATED = ("links", "sensors", "actuators", "springs")  # what a [[repeat]] may hold
+MAX_REPEAT = 64  # copies of one [[repeat]]: no part list holds more (spec.MAX_SENSORS)
+_PLACEHOLDER = re.compile(r"\{i([+-][0-9]{1,4})?\}")
+
+
+def expand_repeats(data: dict, shown: str = "<string>") -> dict:
+    """The parsed file with its ``[[repeat]]`` tables written out (FORMAT.md, "Repeating parts").
+
+    Each ``[[repeat]]`` has ``count`` (1 to :data:`MAX_REPEAT`), an optional ``start`` (the first
+    ``i``, default 1) and arrays of tables named as the file's own (``[[repeat.links]]``,
+    ``[[repeat.sensors]]``, ``[[repeat.actuators]]``, ``[[repeat.springs]]``). Its tables are
+    copied ``count`` times, with ``{i}``, ``{i-1}``, ``{i+1}`` (any ``{i+K}``, ``{i-K}``) in every
+    string replaced by the copy's number, and appended, in order, after the file's own tables of
+    that name (so a repeated link's parent may be a link written above, or an earlier copy).
+    A file without ``[[repeat]]`` is returned as it is. Raises CreatureError (one line, naming
+    ``repeat[k]``) for a malformed ``[[repeat]]``; what it expands to is checked as if written out
+    (messages then count the written-out tables: links[5] is the sixth link after expansion)."""
+    if "repeat" not in data:
+        return data
+    top = _Table(shown, "", {"repeat": data["repeat"]}, ("repeat",))
+    out = {k: (list(v) if k in REPEATED and isinstance(v, list) else v) for k, v in data.items() if k != "repeat"}
+    for block in top.tables("repeat", ("count", "start", *REPEATED), lo=1, hi=MAX_REPEAT):
+        count = block.get("count", integer(1, MAX_REPEAT))
+        start = block.get("start", integer(-1000, 1000), 1)
+        if not any(k in block for k in REPEATED):
+            raise block.error("", f"a table of parts to repeat ({', '.join(f'[[repeat.{k}]]' for k in REPEATED)})",
+                              block.data)
+        for key in REPEATED:
+            if key not in block:
+                continue
+            parts = block.data[key]
+            if not isinstance(parts, list) or not all(isinstance(p, dict) for p in parts):
+                raise block.error(key, f"an array of [[repeat.{key}]] tables", parts)
+            if key in out and not isinstance(out[key], list):
+                continue  # the file's own [[key]] is malformed: the checks that follow say so
+            copies = [_numbered(p, i) for i in range(start, start + count) for p in parts]
+            out[key] = [*out.get(key, []), *copies]
+    return out
+
+
+def _numbered(value, i: int):
+    """``value`` with ``{i}`` and ``{i+K}`` in its strings replaced by the numbers (recursively)."""
+    if isinstance(value, str):
+        return _PLACEHOLDER.sub(lambda m: str(i + int(m.group(1) or 0)), value)
+    if isinstance(value, dict):
+        return {k: _numbered(v, i) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_numbered(v, i) for v in value]
+    return value
 
 
 def _long_integer(text: str) -> str:

@@ -146,9 +146,10 @@ class Library:
 
     def _cannot_share(self, e: sqlite3.Error) -> bool:
         """Whether ``e`` is SQLite failing to make the WAL index (-shm) of a library it may only
-        read, and the file can be read as immutable without missing a commit (no -wal)."""
+        read (a read-only folder, or a full disk: an I/O error), and the file can be read as
+        immutable without missing a commit (no -wal)."""
         name = errors.errorname(e)
-        if not (name.startswith("SQLITE_CANTOPEN") or name.startswith("SQLITE_READONLY")):
+        if not name.startswith(("SQLITE_CANTOPEN", "SQLITE_READONLY", "SQLITE_IOERR")):
             return False
         wal = self.path + "-wal"
         if os.path.exists(wal) and os.path.getsize(wal) > 0:
@@ -192,6 +193,31 @@ class Library:
         if self._conn is not None:
             self._conn.close()
             self._conn = None
+            if self.readonly:
+                self._tidy()
+
+    def _tidy(self) -> None:
+        """Remove the empty ``-wal`` and the ``-shm`` that reading a WAL library leaves beside it.
+
+        A read-only connection may make them but never removes them (only the last connection
+        that can write does, as it closes), so every read-only command used to leave two files
+        behind. A connection that can write is opened and closed for it, only while the ``-wal``
+        holds nothing: its checkpoint then writes nothing to the library. Where another process
+        has the library open, its files are its own, and closing this one leaves them."""
+        wal, shm = self.path + "-wal", self.path + "-shm"
+        if self.path.startswith("file:") or self.path == ":memory:" or not os.path.exists(shm):
+            return
+        try:
+            if os.path.exists(wal) and os.path.getsize(wal) > 0:
+                return
+            conn = sqlite3.connect(self.path, timeout=0.05, isolation_level=None)
+            try:
+                conn.execute("PRAGMA query_only = 1")
+                conn.execute("SELECT count(*) FROM sqlite_master").fetchone()
+            finally:
+                conn.close()
+        except (sqlite3.Error, OSError):
+            pass  # a read-only folder or file, or a writer holding a lock: the files stay, as before
 
     def __enter__(self) -> Library:
         return self

@@ -34,6 +34,31 @@ from sanlab.search.space import Space
 TuneProgress = driver.Progress  # the name reporters of phase 2 have used
 METHODS = {name: registry.STRATEGIES[name] for name in registry.names(2)}
 
+# The default batch, by JAX platform. A round keeps each chain's trials up to its first accepted
+# one and is padded to the whole batch, so proposing ahead only pays where a larger batch costs
+# little more wall time than a small one: on an accelerator, not on a few CPU cores. On 2 cores,
+# benchmarks/tune_batch.py timed the same trials 2.2-3.2 x longer at --batch 128 than at 8, and
+# 8 in all beat 8 per chain with 4 and 8 chains (figures in docs/tuning.md).
+CPU_BATCH = 8  # in all, and at least one trial per chain per round
+ACCELERATOR_BATCH = 128  # not measured against smaller ones on a GPU yet: the earlier default
+MAX_DEFAULT_BATCH = 128
+
+
+def default_batch(chains: int, platform: str | None = None) -> int:
+    """The default ``batch`` of ``chains`` chains tuned together on ``platform`` ("cpu", "gpu",
+    "tpu"; default: JAX's default backend): on the CPU :data:`CPU_BATCH`, or one trial per chain
+    where there are more chains (at most :data:`MAX_DEFAULT_BATCH`); elsewhere
+    :data:`ACCELERATOR_BATCH`. Raises ValueError for ``chains`` < 1."""
+    if chains < 1:
+        raise ValueError(f"chains: expected >= 1, got {chains}")
+    if platform is None:
+        import jax
+
+        platform = jax.default_backend()
+    if platform != "cpu":
+        return ACCELERATOR_BATCH
+    return min(MAX_DEFAULT_BATCH, max(CPU_BATCH, chains))
+
 
 @dataclass(frozen=True)
 class TuneResult:
@@ -57,7 +82,7 @@ def tune(
     seed: int = 0,
     morphology: bool = False,
     terrain: str = "flat",
-    batch: int = 128,
+    batch: int | None = None,
     dtype: str = "float32",
     ensemble: int | Ensemble = 8,
     reporter: driver.Reporter | None = None,
@@ -68,8 +93,11 @@ def tune(
     trial as it is decided; or, with ``resume``, finish the given tune runs (their own settings).
     Each trial is scored as its ensemble's median (``ensemble`` members, drawn per chain and
     trial); returns one result per chain. Raises ValueError on bad settings, LibraryError on
-    unknown gaits or runs."""
+    unknown gaits or runs. ``batch``: controllers simulated together per round (default:
+    :func:`default_batch` of the chains; a resumed run keeps its own)."""
     t_start = time.perf_counter()
+    if batch is None:
+        batch = default_batch(max(1, len(gait_ids)))
     backend = backend if backend is not None else Local()
     if bool(gait_ids) == bool(resume):
         raise ValueError("give gaits to tune, or runs to resume (not both)")
@@ -155,4 +183,4 @@ def _resumed(library: Library, run_refs: Sequence[str]) -> tuple[Evaluator, list
     return ev, chains
 
 
-__all__ = ["tune", "TuneResult", "TuneProgress", "METHODS", "TERRAINS"]
+__all__ = ["tune", "TuneResult", "TuneProgress", "METHODS", "TERRAINS", "default_batch"]

@@ -110,9 +110,26 @@ class StudioServer:
         self.stop()
 
 
+def has_display(env=None, platform: str | None = None) -> bool:
+    """Whether a web browser opened here could show anything: always on macOS and Windows; on
+    Linux and the BSDs only with an X or Wayland display (``DISPLAY``, ``WAYLAND_DISPLAY``) or a
+    browser named by ``BROWSER`` (a text browser, or a wrapper that opens one elsewhere). Over
+    SSH, in a container or CI there is none, and ``webbrowser`` would start a text browser in
+    the terminal the server prints to, or nothing."""
+    import os
+    import sys
+
+    env = os.environ if env is None else env
+    platform = sys.platform if platform is None else platform
+    if platform == "darwin" or platform.startswith("win"):
+        return True
+    return any(env.get(k) for k in ("DISPLAY", "WAYLAND_DISPLAY", "BROWSER"))
+
+
 def serve(db: str, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, open_browser: bool = True,
           echo=print) -> None:
-    """Serve the studio in the foreground until Ctrl-C. ``echo`` prints status lines."""
+    """Serve the studio in the foreground until Ctrl-C. ``echo`` prints status lines. A browser is
+    opened only where :func:`has_display` finds a display; elsewhere the address is the line to use."""
     import webbrowser
 
     s = StudioServer(db, host, port, log_level="warning")
@@ -122,9 +139,12 @@ def serve(db: str, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, open_brow
              "every core) and run live simulations; there is no password")
     s.start()
     echo(f"sanlab studio: {s.url}  (library {s.service.path}; Ctrl-C stops)")
-    if open_browser:
-        url = s.url.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]")
+    url = s.url.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]")
+    if open_browser and has_display():
         threading.Thread(target=webbrowser.open, args=(url,), daemon=True).start()
+    elif open_browser:
+        echo(f"no display here (DISPLAY and WAYLAND_DISPLAY are unset): open {url} in a browser yourself "
+             "(over SSH: ssh -L PORT:127.0.0.1:PORT this host); --no-open says this is expected")
     try:
         while s._thread is not None and s._thread.is_alive():
             s._thread.join(0.5)

@@ -92,6 +92,8 @@ def test_the_audit_verdict_is_never_cut_at_80_columns_piped(monkeypatch):
     column = "".join(f if f.endswith("-") else f + " " for f in (line[col:].strip() for line in rows) if f)
     assert column.split() == "resolution-dependent robust undecided (~640 members) not reproduced".split(), column
     assert "[-100,+60]" in text  # the widest interval, whole
+    # issue 49: the advice names the command, with more members than the audit used (32)
+    assert "sanlab audit 3fa1c2d0#3 --members 800" in text and "with more --members" not in text
 
 
 def test_a_network_is_readable_at_80_columns(monkeypatch):

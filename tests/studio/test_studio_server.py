@@ -263,3 +263,37 @@ def test_a_tuning_stopped_by_its_reporter_is_left_interrupted_and_resumes(librar
     assert r.exit_code == 0, r.output
     with Library(db) as lib:
         assert lib.get_run(run_id).status == "done"
+
+
+def test_studio_opens_no_browser_where_there_is_no_display(monkeypatch):
+    """Issue 49: on a machine with no display (SSH, a container) the studio needed --no-open."""
+    import webbrowser
+
+    import sanlab.studio.server as server
+
+    assert not server.has_display({}, "linux") and not server.has_display({"DISPLAY": ""}, "linux")
+    assert server.has_display({"DISPLAY": ":0"}, "linux") and server.has_display({"WAYLAND_DISPLAY": "wayland-0"}, "linux")
+    assert server.has_display({}, "darwin") and server.has_display({}, "win32")
+
+    class Quiet:  # a server that stops at once
+        url = "http://127.0.0.1:8765/"
+        _thread = None
+        service = type("S", (), {"path": "x.db"})()
+
+        def __init__(self, *a, **k):
+            pass
+
+        def start(self):
+            return self
+
+        def stop(self):
+            pass
+
+    opened, said = [], []
+    monkeypatch.setattr(server, "StudioServer", Quiet)
+    monkeypatch.setattr(webbrowser, "open", lambda url: opened.append(url))
+    for key in ("DISPLAY", "WAYLAND_DISPLAY", "BROWSER"):
+        monkeypatch.delenv(key, raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    server.serve("x.db", echo=said.append)
+    assert opened == [] and any("no display here" in s and "http://127.0.0.1:8765/" in s for s in said), said
