@@ -94,8 +94,8 @@ def pack(model, hidden: int) -> Packed:
     SAN with ``hidden`` hidden nodes. The kernel's linear algebra is the dense route whichever
     route ``model`` names (the two give the same step to round-off)."""
     st, p = model.structure, model.params
-    f = lambda x: np.asarray(x, np.float64)  # noqa: E731
-    i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)  # noqa: E731
+    f = lambda x: np.asarray(x, np.float64)
+    i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)
     L = len(st.links)
     li = np.full((L, LI), -1, np.int32)
     lf = np.zeros((L, LF), np.float64)
@@ -219,7 +219,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
                                                         np.full(B, -np.inf))]
     ctrl = [_tile(np.swapaxes(np.asarray(weights, np.float64), 1, 2), W), _tile(np.asarray(k1, np.float64), W),
             _tile(np.asarray(k2, np.float64), W)]
-    ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])  # noqa: E731
+    ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
     _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), ptrs(st + ctrl), st[0].shape[0], int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
     return {n: _untile(a, B) for n, a in zip(names, st)}

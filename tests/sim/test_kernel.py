@@ -94,7 +94,7 @@ def run_both(spec, B: int, steps: int, lift: float = 0.0, seed: int = 0):
 
 def run_kernel(m, san, sp, s0, steps: int) -> dict:
     B = sp.weights.shape[0]
-    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))  # noqa: E731
+    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
     N = san.n_nodes
     return kernel.run_san(kernel.pack(m, san.n_hidden), np.asarray(sp.weights), np.asarray(sp.k1), np.asarray(sp.k2),
                           tile(s0.q), tile(s0.p), tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)), steps)
