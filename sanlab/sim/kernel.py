@@ -174,7 +174,7 @@ def _library():
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
         lib.sanlab_rollout_san.restype = None
-        lib.sanlab_rollout_san.argtypes = [P, P, P, ctypes.c_int64, ctypes.c_int64]
+        lib.sanlab_rollout_san.argtypes = [P, P, P, P, ctypes.c_int64, ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         _LIB = lib
     return _LIB
@@ -201,17 +201,41 @@ def _untile(x: np.ndarray, B: int) -> np.ndarray:
     return np.moveaxis(x, -1, 1).reshape(x.shape[0] * x.shape[-1], *x.shape[1:-1])[:B]
 
 
-def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0) -> dict:
+ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers a row may carry its own of
+
+
+def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
+            rows: dict | None = None) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
     (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
+    rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
+    (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
     Returns the state after them: q, p, anchor, istate, out, t (s), and the deepest penetration
-    dmax [B] (m; -inf without contacts)."""
+    dmax [B] (m; -inf without contacts). Raises ValueError for a per-row table of the wrong
+    shape."""
     import ctypes
 
     W = lanes()
     B = q.shape[0]
     N = istate.shape[1]
-    tables = [np.ascontiguousarray(getattr(pk, name)) for name in TABLES]
+    rows = rows or {}
+    unknown = sorted(set(rows) - set(ROW_TABLES))
+    if unknown:
+        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
+    T = -(-B // W)
+    tables = []
+    for name in TABLES:
+        shared = np.ascontiguousarray(getattr(pk, name))
+        if name not in rows:
+            tables.append(shared)
+            continue
+        x = np.asarray(rows[name], np.float64)
+        if x.shape != (B, *shared.shape):
+            raise ValueError(f"rows[{name!r}]: expected shape {(B, *shared.shape)}, got {x.shape}")
+        if T * W != B:  # padded like the state: copies of the last row
+            x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
+        tables.append(np.ascontiguousarray(x))
+    per_row = np.array([name in rows for name in ROW_TABLES], np.int32)
     dims = np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
                      pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
                      pk.follow.shape[0]], np.int32)
@@ -220,6 +244,6 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     ctrl = [_tile(np.swapaxes(np.asarray(weights, np.float64), 1, 2), W), _tile(np.asarray(k1, np.float64), W),
             _tile(np.asarray(k2, np.float64), W)]
     ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
-    _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), ptrs(st + ctrl), st[0].shape[0], int(steps))
+    _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), per_row.ctypes.data, ptrs(st + ctrl), T, int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
     return {n: _untile(a, B) for n, a in zip(names, st)}

@@ -179,3 +179,41 @@ def test_the_fishs_first_steps_agree_with_the_engine_to_the_last_bits():
     # of a creature without contacts (the fish), and only this caught it
     engine, kern = run_both(creature.load("fish"), 9, 200)
     assert relative_error(engine, kern).max() < 1e-13
+
+
+def test_rows_that_carry_their_own_numbers_step_as_each_would_alone():
+    # mixed batches (tuning, ensembles, designs): masses, friction and the step differ per row
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec, dtype="float64")
+    san, sp = random_san_params(spec, 12, 7, dtype="float64")
+    s0 = dynamics.make_state(m)
+    pk = kernel.pack(m, san.n_hidden)
+    scale = np.linspace(0.8, 1.25, 12)
+    lf = np.repeat(pk.lf[None], 12, 0)
+    lf[:, :, kernel.F_MASS] *= scale[:, None]
+    lf[:, :, kernel.F_MU] *= scale[::-1, None]
+    wf = np.repeat(pk.wf[None], 12, 0)
+    wf[:, kernel.W_DT] *= np.where(np.arange(12) % 2, 0.5, 1.0)
+    tile = lambda x: np.tile(np.asarray(x), (12,) + (1,) * np.ndim(x))
+    N = san.n_nodes
+    mixed = kernel.run_san(pk, sp.weights, sp.k1, sp.k2, tile(s0.q), tile(s0.p), tile(s0.anchor), np.zeros((12, N)),
+                           np.zeros((12, N)), 400, rows={"lf": lf, "wf": wf})
+    for i in (0, 5, 11):
+        mi = m.with_params(mass=np.asarray(m.params.mass) * scale[i], mu=np.asarray(m.params.mu) * scale[::-1][i],
+                           dt=np.asarray(m.params.dt) * (0.5 if i % 2 else 1.0))
+        one = type(sp)(*(x[i : i + 1] for x in sp))
+        alone = run_kernel(mi, san, one, s0, 400)
+        assert np.array_equal(alone["q"][0], mixed["q"][i]), i
+    assert len({mixed["q"][i].tobytes() for i in range(12)}) == 12  # the rows did differ
+
+
+def test_a_per_row_table_of_the_wrong_shape_or_name_is_refused():
+    m = sim.compile_creature(creature.load("twolink"), dtype="float64")
+    pk = kernel.pack(m, 5)
+    z = np.zeros((2, m.structure.ndof))
+    args = (np.zeros((2, 7, 10)), np.ones((2, 7)), -np.ones((2, 7)), z, z, np.zeros((2, 3, 2)), np.zeros((2, 7)),
+            np.zeros((2, 7)), 1)
+    with pytest.raises(ValueError, match="rows\\['lf'\\]: expected shape"):
+        kernel.run_san(pk, *args, rows={"lf": pk.lf})
+    with pytest.raises(ValueError, match="follow"):
+        kernel.run_san(pk, *args, rows={"follow": pk.follow})

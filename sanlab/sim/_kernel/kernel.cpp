@@ -32,9 +32,12 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 
 // Runs `steps` steps of T tiles of W creatures under SANs (kernel.py: run_san).
 // dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py); tables: the creature's tables in the
-// order of kernel.TABLES; state: q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W],
-// t, dmax [T, W] (updated in place), then the SAN's WT [T, I, N, W], k1, k2 [T, N, W]; float64.
-void sanlab_rollout_san(const int32_t *dims, const void *const *tables, double *const *state, int64_t T, int64_t steps) {
+// order of kernel.TABLES; per_row: for each float table but the follow path (lf, cf, sf, af, pf,
+// ef, wf, rough), 1 where it holds one copy per row ([T * W, ...]: mixed batches), 0 where one
+// copy serves every row; state: q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W], t,
+// dmax [T, W] (updated in place), then the SAN's WT [T, I, N, W], k1, k2 [T, N, W]; float64.
+void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
+                        int64_t T, int64_t steps) {
   Model m;
   m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
   m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
@@ -51,6 +54,8 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, double *
   const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
                           (size_t)(m.I * m.N), (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
+  const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
+                           (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
 #pragma omp parallel
   {
     vd *mem = (vd *)std::aligned_alloc(64, (nt + ns) * sizeof(vd));
@@ -58,6 +63,14 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, double *
     vd *s = mem + nt;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
+      // the tile's numbers: each lane's row's own, or the shared ones on every lane
+      vd *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
+      for (int k = 0; k < 8; ++k) {
+        const double *src = (const double *)tables[11 + k];
+        const size_t n = counts[k];
+        for (size_t v = 0; v < n; ++v)
+          for (int l = 0; l < W; ++l) dst[k][v][l] = per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v];
+      }
       vd *at = s;
       for (int k = 0; k < 10; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
       run_tile(m, tile, s, steps);

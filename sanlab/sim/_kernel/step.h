@@ -93,7 +93,7 @@ template <class V> static inline void sincos(V x, V &s, V &c) {
 enum { L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT, LI };
 enum { F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA, F_MU, F_JSPRING = 12, F_LIMIT = 15, LF = 19 };
 enum { W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
-       W_FOLLOW_SPEED };
+       W_FOLLOW_SPEED, W_COUNT };
 enum { W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP };
 enum { S_TOUCH, S_ANGLE, S_TILT, S_EYE, S_LENGTH };
 
@@ -108,8 +108,11 @@ struct Model {
 // A tile's scratch: every per-creature value of a step, one V each, carved out of one block sized
 // for the creature (tile_bytes); matrices are D x D, row-major.
 template <class V> struct Tile {
+  // the creature's numbers, one V each: a lane's own where rows carry their own (mixed batches),
+  // else the shared value on every lane (kernel.cpp fills them as a tile starts)
+  V *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough;
   V *th, (*cs)[2], (*X)[2], (*com)[2], (*mc)[2], (*S)[2], *w, (*V_)[2];
-  double *msum;
+  V *msum;
   V (*cp)[2], *depth, (*gn)[4], (*cv)[2];
   V *M, *A, *F, *Lf;
   V *Q, *u, *qd, *g, *x, *row;
@@ -122,9 +125,11 @@ template <class V> static size_t tile_layout(const Model &m, V *mem, Tile<V> &t)
   const int L = m.L, C = m.C, D = m.D;
   size_t used = 0;
   auto take = [&](size_t n) { V *r = mem ? mem + used : nullptr; used += n; return r; };
+  t.lf = take(L * LF); t.cf = take(C * 3); t.sf = take(m.S * 6); t.af = take(m.A * 8); t.pf = take(m.P * 7);
+  t.ef = take(m.E * 4); t.wf = take(W_COUNT); t.rough = take(m.K * 3);
   t.th = take(L); t.cs = (V(*)[2])take(2 * L); t.X = (V(*)[2])take(2 * L); t.com = (V(*)[2])take(2 * L);
   t.mc = (V(*)[2])take(2 * L); t.S = (V(*)[2])take(2 * L); t.w = take(L); t.V_ = (V(*)[2])take(2 * L);
-  t.msum = (double *)take(L);
+  t.msum = take(L);
   t.cp = (V(*)[2])take(2 * C); t.depth = take(C); t.gn = (V(*)[4])take(4 * C); t.cv = (V(*)[2])take(2 * C);
   t.M = take(D * D); t.A = take(D * D); t.F = take(D * D); t.Lf = take(D * D);
   t.Q = take(D); t.u = take(D); t.qd = take(D); t.g = take(D); t.x = take(D); t.row = take(D);
@@ -148,11 +153,11 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
   const int L = m.L;
   for (int i = 0; i < L; ++i) {
     const int32_t *l = m.li + i * LI;
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     int par = l[L_PARENT], rot = l[L_ROT];
     if (par < 0) {
       if (rot >= 0) t.th[i] = q[rot];
-      else t.th[i] = V{} + (l[L_DX] < 0 ? f[F_POSEA] : 0.0);
+      else t.th[i] = l[L_DX] < 0 ? f[F_POSEA] : V{};
     } else {
       t.th[i] = t.th[par] + q[rot];
     }
@@ -160,32 +165,32 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
   }
   for (int i = 0; i < L; ++i) {
     const int32_t *l = m.li + i * LI;
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     int par = l[L_PARENT];
     if (par < 0) {
       if (l[L_DX] >= 0 && l[L_POINT]) {  // a free point mass sits at its coordinates
         t.X[i][0] = q[l[L_DX]];
         t.X[i][1] = q[l[L_DY]];
       } else {  // welded to the world where the file puts it, or a free tree's root (placed below)
-        t.X[i][0] = V{} + (l[L_DX] < 0 ? f[F_POSEX] : 0.0);
-        t.X[i][1] = V{} + (l[L_DX] < 0 ? f[F_POSEY] : 0.0);
+        t.X[i][0] = l[L_DX] < 0 ? f[F_POSEX] : V{};
+        t.X[i][1] = l[L_DX] < 0 ? f[F_POSEY] : V{};
       }
     } else {
       V c = t.cs[par][0], s = t.cs[par][1];
-      double ax = f[F_ANCX], ay = f[F_ANCY];
+      V ax = f[F_ANCX], ay = f[F_ANCY];
       t.X[i][0] = t.X[par][0] + (c * ax - s * ay);
       t.X[i][1] = t.X[par][1] + (s * ax + c * ay);
     }
   }
   for (int i = 0; i < L; ++i) {
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     if (m.li[i * LI + L_POINT]) {
       t.com[i][0] = t.X[i][0];
       t.com[i][1] = t.X[i][1];
       continue;
     }
     V c = t.cs[i][0], s = t.cs[i][1];
-    double rx = f[F_COMX], ry = f[F_COMY];
+    V rx = f[F_COMX], ry = f[F_COMY];
     t.com[i][0] = t.X[i][0] + (c * rx - s * ry);
     t.com[i][1] = t.X[i][1] + (s * rx + c * ry);
   }
@@ -195,7 +200,7 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
     int r = T[0];
     for (int i = L - 1; i >= 0; --i) {
       if (m.li[i * LI + L_TREE] != tr) continue;
-      double mass = m.lf[i * LF + F_MASS], ms = mass;
+      V mass = t.lf[i * LF + F_MASS], ms = mass;
       V mx = mass * t.com[i][0], my = mass * t.com[i][1];
       for (int j = 0; j < L; ++j)
         if (m.li[j * LI + L_PARENT] == i) {
@@ -207,7 +212,7 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       t.mc[i][0] = mx;
       t.mc[i][1] = my;
     }
-    double inv = 1.0 / t.msum[r];
+    V inv = 1.0 / t.msum[r];
     int dx = m.li[r * LI + L_DX], dy = m.li[r * LI + L_DY];
     V sx = q[dx] - t.mc[r][0] * inv, sy = q[dy] - t.mc[r][1] * inv;
     for (int k = 0; k < L; ++k) {
@@ -225,7 +230,7 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
   const int kind = m.wi[W_TERRAIN];
   for (int c = 0; c < m.C; ++c) {
     int i = m.ci[c];
-    double rx = m.cf[c * 3], ry = m.cf[c * 3 + 1];
+    V rx = t.cf[c * 3], ry = t.cf[c * 3 + 1];
     V cc = t.cs[i][0], ss = t.cs[i][1];
     V px = t.X[i][0] + (cc * rx - ss * ry), py = t.X[i][1] + (ss * rx + cc * ry);
     t.cp[c][0] = px;
@@ -244,10 +249,10 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
     }
     V h, dh;
     if (kind == 1) {
-      h = m.wf[W_SLOPE] * px;
-      dh = V{} + m.wf[W_SLOPE];
+      h = t.wf[W_SLOPE] * px;
+      dh = V{} + t.wf[W_SLOPE];
     } else if (kind == 2) {
-      double H = m.wf[W_HILL_H], hw = m.wf[W_HILL_W], cx = m.wf[W_HILL_C];
+      V H = t.wf[W_HILL_H], hw = t.wf[W_HILL_W], cx = t.wf[W_HILL_C];
       V u = (px - cx) * (M_PI / hw), su, cu;
       sincos(u, su, cu);
       auto inside = Ls::abs(px - cx) < hw;
@@ -257,7 +262,7 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       h = V{};
       dh = V{};
       for (int k = 0; k < m.K; ++k) {
-        double a = m.rough[k * 3], w = m.rough[k * 3 + 1], ph = m.rough[k * 3 + 2];
+        V a = t.rough[k * 3], w = t.rough[k * 3 + 1], ph = t.rough[k * 3 + 2];
         V s, co;
         sincos(w * px + ph, s, co);
         h = h + a * s;
@@ -331,7 +336,7 @@ template <class V> static inline void mass_matrix(const Model &m, Tile<V> &t) {
   for (int i = 0; i < m.L; ++i) {
     if (m.li[i * LI + L_WELDED]) continue;
     const int32_t *idx = m.ri + i * m.R;
-    V mass = V{} + m.lf[i * LF + F_MASS], I = V{} + m.lf[i * LF + F_INERTIA];
+    V mass = V{} + t.lf[i * LF + F_MASS], I = V{} + t.lf[i * LF + F_INERTIA];
     int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{} + 1.0, V{}, t.g);
     outer(t.M, D, mass, idx, t.g, n);
     n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
@@ -420,7 +425,7 @@ template <class V> static inline void prepare(const Model &m, const V *q, const 
   }
 }
 
-template <class V> static inline void joint(Tile<V> &t, int D, int d, double h, V f, V k, V c, V rate) {
+template <class V> static inline void joint(Tile<V> &t, int D, int d, V h, V f, V k, V c, V rate) {
   t.A[d * D + d] += h * c + (h * h) * k;
   t.Q[d] += f - (h * k) * rate;
 }
@@ -431,7 +436,7 @@ template <class V> static inline void point_vel(const Tile<V> &t, int i, V px, V
   vy = t.V_[i][1] + t.w[i] * rx;
 }
 
-template <class V> static inline void point_at(const Tile<V> &t, int i, double rx, double ry, V &px, V &py) {
+template <class V> static inline void point_at(const Tile<V> &t, int i, V rx, V ry, V &px, V &py) {
   V c = t.cs[i][0], s = t.cs[i][1];
   px = t.X[i][0] + (c * rx - s * ry);
   py = t.X[i][1] + (s * rx + c * ry);
@@ -452,8 +457,8 @@ template <class V> static inline void two_point_row(const Model &m, Tile<V> &t, 
 
 // A spring-damper between a point on link la and one on link lb (local points f[0..3]):
 // F = ks (target - L) - kd L' along the line between them (dynamics._linear)
-template <class V> static inline void linear(const Model &m, Tile<V> &t, const double *f, int la, int lb, V target,
-                                             double ks, double kd, double h) {
+template <class V> static inline void linear(const Model &m, Tile<V> &t, const V *f, int la, int lb, V target, V ks,
+                                             V kd, V h) {
   const int D = m.D;
   V pax, pay, pbx, pby;
   point_at(t, la, f[0], f[1], pax, pay);
@@ -472,7 +477,7 @@ template <class V> static inline void linear(const Model &m, Tile<V> &t, const d
 
 // The stick-slip decision along one tangent (dynamics._stick_law and _stick_element): the element's
 // matrix coefficient and force, and how far behind the contact its anchor stays
-template <class V> static inline void stick_slip(V stretch, V v, V limit, double gk, double slip, double h, V &coef,
+template <class V> static inline void stick_slip(V stretch, V v, V limit, V gk, V slip, V h, V &coef,
                                                  V &f, V &held) {
   using Ls = Lanes<V>;
   V c = limit / slip;
@@ -490,14 +495,14 @@ template <class V> static inline void stick_slip(V stretch, V v, V limit, double
 template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (*anchor)[2]) {
   using Ls = Lanes<V>;
   const int D = m.D;
-  const double h = m.wf[W_DT], gk = m.wf[W_GK], slip = m.wf[W_SLIP];
+  const V h = t.wf[W_DT], gk = t.wf[W_GK], slip = t.wf[W_SLIP];
   for (int c = 0; c < m.C; ++c) {
     int i = m.ci[c];
     const int32_t *l = m.li + i * LI;
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     const int32_t *idx = m.ri + i * m.R;
     V px = t.cp[c][0], py = t.cp[c][1], vx = t.cv[c][0], vy = t.cv[c][1];
-    double N = m.cf[c * 3 + 2];
+    V N = t.cf[c * 3 + 2];
     V dx = px - anchor[c][0], dy = py - anchor[c][1];
     if (l[L_ANISO]) {
       int frm = l[L_AX_FROM], to = l[L_AX_TO];
@@ -520,7 +525,7 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
       anchor[c][0] = px - h1 * e1x - h2 * e2x;
       anchor[c][1] = py - h1 * e1y - h2 * e2y;
     } else {
-      double limit = f[F_MU] * N, cc = limit / slip;
+      V limit = f[F_MU] * N, cc = limit / slip;
       V r = Ls::sqrt(dx * dx + dy * dy);
       V scale = Ls::min(V{} + 1.0, (limit / gk) / Ls::max(r, V{} + 1e-30));
       V sx = dx * scale, sy = dy * scale;
@@ -548,10 +553,10 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
 // -k_t int (v.T) T ds (dynamics.advance)
 template <class V> static inline void water(const Model &m, Tile<V> &t) {
   const int D = m.D;
-  const double h = m.wf[W_DT], k = m.wf[W_WATER_K], kt = m.wf[W_WATER_T];
+  const V h = t.wf[W_DT], k = t.wf[W_WATER_K], kt = t.wf[W_WATER_T];
   for (int e = 0; e < m.E; ++e) {
     int i = m.ei[e];
-    const double *f = m.ef + e * 4;
+    const V *f = t.ef + e * 4;
     const int32_t *idx = m.ri + i * m.R;
     V ax, ay, bx, by;
     point_at(t, i, f[0], f[1], ax, ay);
@@ -585,9 +590,9 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
 template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
   using Ls = Lanes<V>;
   const int D = m.D;
-  const double h = m.wf[W_DT];
-  const double gk = m.wf[W_GK], gc = m.wf[W_GC], slip = m.wf[W_SLIP];
-  const double cn = h * gc + (h * h) * gk;
+  const V h = t.wf[W_DT];
+  const V gk = t.wf[W_GK], gc = t.wf[W_GC], slip = t.wf[W_SLIP];
+  const V cn = h * gc + (h * h) * gk;
   for (int c = 0; c < m.C; ++c) {
     int i = m.ci[c];
     const int32_t *l = m.li + i * LI;
@@ -600,12 +605,12 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
     auto on = (dep > 0.0) & (fn > 0.0);
     V N = Ls::sel(on, fn, V{});
     V stretch = (t.cp[c][0] - anchor[c][0]) * tx + (t.cp[c][1] - anchor[c][1]) * ty;
-    V mu = V{} + m.lf[i * LF + F_MU];
+    V mu = V{} + t.lf[i * LF + F_MU];
     if (l[L_ANISO]) {
       int frm = l[L_AX_FROM], to = l[L_AX_TO];
       V axx = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
       V axy = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
-      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0, mu, V{} + m.lf[i * LF + F_MU + 1]);
+      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0, mu, V{} + t.lf[i * LF + F_MU + 1]);
     }
     V limit = mu * N;
     V cs_ = limit / slip;
@@ -635,7 +640,7 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
 template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, V *p, V (*anchor)[2], V &dmax) {
   using Ls = Lanes<V>;
   const int D = m.D, L = m.L;
-  const double h = m.wf[W_DT];
+  const V h = t.wf[W_DT];
   for (int a = 0; a < D; ++a) t.Q[a] = V{};
   for (int a = 0; a < D * D; ++a) t.A[a] = t.M[a];
   // the inertial force dT/dq at fixed velocities
@@ -648,7 +653,7 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
     for (int i = 0; i < L; ++i) {
       const int32_t *l = m.li + i * LI;
       if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
-      double mass = m.lf[i * LF + F_MASS];
+      V mass = t.lf[i * LF + F_MASS];
       V rx = t.com[i][0] - t.X[i][0], ry = t.com[i][1] - t.X[i][1];
       V vx = t.V_[i][0] - t.w[i] * ry, vy = t.V_[i][1] + t.w[i] * rx;
       V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
@@ -665,22 +670,22 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   }
   // gravity, in the vertical plane: on a free tree's centre of mass, link by link in a welded tree
   if (m.wi[W_PLANE] == 0) {
-    const double grav = m.wf[W_GRAVITY];
+    const V grav = t.wf[W_GRAVITY];
     for (int a = 0; a < D; ++a) t.x[a] = V{};
     for (int tr = 0; tr < m.T; ++tr) {
       const int32_t *T = m.ti + tr * 3;
       int r = T[0];
       if (T[1] == 1) {
-        double mt = 0.0;
+        V mt{};
         for (int i = 0; i < L; ++i)
-          if (m.li[i * LI + L_TREE] == tr) mt = mt + m.lf[i * LF + F_MASS];
+          if (m.li[i * LI + L_TREE] == tr) mt = mt + t.lf[i * LF + F_MASS];
         t.x[m.li[r * LI + L_DY]] = V{} - (mt * grav);
         continue;
       }
       for (int i = 0; i < L; ++i) {
         if (m.li[i * LI + L_TREE] != tr || m.li[i * LI + L_PARENT] < 0) continue;
         int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
-        force(t.Q, V{} - (m.lf[i * LF + F_MASS] * grav), m.ri + i * m.R, t.g, n);
+        force(t.Q, V{} - (t.lf[i * LF + F_MASS] * grav), m.ri + i * m.R, t.g, n);
       }
     }
     turn(m, t, t.x, -1, 1);
@@ -690,18 +695,18 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   for (int i = 0; i < L; ++i) {
     const int32_t *l = m.li + i * LI;
     if (!l[L_SPRING]) continue;
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     int d = l[L_ROT];
-    double k = f[F_JSPRING], c = f[F_JSPRING + 1], rest = f[F_JSPRING + 2];
+    V k = f[F_JSPRING], c = f[F_JSPRING + 1], rest = f[F_JSPRING + 2];
     V phi = t.th[i] - t.th[l[L_PARENT]];
     joint(t, D, d, h, -k * (phi - rest) - c * t.u[d], V{} + k, V{} + c, t.u[d]);
   }
   for (int i = 0; i < L; ++i) {
     const int32_t *l = m.li + i * LI;
     if (!l[L_LIMIT]) continue;
-    const double *f = m.lf + i * LF;
+    const V *f = t.lf + i * LF;
     int d = l[L_ROT];
-    double lo = f[F_LIMIT], hi = f[F_LIMIT + 1], k = f[F_LIMIT + 2], c = f[F_LIMIT + 3];
+    V lo = f[F_LIMIT], hi = f[F_LIMIT + 1], k = f[F_LIMIT + 2], c = f[F_LIMIT + 3];
     V phi = t.th[i] - t.th[l[L_PARENT]];
     V below = Ls::max(k * (lo - phi) - c * t.u[d], V{});
     V above = Ls::min(k * (hi - phi) - c * t.u[d], V{});
@@ -713,7 +718,7 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   // actuators: angular servos at a joint, linear ones between two points
   for (int a = 0; a < m.A; ++a) {
     const int32_t *ai = m.ai + a * 3;
-    const double *f = m.af + a * 8;
+    const V *f = t.af + a * 8;
     V target = f[0] + t.act[a] * (f[1] - f[0]);
     if (ai[0] == 0) {
       int j = ai[1], d = m.li[j * LI + L_ROT];
@@ -724,7 +729,7 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
     }
   }
   for (int n = 0; n < m.P; ++n) {
-    const double *f = m.pf + n * 7;
+    const V *f = t.pf + n * 7;
     linear(m, t, f, m.pi[n * 2], m.pi[n * 2 + 1], V{} + f[6], f[4], f[5], h);
   }
   if (m.wi[W_PLANE] == 0) ground_laws(m, t, anchor, dmax);
@@ -752,10 +757,10 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
 
 // The follow point at time `time` (s): linear interpolation in the path's arc-length table
 // (dynamics.follow_point)
-template <class V> static inline void follow_point(const Model &m, V time, V &x, V &y) {
+template <class V> static inline void follow_point(const Model &m, const Tile<V> &t, V time, V &x, V &y) {
   using Ls = Lanes<V>;
   const int n = m.F;
-  V u = m.wf[W_FOLLOW_SPEED] * time / m.wf[W_FOLLOW_DS];
+  V u = t.wf[W_FOLLOW_SPEED] * time / t.wf[W_FOLLOW_DS];
   for (int l = 0; l < Ls::W; ++l) {
     double ul = Ls::lane(u, l);
     if (m.wi[W_FOLLOW_LOOP]) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
@@ -773,10 +778,10 @@ template <class V> static inline void follow_point(const Model &m, V time, V &x,
 template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) {
   using Ls = Lanes<V>;
   V fx{}, fy{};
-  if (m.wi[W_FOLLOW]) follow_point(m, time, fx, fy);
+  if (m.wi[W_FOLLOW]) follow_point(m, t, time, fx, fy);
   for (int s = 0; s < m.S; ++s) {
     const int32_t *si = m.si + s * 4;
-    const double *sf = m.sf + s * 6;
+    const V *sf = t.sf + s * 6;
     int kind = si[0];
     if (kind == S_TOUCH) {
       t.bits[s] = m.wi[W_PLANE] == 1 ? V{} + 1.0 : Ls::sel(t.depth[si[1]] > 0.0, V{} + 1.0, V{});
@@ -812,7 +817,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
 template <class V> static inline void san(const Model &m, Tile<V> &t, const V *WT, const V *k1, const V *k2, V *istate, V *out) {
   using Ls = Lanes<V>;
   const int N = m.N, S = m.S, H = m.wi[W_HIDDEN];
-  const double dt = m.wf[W_DT];
+  const V dt = t.wf[W_DT];
   for (int n = 0; n < N; ++n) t.total[n] = V{};
   for (int i = 0; i < S; ++i)
     for (int n = 0; n < N; ++n) t.total[n] += WT[i * N + n] * t.bits[i];
