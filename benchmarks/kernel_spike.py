@@ -11,6 +11,9 @@ Printed, each as a ratio to the engine in the same run (these machines vary 2x r
 - the first call of a creature no process has compiled (the bounder, and a 9-link chain): the
   engine traces and compiles it (no compile cache), the kernels only pack its tables;
 - µs per step at batch 1, 32 and 2048 (random SANs, dt = 1 ms);
+- against MuJoCo's own C rollout loop (``mujoco.rollout`` on the converted model, open-loop servo
+  targets: benchmarks/mujoco_route.py): the bounder at batch 1 on one thread and at batch 2048 on
+  every core, and each chain of the growth table;
 - growth: ns per creature-step of N-link chains (benchmarks/chains.py) on the C++ kernel;
 - agreement: the final states of 64 random SANs after 1000 steps, kernel against the engine in
   float64 (relative to the state's size): median and worst.
@@ -101,7 +104,15 @@ def main() -> None:
             ratios[(f, B)] = e / k
             line += f" | {f} {k / steps * 1e6:.2f} us ({e / k:.2f}x)"
         print(line, flush=True)
-    print("growth, c++ kernel, batch 256, ns per creature-step:")
+    from mujoco_route import mujoco_c_loop_steps_per_s
+
+    mj1 = mujoco_c_loop_steps_per_s(spec, batch=1, steps=4000, threads=1)
+    mjb = mujoco_c_loop_steps_per_s(spec, batch=2048, steps=200)
+    k1 = bk.best(bk.prepared("c++", spec, 1, 4000, 0), 3) / 4000
+    kb = bk.best(bk.prepared("c++", spec, 2048, 200, 0), 3) / (2048 * 200)
+    print(f"bounder against MuJoCo's C loop: batch 1 (one thread) {1e6 / mj1:.2f} us/step, c++ {k1 * 1e6:.2f} us "
+          f"({1 / (k1 * mj1):.2f}x); batch 2048 {mjb / 1e6:.3f} M/s, c++ {1e-6 / kb:.3f} M/s ({1 / (kb * mjb):.1f}x)")
+    print("growth, c++ kernel, batch 256, ns per creature-step (MuJoCo's C loop on the same chain, batch 64):")
     from chains import chain_creature
 
     cost = {}
@@ -109,7 +120,8 @@ def main() -> None:
         steps = 200
         k = bk.best(bk.prepared("c++", chain_creature(n), 256, steps, 0), 2)
         cost[n] = k / (256 * steps) * 1e9
-        print(f"  {n} links: {cost[n]:.0f} ns", flush=True)
+        mj = 1e9 / mujoco_c_loop_steps_per_s(chain_creature(n), batch=64, steps=1000)
+        print(f"  {n} links: {cost[n]:.0f} ns, MuJoCo {mj:.0f} ns ({mj / cost[n]:.1f}x)", flush=True)
     if len(cost) > 1:
         lo, hi = min(cost), max(cost)
         print(f"  cost({hi})/cost({lo}) = {cost[hi] / cost[lo]:.1f}")
