@@ -92,11 +92,11 @@ def run_both(spec, B: int, steps: int, lift: float = 0.0, seed: int = 0):
     return np.asarray(r.state.q), run_kernel(m, san, sp, s0, steps)["q"]
 
 
-def run_kernel(m, san, sp, s0, steps: int) -> dict:
+def run_kernel(m, san, sp, s0, steps: int, articulated: bool | None = None) -> dict:
     B = sp.weights.shape[0]
     tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
     N = san.n_nodes
-    return kernel.run_san(kernel.pack(m, san.n_hidden), np.asarray(sp.weights), np.asarray(sp.k1), np.asarray(sp.k2),
+    return kernel.run_san(kernel.pack(m, san.n_hidden, articulated), np.asarray(sp.weights), np.asarray(sp.k1), np.asarray(sp.k2),
                           tile(s0.q), tile(s0.p), tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)), steps)
 
 
@@ -217,3 +217,15 @@ def test_a_per_row_table_of_the_wrong_shape_or_name_is_refused():
         kernel.run_san(pk, *args, rows={"lf": pk.lf})
     with pytest.raises(ValueError, match="follow"):
         kernel.run_san(pk, *args, rows={"follow": pk.follow})
+
+
+@pytest.mark.parametrize("source", ["walker", "chain6"])
+def test_the_two_routes_of_the_kernels_linear_algebra_agree(source):
+    # dense L D L^T against the O(n) articulated-body recursion, over the first 300 steps
+    spec = creature.loads(chain(6), source="chain6") if source == "chain6" else creature.load(source)
+    san, sp = random_san_params(spec, 16, 2, dtype="float64")
+    m = sim.compile_creature(spec, dtype="float64")
+    out = [run_kernel(m, san, sp, dynamics.make_state(m), 300, articulated=a)["q"] for a in (False, True)]
+    assert relative_error(out[0], out[1]).max() < 1e-12
+    with pytest.raises(ValueError, match="trees of rigid links"):
+        kernel.pack(sim.compile_creature(creature.load("crawler"), dtype="float64"), 10, articulated=True)

@@ -11,18 +11,19 @@ using namespace sanlab;
 
 // A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], istate,
 // out [N], t, dmax, then the SAN's WT [I][N], k1, k2 [N]
-template <class V> static size_t state_values(const Model &m) { return 2 * m.D + 2 * m.C + 2 * m.N + 2 + m.I * m.N + 2 * m.N; }
+// A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], istate,
+// out [N], t, dmax, then the SAN's k1, k2 [N]
+template <class V> static size_t state_values(const Model &m) { return 2 * m.D + 2 * m.C + 2 * m.N + 2 + 2 * m.N; }
 
-template <class V> static void run_tile(const Model &m, Tile<V> &t, V *s, int64_t steps) {
-  const double h = m.wf[W_DT];
+template <class V> static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int NP, int64_t steps) {
   V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *istate = (V *)(anchor + m.C), *out = istate + m.N;
-  V *time = out + m.N, *dmax = time + 1, *WT = dmax + 1, *k1 = WT + m.I * m.N, *k2 = k1 + m.N;
+  V *time = out + m.N, *dmax = time + 1, *k1 = dmax + 1, *k2 = k1 + m.N;
   for (int64_t n = 0; n < steps; ++n) {
     prepare(m, q, p, t);
     sense(m, t, *time);
-    san(m, t, WT, k1, k2, istate, out);
+    san(m, t, weights, NP, k1, k2, istate, out);
     advance(m, t, q, p, anchor, *dmax);
-    *time = *time + h;
+    *time = *time + t.wf[W_DT];
   }
 }
 
@@ -35,9 +36,11 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // order of kernel.TABLES; per_row: for each float table but the follow path (lf, cf, sf, af, pf,
 // ef, wf, rough), 1 where it holds one copy per row ([T * W, ...]: mixed batches), 0 where one
 // copy serves every row; state: q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W], t,
-// dmax [T, W] (updated in place), then the SAN's WT [T, I, N, W], k1, k2 [T, N, W]; float64.
+// dmax [T, W] (updated in place), then the SAN's k1, k2 [T, N, W]; float64; weights: the SAN's
+// int16 [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node
+// count rounded up to a multiple of 32 (zeros past N).
 void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
-                        int64_t T, int64_t steps) {
+                        const int16_t *weights, int32_t NP, int64_t T, int64_t steps) {
   Model m;
   m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
   m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
@@ -49,10 +52,19 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
   std::vector<int32_t> dense(m.D);
   for (int d = 0; d < m.D; ++d) dense[d] = d;
   m.dense_idx = dense.data();
+  std::vector<int32_t> kid_start(m.L + 1, 0), kids;
+  for (int i = 0; i < m.L; ++i) {
+    for (int j = 0; j < m.L; ++j)
+      if (m.li[j * LI + L_PARENT] == i) kids.push_back(j);
+    kid_start[i + 1] = (int32_t)kids.size();
+  }
+  kids.push_back(0);  // never read: keeps data() valid for a creature of one link
+  m.kid_start = kid_start.data();
+  m.kids = kids.data();
   const int W = Lanes<vd>::W;
   const size_t nt = tile_values<vd>(m), ns = state_values<vd>(m);
   const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
-                          (size_t)(m.I * m.N), (size_t)m.N, (size_t)m.N};
+                          (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
   const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
                            (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
@@ -72,8 +84,8 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
           for (int l = 0; l < W; ++l) dst[k][v][l] = per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v];
       }
       vd *at = s;
-      for (int k = 0; k < 10; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
-      run_tile(m, tile, s, steps);
+      for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
+      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps);
       at = s;
       for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
     }

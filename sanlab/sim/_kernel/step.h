@@ -94,7 +94,7 @@ enum { L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FRO
 enum { F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA, F_MU, F_JSPRING = 12, F_LIMIT = 15, LF = 19 };
 enum { W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
        W_FOLLOW_SPEED, W_COUNT };
-enum { W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP };
+enum { W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED };
 enum { S_TOUCH, S_ANGLE, S_TILT, S_EYE, S_LENGTH };
 
 // The creature as tables (kernel.py: Packed, in the order of kernel.TABLES)
@@ -103,6 +103,7 @@ struct Model {
   const int32_t *li, *ri, *rl, *rn, *ti, *ci, *si, *ai, *pi, *ei, *wi;
   const double *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough, *follow;
   const int32_t *dense_idx;  // 0, 1, ..., D - 1: a row over every dof
+  const int32_t *kid_start, *kids;  // each link's children, in link order: kids[kid_start[i] .. kid_start[i + 1])
 };
 
 // A tile's scratch: every per-creature value of a step, one V each, carved out of one block sized
@@ -117,6 +118,11 @@ template <class V> struct Tile {
   V *M, *A, *F, *Lf;
   V *Q, *u, *qd, *g, *x, *row;
   V *total, *bits, *act;
+  // the articulated route (art.h): per body its spatial inertia about its tree's reference
+  // point, joint motion subspace, the step's extra inertia E and spatial force F, and the
+  // recursion's articulated inertias and biases; per dof the extra diagonal (armature)
+  V (*I)[6], (*s)[3], (*E)[6], (*Fb)[3], (*IA)[6], (*pA)[3], (*U)[3], *invD, *uu, (*acc)[3], (*Hb)[3], *arm;
+  bool art;  // which route: the model's W_ARTICULATED
 };
 
 // Lays out a tile's scratch from `mem` on; returns how many values of V it takes (the layout is
@@ -134,6 +140,9 @@ template <class V> static size_t tile_layout(const Model &m, V *mem, Tile<V> &t)
   t.M = take(D * D); t.A = take(D * D); t.F = take(D * D); t.Lf = take(D * D);
   t.Q = take(D); t.u = take(D); t.qd = take(D); t.g = take(D); t.x = take(D); t.row = take(D);
   t.total = take(m.N); t.bits = take(m.S); t.act = take(m.A);
+  t.I = (V(*)[6])take(6 * L); t.s = (V(*)[3])take(3 * L); t.E = (V(*)[6])take(6 * L); t.Fb = (V(*)[3])take(3 * L);
+  t.IA = (V(*)[6])take(6 * L); t.pA = (V(*)[3])take(3 * L); t.U = (V(*)[3])take(3 * L); t.invD = take(L);
+  t.uu = take(L); t.acc = (V(*)[3])take(3 * L); t.Hb = (V(*)[3])take(3 * L); t.arm = take(D);
   return used;
 }
 
@@ -145,6 +154,7 @@ template <class V> static size_t tile_values(const Model &m) {
 template <class V> static Tile<V> tile_at(const Model &m, V *mem) {
   Tile<V> t;
   tile_layout<V>(m, mem, t);
+  t.art = m.wi[W_ARTICULATED] != 0;
   return t;
 }
 
@@ -202,12 +212,12 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       if (m.li[i * LI + L_TREE] != tr) continue;
       V mass = t.lf[i * LF + F_MASS], ms = mass;
       V mx = mass * t.com[i][0], my = mass * t.com[i][1];
-      for (int j = 0; j < L; ++j)
-        if (m.li[j * LI + L_PARENT] == i) {
-          ms = ms + t.msum[j];
-          mx = mx + t.mc[j][0];
-          my = my + t.mc[j][1];
-        }
+      for (int k = m.kid_start[i]; k < m.kid_start[i + 1]; ++k) {
+        int j = m.kids[k];
+        ms = ms + t.msum[j];
+        mx = mx + t.mc[j][0];
+        my = my + t.mc[j][1];
+      }
       t.msum[i] = ms;
       t.mc[i][0] = mx;
       t.mc[i][1] = my;
@@ -330,6 +340,185 @@ template <class V> static inline void force(V *Q, V f, const int32_t *idx, const
   for (int a = 0; a < n; ++a) Q[idx[a]] += f * g[a];
 }
 
+// ---------------------------------------------------------------- the articulated route
+//
+// For trees of rigid links (no point masses, nothing that joins two bodies): the step's matrices
+// are never formed. Each body's mass and each element acting on one body is a planar spatial
+// inertia (a symmetric 3 x 3 over the body's spatial velocity (w, vx, vy) at its tree's
+// reference point, the root's origin); joint-space elements add to their joint's diagonal.
+// Featherstone's articulated-body recursion solves with that matrix and the composite-body
+// recursion multiplies by M, each in O(n) (sanlab/sim/articulated.py, the engine's same route).
+
+// the reference point of link i's tree: its root's origin
+template <class V> static inline void ref_of(const Model &m, const Tile<V> &t, int i, V &rx, V &ry) {
+  int r = m.ti[m.li[i * LI + L_TREE] * 3];
+  rx = t.X[r][0];
+  ry = t.X[r][1];
+}
+
+template <class V> static inline void sym_outer(V *A, V c, const V *a) {
+  A[0] += (c * a[0]) * a[0]; A[1] += (c * a[0]) * a[1]; A[2] += (c * a[0]) * a[2];
+  A[3] += (c * a[1]) * a[1]; A[4] += (c * a[1]) * a[2]; A[5] += (c * a[2]) * a[2];
+}
+
+template <class V> static inline void sym_vec(const V *A, const V *x, V *y) {
+  y[0] = A[0] * x[0] + A[1] * x[1] + A[2] * x[2];
+  y[1] = A[1] * x[0] + A[3] * x[1] + A[4] * x[2];
+  y[2] = A[2] * x[0] + A[4] * x[1] + A[5] * x[2];
+}
+
+template <class V> static inline V dot3(const V *a, const V *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// The body row of a world point (px, py) on link i along n: (r x n, n_x, n_y), r from the
+// tree's reference point
+template <class V> static inline void body_row(const Model &m, const Tile<V> &t, int i, V px, V py, V nx, V ny, V *a) {
+  V rx, ry;
+  ref_of(m, t, i, rx, ry);
+  rx = px - rx;
+  ry = py - ry;
+  a[0] = rx * ny - ry * nx;
+  a[1] = nx;
+  a[2] = ny;
+}
+
+// Each body's spatial inertia and each joint's motion subspace (articulated.Bodies)
+template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
+  for (int i = 0; i < m.L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    if (l[L_WELDED]) continue;
+    V rx, ry;
+    ref_of(m, t, i, rx, ry);
+    V mass = t.lf[i * LF + F_MASS], cx = t.com[i][0] - rx, cy = t.com[i][1] - ry;
+    V mcx = mass * cx, mcy = mass * cy;
+    V *I = t.I[i];
+    I[0] = t.lf[i * LF + F_INERTIA] + (mcx * cx + mcy * cy);
+    I[1] = -mcy; I[2] = mcx; I[3] = mass; I[4] = V{}; I[5] = mass;
+    if (l[L_PARENT] >= 0) {
+      t.s[i][0] = V{} + 1.0;
+      t.s[i][1] = t.X[i][1] - ry;
+      t.s[i][2] = -(t.X[i][0] - rx);
+    }
+  }
+}
+
+// y = M x in tree coordinates: body momenta summed leaves first, projected on each joint
+template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, const V *x, V *y) {
+  for (int d = 0; d < m.D; ++d) y[d] = V{};
+  V (*Vb)[3] = t.acc;
+  for (int i = 0; i < m.L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    if (l[L_WELDED]) continue;
+    int par = l[L_PARENT];
+    if (par < 0) {
+      Vb[i][0] = x[l[L_ROT]]; Vb[i][1] = x[l[L_DX]]; Vb[i][2] = x[l[L_DY]];
+    } else if (m.li[par * LI + L_WELDED]) {
+      for (int k = 0; k < 3; ++k) Vb[i][k] = x[l[L_ROT]] * t.s[i][k];
+    } else {
+      for (int k = 0; k < 3; ++k) Vb[i][k] = Vb[par][k] + x[l[L_ROT]] * t.s[i][k];
+    }
+  }
+  for (int i = m.L - 1; i >= 0; --i) {
+    const int32_t *l = m.li + i * LI;
+    if (l[L_WELDED]) continue;
+    V h[3];
+    sym_vec(t.I[i], Vb[i], h);
+    for (int k = m.kid_start[i]; k < m.kid_start[i + 1]; ++k)
+      for (int q = 0; q < 3; ++q) h[q] = h[q] + t.Hb[m.kids[k]][q];
+    for (int k = 0; k < 3; ++k) t.Hb[i][k] = h[k];
+    if (l[L_PARENT] >= 0) y[l[L_ROT]] = dot3(t.s[i], h);
+    else { y[l[L_ROT]] = h[0]; y[l[L_DX]] = h[1]; y[l[L_DY]] = h[2]; }
+  }
+}
+
+// x = (M + sum J^T E J + diag(arm))^-1 (b + sum J^T F): the articulated-body recursion
+// (articulated.Bodies.solve); with_terms = 0 solves with M alone
+template <class V> static inline void art_solve(const Model &m, Tile<V> &t, const V *b, V *x, int with_terms) {
+  using Ls = Lanes<V>;
+  for (int i = 0; i < m.L; ++i) {
+    if (m.li[i * LI + L_WELDED]) continue;
+    for (int k = 0; k < 6; ++k) t.IA[i][k] = with_terms ? t.I[i][k] + t.E[i][k] : t.I[i][k];
+    for (int k = 0; k < 3; ++k) t.pA[i][k] = with_terms ? -t.Fb[i][k] : V{};
+  }
+  for (int i = m.L - 1; i >= 0; --i) {
+    const int32_t *l = m.li + i * LI;
+    int par = l[L_PARENT], d = l[L_ROT];
+    if (par < 0) continue;
+    V *s = t.s[i], Ui[3];
+    sym_vec(t.IA[i], s, Ui);
+    V D = dot3(s, Ui) + (with_terms ? t.arm[d] : V{});
+    V inv = 1.0 / D, ui = b[d] - dot3(s, t.pA[i]);
+    for (int k = 0; k < 3; ++k) t.U[i][k] = Ui[k];
+    t.invD[i] = inv;
+    t.uu[i] = ui;
+    if (m.li[par * LI + L_WELDED]) continue;  // the world takes it
+    V Uinv[3] = {Ui[0] * inv, Ui[1] * inv, Ui[2] * inv};
+    static const int P[6] = {0, 0, 0, 1, 1, 2}, Qi[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 6; ++k) t.IA[par][k] = t.IA[par][k] + (t.IA[i][k] - Uinv[P[k]] * Ui[Qi[k]]);
+    for (int k = 0; k < 3; ++k) t.pA[par][k] = t.pA[par][k] + (t.pA[i][k] + ui * Uinv[k]);
+  }
+  for (int tr = 0; tr < m.T; ++tr) {
+    const int32_t *T = m.ti + tr * 3;
+    int r = T[0];
+    if (!T[1]) continue;
+    // the free root: a 3 x 3 system over (root angle rate, root origin velocity), L D L^T in the
+    // order y, x, w (the engine's SymMatrix([2, 1, 0]))
+    const int32_t *l = m.li + r * LI;
+    const int dofs[3] = {l[L_ROT], l[L_DX], l[L_DY]};
+    V K[3][3], rhs[3];
+    const V *A = t.IA[r];
+    K[0][0] = A[0]; K[0][1] = K[1][0] = A[1]; K[0][2] = K[2][0] = A[2];
+    K[1][1] = A[3]; K[1][2] = K[2][1] = A[4]; K[2][2] = A[5];
+    for (int k = 0; k < 3; ++k) {
+      if (with_terms) K[k][k] = K[k][k] + t.arm[dofs[k]];
+      rhs[k] = b[dofs[k]] - t.pA[r][k];
+    }
+    V Lf[3][3], dinv[3];
+    for (int k = 2; k >= 0; --k) {
+      dinv[k] = 1.0 / K[k][k];
+      for (int i = 0; i < k; ++i) Lf[k][i] = K[i][k] * dinv[k];
+      for (int i = k - 1; i >= 0; --i)
+        for (int j = k - 1; j >= i; --j) K[j][i] = K[i][j] = K[i][j] - Lf[k][i] * K[j][k];
+    }
+    V y[3] = {rhs[0], rhs[1], rhs[2]};
+    for (int k = 2; k >= 0; --k)
+      for (int i = k - 1; i >= 0; --i) y[i] = y[i] - Lf[k][i] * y[k];
+    for (int k = 0; k < 3; ++k) y[k] = y[k] * dinv[k];
+    for (int k = 0; k < 3; ++k)
+      for (int i = k - 1; i >= 0; --i) y[k] = y[k] - Lf[k][i] * y[i];
+    for (int k = 0; k < 3; ++k) {
+      t.acc[r][k] = y[k];
+      x[dofs[k]] = y[k];
+    }
+  }
+  for (int i = 0; i < m.L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    int par = l[L_PARENT];
+    if (par < 0) continue;
+    V ap[3] = {V{}, V{}, V{}};
+    if (!m.li[par * LI + L_WELDED]) for (int k = 0; k < 3; ++k) ap[k] = t.acc[par][k];
+    V xi = (t.uu[i] - dot3(t.U[i], ap)) * t.invD[i];
+    x[l[L_ROT]] = xi;
+    for (int k = 0; k < 3; ++k) t.acc[i][k] = ap[k] + xi * t.s[i][k];
+  }
+  (void)sizeof(Ls);
+}
+
+// An element along a point's row: the step's matrix gains coef g g^T and its force f g, for the
+// row g = J^T n of world point (px, py) on link i (dense), or the body row's (articulated)
+template <class V> static inline void row_element(const Model &m, Tile<V> &t, int i, V px, V py, V nx, V ny, V coef,
+                                                  V f, bool with_matrix = true) {
+  if (m.wi[W_ARTICULATED]) {
+    V a[3];
+    body_row(m, t, i, px, py, nx, ny, a);
+    if (with_matrix) sym_outer(t.E[i], coef, a);
+    for (int k = 0; k < 3; ++k) t.Fb[i][k] = t.Fb[i][k] + f * a[k];
+    return;
+  }
+  int n = point_row(m, t, i, px, py, nx, ny, t.g);
+  if (with_matrix) outer(t.A, m.D, coef, m.ri + i * m.R, t.g, n);
+  force(t.Q, f, m.ri + i * m.R, t.g, n);
+}
+
 template <class V> static inline void mass_matrix(const Model &m, Tile<V> &t) {
   const int D = m.D;
   for (int a = 0; a < D * D; ++a) t.M[a] = V{};
@@ -397,10 +586,15 @@ template <class V> static inline void turn(const Model &m, const Tile<V> &t, V *
 template <class V> static inline void prepare(const Model &m, const V *q, const V *p, Tile<V> &t) {
   const int D = m.D;
   positions(m, q, t);
-  mass_matrix(m, t);
   for (int d = 0; d < D; ++d) t.x[d] = p[d];
   turn(m, t, t.x, -1, 1);
-  solve(t, t.M, t.x, t.u, D);
+  if (m.wi[W_ARTICULATED]) {
+    bodies(m, t);
+    art_solve(m, t, t.x, t.u, 0);
+  } else {
+    mass_matrix(m, t);
+    solve(t, t.M, t.x, t.u, D);
+  }
   for (int d = 0; d < D; ++d) t.qd[d] = t.u[d];
   turn(m, t, t.qd, -1, 0);
   for (int i = 0; i < m.L; ++i) {
@@ -426,7 +620,8 @@ template <class V> static inline void prepare(const Model &m, const V *q, const 
 }
 
 template <class V> static inline void joint(Tile<V> &t, int D, int d, V h, V f, V k, V c, V rate) {
-  t.A[d * D + d] += h * c + (h * h) * k;
+  if (t.art) t.arm[d] += h * c + (h * h) * k;
+  else t.A[d * D + d] += h * c + (h * h) * k;
   t.Q[d] += f - (h * k) * rate;
 }
 
@@ -494,13 +689,11 @@ template <class V> static inline void stick_slip(V stretch, V v, V limit, V gk, 
 // (dynamics._plane_laws): anisotropic along a link axis, or isotropic within a disc
 template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (*anchor)[2]) {
   using Ls = Lanes<V>;
-  const int D = m.D;
   const V h = t.wf[W_DT], gk = t.wf[W_GK], slip = t.wf[W_SLIP];
   for (int c = 0; c < m.C; ++c) {
     int i = m.ci[c];
     const int32_t *l = m.li + i * LI;
     const V *f = t.lf + i * LF;
-    const int32_t *idx = m.ri + i * m.R;
     V px = t.cp[c][0], py = t.cp[c][1], vx = t.cv[c][0], vy = t.cv[c][1];
     V N = t.cf[c * 3 + 2];
     V dx = px - anchor[c][0], dy = py - anchor[c][1];
@@ -516,12 +709,8 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
       V c1, f1, h1, c2, f2, h2;
       stick_slip(s1, va, mu * N, gk, slip, h, c1, f1, h1);
       stick_slip(s2, vl, V{} + f[F_MU + 2] * N, gk, slip, h, c2, f2, h2);
-      int n = point_row(m, t, i, px, py, e1x, e1y, t.g);
-      outer(t.A, D, c1, idx, t.g, n);
-      force(t.Q, f1, idx, t.g, n);
-      n = point_row(m, t, i, px, py, e2x, e2y, t.g);
-      outer(t.A, D, c2, idx, t.g, n);
-      force(t.Q, f2, idx, t.g, n);
+      row_element(m, t, i, px, py, e1x, e1y, c1, f1);
+      row_element(m, t, i, px, py, e2x, e2y, c2, f2);
       anchor[c][0] = px - h1 * e1x - h2 * e2x;
       anchor[c][1] = py - h1 * e1y - h2 * e2y;
     } else {
@@ -539,9 +728,7 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
       V trial[2] = {tx, ty}, vel[2] = {vx, vy};
       for (int a = 0; a < 2; ++a) {
         V *e = a == 0 ? e0 : e1;
-        int n = point_row(m, t, i, px, py, e[0], e[1], t.g);
-        outer(t.A, D, coef, idx, t.g, n);
-        force(t.Q, Ls::sel(stick, trial[a], -slide * vel[a]) - (h * ks) * vel[a], idx, t.g, n);
+        row_element(m, t, i, px, py, e[0], e[1], coef, Ls::sel(stick, trial[a], -slide * vel[a]) - (h * ks) * vel[a]);
       }
       anchor[c][0] = px - Ls::sel(stick, sx, V{});
       anchor[c][1] = py - Ls::sel(stick, sy, V{});
@@ -570,6 +757,20 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     bool point = m.li[i * LI + L_POINT];
     V w = point ? V{} : t.w[i];
     V c1 = k * L, c2 = k * L * L / 2.0, c3 = k * L * L * L / 3.0;
+    V vt = vax * tx + vay * ty, ct = kt * L;
+    if (m.wi[W_ARTICULATED]) {  // the normal row on the body, and its rotation row (1, 0, 0)
+      V an[3], aw[3] = {V{} + 1.0, V{}, V{}};
+      body_row(m, t, i, ax, ay, nx, ny, an);
+      V *E = t.E[i];
+      sym_outer(E, h * c1, an);
+      static const int P[6] = {0, 0, 0, 1, 1, 2}, Qi[6] = {0, 1, 2, 1, 2, 2};
+      for (int q = 0; q < 6; ++q) E[q] += (h * c2 * an[P[q]]) * aw[Qi[q]] + (h * c2 * aw[P[q]]) * an[Qi[q]];
+      sym_outer(E, h * c3, aw);
+      V fn_ = -(c1 * vn + c2 * w), fw = -(c2 * vn + c3 * w);
+      for (int q = 0; q < 3; ++q) t.Fb[i][q] = t.Fb[i][q] + fn_ * an[q] + fw * aw[q];
+      row_element(m, t, i, ax, ay, tx, ty, h * ct, -ct * vt);
+      continue;
+    }
     int n = point_row(m, t, i, ax, ay, nx, ny, t.g);
     V *gw = t.row;  // the link's rotation row on the same dofs
     for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.R + a] >= 0) ? 1.0 : 0.0);
@@ -578,7 +779,6 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     outer(t.A, D, h * c3, idx, gw, n);
     force(t.Q, -(c1 * vn + c2 * w), idx, t.g, n);
     force(t.Q, -(c2 * vn + c3 * w), idx, gw, n);
-    V vt = vax * tx + vay * ty, ct = kt * L;
     n = point_row(m, t, i, ax, ay, tx, ty, t.g);
     outer(t.A, D, h * ct, idx, t.g, n);
     force(t.Q, -ct * vt, idx, t.g, n);
@@ -589,7 +789,6 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
 // elements of the step (dynamics._ground_laws); a contact no lane touches adds nothing
 template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
   using Ls = Lanes<V>;
-  const int D = m.D;
   const V h = t.wf[W_DT];
   const V gk = t.wf[W_GK], gc = t.wf[W_GC], slip = t.wf[W_SLIP];
   const V cn = h * gc + (h * h) * gk;
@@ -619,19 +818,48 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
     V slide = limit / Ls::max(Ls::abs(vt), V{} + slip);
     auto stick = (limit > 0.0) & (Ls::abs(trial) <= limit);
     V held = Ls::sel(stick, s, V{});
-    const int32_t *idx = m.ri + i * m.R;
     if (Ls::any(on)) {
-      int n = point_row(m, t, i, t.cp[c][0], t.cp[c][1], nx, ny, t.g);
-      outer(t.A, D, Ls::sel(on, V{} + cn, V{}), idx, t.g, n);
-      force(t.Q, Ls::sel(on, fn - (h * gk) * vn, V{}), idx, t.g, n);
+      row_element(m, t, i, t.cp[c][0], t.cp[c][1], nx, ny, Ls::sel(on, V{} + cn, V{}),
+                  Ls::sel(on, fn - (h * gk) * vn, V{}));
     }
     if (Ls::any(limit > 0.0)) {
-      int n = point_row(m, t, i, t.cp[c][0], t.cp[c][1], tx, ty, t.g);
-      outer(t.A, D, Ls::sel(stick, h * cs_ + (h * h) * gk, h * slide), idx, t.g, n);
-      force(t.Q, Ls::sel(stick, trial - (h * gk) * vt, -slide * vt), idx, t.g, n);
+      row_element(m, t, i, t.cp[c][0], t.cp[c][1], tx, ty, Ls::sel(stick, h * cs_ + (h * h) * gk, h * slide),
+                  Ls::sel(stick, trial - (h * gk) * vt, -slide * vt));
     }
     anchor[c][0] = t.cp[c][0] - held * tx;
     anchor[c][1] = t.cp[c][1] - held * ty;
+  }
+}
+
+// dT/dq in O(n) (dynamics._inertial_force_linear): for joint k, -sum over its subtree of
+// u_i x (v_ci - V_k), u_i = m_i (v_ci - v_c), from the subtree sums of u_i x v_ci and of u_i
+template <class V> static inline void inertial_linear(const Model &m, Tile<V> &t) {
+  V *Asum = t.uu, (*Bsum)[3] = t.acc;  // scratch: the solve that owns them runs later
+  for (int tr = 0; tr < m.T; ++tr) {
+    const int32_t *T = m.ti + tr * 3;
+    if (T[2] == 1) continue;
+    bool free = T[1] == 1;
+    int r = T[0];
+    V vcx = free ? t.qd[m.li[r * LI + L_DX]] : V{}, vcy = free ? t.qd[m.li[r * LI + L_DY]] : V{};
+    for (int i = m.L - 1; i >= 0; --i) {
+      const int32_t *l = m.li + i * LI;
+      if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
+      V mass = t.lf[i * LF + F_MASS];
+      V vx, vy;
+      point_vel(t, i, t.com[i][0], t.com[i][1], vx, vy);
+      V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
+      V a = ux * vy - uy * vx, bx = ux, by = uy;
+      for (int k = m.kid_start[i]; k < m.kid_start[i + 1]; ++k) {
+        int c = m.kids[k];
+        a = a + Asum[c];
+        bx = bx + Bsum[c][0];
+        by = by + Bsum[c][1];
+      }
+      Asum[i] = a;
+      Bsum[i][0] = bx;
+      Bsum[i][1] = by;
+      if (l[L_ROT] >= 0 && l[L_PARENT] >= 0) t.Q[l[L_ROT]] += -a + (bx * t.V_[i][1] - by * t.V_[i][0]);
+    }
   }
 }
 
@@ -641,10 +869,21 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   using Ls = Lanes<V>;
   const int D = m.D, L = m.L;
   const V h = t.wf[W_DT];
+  const bool art = m.wi[W_ARTICULATED];
   for (int a = 0; a < D; ++a) t.Q[a] = V{};
-  for (int a = 0; a < D * D; ++a) t.A[a] = t.M[a];
-  // the inertial force dT/dq at fixed velocities
-  for (int tr = 0; tr < m.T; ++tr) {
+  if (art) {
+    for (int a = 0; a < D; ++a) t.arm[a] = V{};
+    for (int i = 0; i < L; ++i) {
+      for (int k = 0; k < 6; ++k) t.E[i][k] = V{};
+      for (int k = 0; k < 3; ++k) t.Fb[i][k] = V{};
+    }
+  } else {
+    for (int a = 0; a < D * D; ++a) t.A[a] = t.M[a];
+  }
+  // the inertial force dT/dq at fixed velocities: on the articulated route in O(n)
+  // (dynamics._inertial_force_linear: two subtree sums), else link by link up each chain
+  if (art) inertial_linear(m, t);
+  else for (int tr = 0; tr < m.T; ++tr) {
     const int32_t *T = m.ti + tr * 3;
     if (T[2] == 1) continue;
     bool free = T[1] == 1;
@@ -684,8 +923,7 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
       }
       for (int i = 0; i < L; ++i) {
         if (m.li[i * LI + L_TREE] != tr || m.li[i * LI + L_PARENT] < 0) continue;
-        int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
-        force(t.Q, V{} - (t.lf[i * LF + F_MASS] * grav), m.ri + i * m.R, t.g, n);
+        row_element(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, V{}, V{} - (t.lf[i * LF + F_MASS] * grav), false);
       }
     }
     turn(m, t, t.x, -1, 1);
@@ -737,11 +975,18 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   if (m.E) water(m, t);
   // the step: A du = h Q; p += S^T M du; q += h v*
   for (int a = 0; a < D; ++a) t.Q[a] = h * t.Q[a];
-  solve(t, t.A, t.Q, t.x, D);
-  for (int a = 0; a < D; ++a) {
-    V acc{};
-    for (int b = 0; b < D; ++b) acc += t.M[a * D + b] * t.x[b];
-    t.g[a] = acc;
+  if (art) {
+    for (int i = 0; i < L; ++i)
+      for (int k = 0; k < 3; ++k) t.Fb[i][k] = h * t.Fb[i][k];
+    art_solve(m, t, t.Q, t.x, 1);
+    art_matvec(m, t, t.x, t.g);
+  } else {
+    solve(t, t.A, t.Q, t.x, D);
+    for (int a = 0; a < D; ++a) {
+      V acc{};
+      for (int b = 0; b < D; ++b) acc += t.M[a * D + b] * t.x[b];
+      t.g[a] = acc;
+    }
   }
   turn(m, t, t.g, 1, 1);
   for (int a = 0; a < D; ++a) {
@@ -812,17 +1057,30 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
   }
 }
 
-// The SAN's node update (sanlab.san.San.apply): WT [I][N] lanes of weights, inputs the sensor
-// bits then the nodes' previous outputs
-template <class V> static inline void san(const Model &m, Tile<V> &t, const V *WT, const V *k1, const V *k2, V *istate, V *out) {
+// The SAN's node update (sanlab.san.San.apply). The weights are small integers and every input is
+// 0 or 1, so a node's sum is the integer sum of its weights from the inputs that are on: per
+// creature, the rows of its weights W[i][:] (int16, nodes padded to whole vectors) of the inputs
+// that are on, added with a mask, 32 nodes per instruction. Exact, as the float sums were.
+// weights: the tile's creatures' [W][I][NP] (NP = N rounded up to whole vectors of NS nodes).
+typedef short vs __attribute__((vector_size(64)));
+constexpr int NS = 32;
+
+template <class V> static inline void san(const Model &m, Tile<V> &t, const short *weights, int NP, const V *k1,
+                                          const V *k2, V *istate, V *out) {
   using Ls = Lanes<V>;
-  const int N = m.N, S = m.S, H = m.wi[W_HIDDEN];
+  const int N = m.N, S = m.S, H = m.wi[W_HIDDEN], I = m.I, chunks = NP / NS;
+  for (int l = 0; l < Ls::W; ++l) {
+    vs acc[8];  // up to 256 nodes
+    for (int c = 0; c < chunks; ++c) acc[c] = vs{};
+    const vs *rows = (const vs *)(weights + (size_t)l * I * NP);
+    for (int i = 0; i < I; ++i) {
+      double x = i < S ? Ls::lane(t.bits[i], l) : Ls::lane(out[i - S], l);
+      short on = x != 0.0 ? (short)-1 : (short)0;
+      for (int c = 0; c < chunks; ++c) acc[c] += rows[i * chunks + c] & on;
+    }
+    for (int n = 0; n < N; ++n) Ls::set(t.total[n], l, (double)acc[n / NS][n % NS]);
+  }
   const V dt = t.wf[W_DT];
-  for (int n = 0; n < N; ++n) t.total[n] = V{};
-  for (int i = 0; i < S; ++i)
-    for (int n = 0; n < N; ++n) t.total[n] += WT[i * N + n] * t.bits[i];
-  for (int i = 0; i < N; ++i)
-    for (int n = 0; n < N; ++n) t.total[n] += WT[(S + i) * N + n] * out[i];
   for (int n = 0; n < N; ++n) {
     V rate = Ls::sel(t.total[n] > 0.0, k1[n], k2[n]);
     V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0);
