@@ -2,11 +2,13 @@
 
 A strobe picture shows the whole trajectory in one fixed view, fitted to what moves: the
 creature drawn every Δt, older poses fainter (their colours mixed towards the background; a
-legend says pale is early), the newest one in full with its centre of mass; the centre of
-mass's path as a thin line; the ground with distance ticks; a scale bar; which way and how far
-the creature moved along x (an arrow). Δt is chosen so that successive poses are about 0.4 creature widths apart along
-the path, and at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded
-frames.
+legend says pale is early), the newest one in full with its centre of mass; every pose's head
+(the root link's marker, see :mod:`~sanlab.render.draw`) over all the bodies, so that no later
+body hides an earlier head; the centre of mass's path as a thin line; the ground with distance
+ticks; a scale bar; which way and how far the creature moved along x (an arrow).
+
+Δt is chosen so that successive poses are about 0.4 creature widths apart along the path, and
+at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded frames.
 
 A contact sheet puts one strobe tile per gait on a grid (:func:`sheet_layout`), each labelled
 with its rank, gait id, speed and an arrow for its direction along x. Tiles share one scale (so that distances compare at a
@@ -97,10 +99,15 @@ def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, 
     draw.draw_follow_path(canvas, scene)
     draw.draw_trail(canvas, scene, scene.n_frames - 1)
     n = len(idx)
+    fades = [0.0 if j == n - 1 else FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8 for j in range(n)]
     for j, f in enumerate(idx):
-        fade = 0.0 if j == n - 1 else FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8
-        draw.draw_follow_point(canvas, scene, f, sizes, fade)
-        draw.draw_pose(canvas, scene, f, sizes, fade=fade, detail=True, com=j == n - 1)
+        draw.draw_follow_point(canvas, scene, f, sizes, fades[j])
+        draw.draw_pose(canvas, scene, f, sizes, fade=fades[j], detail=True, com=False, head=False)
+    # every pose's head over all the bodies (a later body would hide an earlier head: a creature
+    # moving along itself crawls over where its head was), then the newest centre of mass
+    for f, fade in zip(idx, fades):
+        draw.draw_head(canvas, scene, f, sizes, fade)
+    draw.draw_com(canvas, scene, idx[-1], sizes)
     if overlays:
         step = scene.t[idx[1]] - scene.t[idx[0]] if n > 1 else 0.0
         what = f"Δt = {step:.2f} s  ({n} exposures over {scene.duration:.1f} s)" if n > 1 else f"t = {scene.t[idx[0]]:.2f} s"
