@@ -123,6 +123,13 @@ class Scene:
             self._cache["head"] = np.stack([x + c * p[0] - s * p[1], y + s * p[0] + c * p[1]], 1)
         return self._cache["head"]
 
+    def pose_distance(self, f: int, g: int) -> float:
+        """How far apart the poses of frames ``f`` and ``g`` are (m): the mean distance between the
+        same outline point (every shape and contact point) in the two frames. A shift by d gives
+        d; a change of shape in place counts too."""
+        p = self.outline_points()
+        return float(np.mean(np.hypot(*(p[g] - p[f]).T)))
+
     def outline_points(self) -> np.ndarray:
         """Every shape point of every link, in world coordinates, per frame: [F, K, 2]."""
         if "outline" not in self._cache:

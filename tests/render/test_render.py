@@ -327,3 +327,35 @@ def test_films_and_strobes_mark_the_head(scene1):
         fade = 0.0 if j == n - 1 else strobe.FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8
         u, v = view.px(*snake.head()[f])
         assert _near(img, float(u), float(v), draw.mix(draw.HEAD, draw.BACKGROUND, fade), tol=12), (j, f)
+
+
+def _pairs(frames):
+    return [(a, b) for k, a in enumerate(frames) for b in frames[k + 1 :] if (a, b) != (frames[0], frames[-1])]
+
+
+@pytest.mark.parametrize("head_x", [lambda t: 0.05 * t, lambda t: 0.05 * np.minimum(t, 4.0 - t)], ids=["ahead", "there-and-back"])
+def test_a_slow_long_creature_is_thinned_to_poses_apart(head_x, tmp_path):
+    """A 1.2 m snake moving 5 cm/s for 4 s: the even grid would pile 11 exposures 2 cm apart;
+    what is left are poses at least a twentieth of its size from one another (and from an
+    earlier pose it came back over), the first and the last always among them."""
+    snake = _snake_scene(head_x)
+    shots = strobe.plan_exposures(snake)
+    frames = shots.frames
+    assert frames[0] == 0 and frames[-1] == snake.n_frames - 1
+    assert shots.step == pytest.approx(0.4)  # the even grid's Δt, which the title still gives
+    assert shots.thinned and 0.05 <= shots.gap <= 0.06  # a twentieth of 1.2 m, rounded down to two digits
+    assert shots.gap == pytest.approx(np.floor(strobe.MIN_SPACING * snake.size() * 1000) / 1000)  # whole mm
+    assert 2 < len(frames) < strobe.MIN_EXPOSURES
+    assert all(snake.pose_distance(a, b) >= shots.gap for a, b in _pairs(frames))
+    assert set(frames) <= set(range(0, snake.n_frames - 1, round(0.4 * FPS))) | {snake.n_frames - 1}
+    info = strobe.write_strobe(snake, str(tmp_path / "s.png"), 600)
+    assert info["exposures"] == len(frames) and info["gap_m"] == shots.gap
+
+
+def test_poses_apart_are_not_thinned(scene1):
+    """The cart's built-in gait moves more than a twentieth of its size between exposures: its
+    strobe keeps every exposure of the even grid, as before."""
+    shots = strobe.plan_exposures(scene1)
+    assert not shots.thinned and shots.gap == 0
+    assert shots.frames == strobe.plan_exposures(scene1, n=len(shots.frames)).frames  # an explicit n is never thinned
+    assert strobe.MIN_EXPOSURES <= len(shots.frames)
