@@ -4,12 +4,16 @@ A frame (:func:`draw_frame`) is, back to front: the ground (terrain line with di
 light grid for the horizontal plane), the follow point's path, the centre-of-mass trail so far,
 the creature (links by shape: segments as thick lines, polygons filled, point masses as discs;
 linear actuators and springs as thin lines; joints as small rings; contact points orange while
-they touch the ground, grey otherwise; the centre of mass as a small quartered disc), the follow
-point, then the overlays: time (top left), title (top right), a distance scale bar (bottom left),
+they touch the ground, grey otherwise; the head, see below; the centre of mass as a small quartered
+disc), the follow point, then the overlays: time (top left), title (top right), a distance scale bar (bottom left),
 and optionally a panel of the SAN's outputs over time under the picture.
 
 Colours: each subtree hanging from a root gets its own hue (the root is the darkest), so legs
 can be told apart; a faded copy (strobe pictures) mixes every colour towards the background.
+
+The head: a magenta dot in a white ring on the root of the first free tree (``Scene.head``: a
+body's centroid, a segment's free end), so that a long creature's front can be told from its back
+and, in a strobe picture, every pose's head stands out of the overlapping bodies.
 """
 
 from __future__ import annotations
@@ -53,6 +57,7 @@ NODE_SENSOR: Color = (110, 110, 110)
 NODE_HIDDEN: Color = (46, 117, 204)
 NODE_ACTUATOR: Color = (245, 128, 20)
 CURSOR: Color = (214, 39, 40)
+HEAD: Color = (222, 24, 140)  # magenta: a hue no link, contact or actuator uses
 
 
 def link_colors(spec) -> list[Color]:
@@ -175,9 +180,11 @@ def draw_trail(canvas: Canvas, scene, frame: int, color: Color = TRAIL) -> None:
 # ------------------------------------------------------------------------------ the creature
 
 
-def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0, detail: bool = True, com: bool = True) -> None:
+def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0, detail: bool = True, com: bool = True,
+              head: bool = True) -> None:
     """The creature at ``frame``. ``fade`` in [0, 1] mixes colours towards the background;
-    ``detail`` adds joints, contact points and actuators/springs; ``com`` the centre of mass."""
+    ``detail`` adds joints, contact points and actuators/springs; ``head`` the head marker
+    (:func:`draw_head`); ``com`` the centre of mass."""
     spec = scene.spec
     f = lambda c: mix(c, BACKGROUND, fade) if fade else c
     colors = link_colors(spec)
@@ -219,8 +226,24 @@ def draw_pose(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0
             j = tuple(scene.links[frame, i, :2])
             canvas.circle(j, sizes.joint, f(JOINT_RING), True)
             canvas.circle(j, 0.55 * sizes.joint, f(JOINT_FILL), True)
+    if head:  # over joints and contacts, which may sit on it (a snake's snout is a contact point)
+        draw_head(canvas, scene, frame, sizes, fade)
     if com:
-        _com_marker(canvas, tuple(scene.com[frame]), max(3.0, 0.8 * sizes.link), fade)
+        draw_com(canvas, scene, frame, sizes, fade)
+
+
+def draw_head(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0) -> None:
+    """The head marker at ``frame``: a HEAD disc (radius 0.8 link widths, at least 3.5 px) in a
+    white ring 1.5 px wide, wider than the link it sits on."""
+    c = tuple(scene.head()[frame])
+    r = max(3.5, 0.8 * sizes.link)
+    canvas.circle(c, r + 1.5, mix(JOINT_FILL, BACKGROUND, fade), True)
+    canvas.circle(c, r, mix(HEAD, BACKGROUND, fade), True)
+
+
+def draw_com(canvas: Canvas, scene, frame: int, sizes: Sizes, fade: float = 0.0) -> None:
+    """The centre of mass at ``frame`` (:func:`_com_marker`, radius 0.8 link widths, at least 3 px)."""
+    _com_marker(canvas, tuple(scene.com[frame]), max(3.0, 0.8 * sizes.link), fade)
 
 
 def _com_marker(canvas: Canvas, c, r: float, fade: float) -> None:

@@ -86,6 +86,50 @@ class Scene:
         k = 1.0 if self.scale is None else float(self.scale[i])
         return tuple(self.to_world(frame, i, [np.asarray(ref.at, float) * k])[0])
 
+    @property
+    def head_link(self) -> int:
+        """Index of the creature's head: the root of the first free tree (the first link with no
+        parent that is not welded to the world); the first root if every root is fixed."""
+        roots = [i for i, l in enumerate(self.spec.links) if l.parent is None]
+        free = [i for i in roots if not self.spec.links[i].fixed]
+        return (free or roots or [0])[0]
+
+    def head_point(self) -> np.ndarray:
+        """Where the head marker sits on the head link, in its frame (m) [2]: a polygon's centroid
+        (of area), a point mass's origin, and on a segment the end away from the joints of the
+        links hanging from it (the free end: a snake's snout, a walker's head), its first point
+        when both ends are as far (or nothing hangs from it)."""
+        i = self.head_link
+        link = self.spec.links[i]
+        pts = self.shape_points(i)
+        if link.shape.kind == "polygon":
+            return _centroid(pts)
+        if link.shape.kind != "segment":
+            return pts[0]
+        k = 1.0 if self.scale is None else float(self.scale[i])
+        anchors = [np.asarray(c.anchor, float) * k for c in self.spec.links if c.parent == link.name]
+        if not anchors:
+            return pts[0]
+        mid = np.mean(anchors, 0)
+        d0, d1 = (float(np.hypot(*(p - mid))) for p in pts[:2])
+        return pts[1] if d1 > d0 + 1e-9 else pts[0]
+
+    def head(self) -> np.ndarray:
+        """The head marker's world position (m) in every frame: [F, 2]."""
+        if "head" not in self._cache:
+            i, p = self.head_link, self.head_point()
+            x, y, a = (self.links[:, i, k] for k in range(3))
+            c, s = np.cos(a), np.sin(a)
+            self._cache["head"] = np.stack([x + c * p[0] - s * p[1], y + s * p[0] + c * p[1]], 1)
+        return self._cache["head"]
+
+    def pose_distance(self, f: int, g: int) -> float:
+        """How far apart the poses of frames ``f`` and ``g`` are (m): the mean distance between the
+        same outline point (every shape and contact point) in the two frames. A shift by d gives
+        d; a change of shape in place counts too."""
+        p = self.outline_points()
+        return float(np.mean(np.hypot(*(p[g] - p[f]).T)))
+
     def outline_points(self) -> np.ndarray:
         """Every shape point of every link, in world coordinates, per frame: [F, K, 2]."""
         if "outline" not in self._cache:
@@ -241,3 +285,15 @@ def scene(gait, seconds: float | None = None, fps: float = 30.0, title: str | No
     model = gait.model()
     result = gait.replay(seconds, fps=fps, model=model)
     return from_result(gait, model, result, fps, gait_title(gait) if title is None else title)
+
+
+def _centroid(pts: np.ndarray) -> np.ndarray:
+    """Centre of area of the polygon ``pts`` [K, 2] (m); the mean of its points if it has none."""
+    x, y = pts[:, 0], pts[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = 0.5 * float(cross.sum())
+    if abs(area) < 1e-12:
+        return pts.mean(0)
+    cx = float(((x + np.roll(x, -1)) * cross).sum()) / (6 * area)
+    cy = float(((y + np.roll(y, -1)) * cross).sum()) / (6 * area)
+    return np.array([cx, cy])

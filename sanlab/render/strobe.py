@@ -2,11 +2,19 @@
 
 A strobe picture shows the whole trajectory in one fixed view, fitted to what moves: the
 creature drawn every Δt, older poses fainter (their colours mixed towards the background; a
-legend says pale is early), the newest one in full with its centre of mass; the centre of
-mass's path as a thin line; the ground with distance ticks; a scale bar; which way and how far
-the creature moved along x (an arrow). Δt is chosen so that successive poses are about 0.4 creature widths apart along
-the path, and at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded
-frames.
+legend says pale is early), the newest one in full with its centre of mass; every pose's head
+(the root link's marker, see :mod:`~sanlab.render.draw`) over all the bodies, so that no later
+body hides an earlier head; the centre of mass's path as a thin line; the ground with distance
+ticks; a scale bar; which way and how far the creature moved along x (an arrow).
+
+Δt is chosen so that successive poses are about 0.4 creature widths apart along the path, and
+at most 0.4 s apart (8 to 24 exposures over the run), rounded to whole recorded frames. Poses
+that would overlap are then left out: an exposure whose pose is closer than MIN_SPACING (a
+twentieth) of the creature's size, rounded down to two digits, to any exposure kept already
+(``Scene.pose_distance``: the mean distance between the same outline points), so that a slow or
+long creature (a 1.2 m snake moving 4 cm/s) shows a few poses apart rather than a dozen in one
+blob. The first and the last exposure always stay, and the title then says what was done:
+"Δt = 0.40 s, thinned to poses ≥ 6 cm apart (4 exposures over 4.0 s)".
 
 A contact sheet puts one strobe tile per gait on a grid (:func:`sheet_layout`), each labelled
 with its rank, gait id, speed and an arrow for its direction along x. Tiles share one scale (so that distances compare at a
@@ -17,6 +25,7 @@ than twofold: then that tile is fitted on its own; every tile has its scale bar.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -26,15 +35,33 @@ from sanlab.render.film import GROUND_BAND, content_box, even, fixed_view
 
 MIN_EXPOSURES, MAX_EXPOSURES = 8, 24
 MAX_DT = 0.4  # s: at least this often (within MAX_EXPOSURES), to catch fast cycles
+MIN_SPACING = 0.05  # creature sizes: a pose closer than this to a kept one is left out
 FADE_OLDEST = 0.78  # the first exposure's colours are this far towards the background
 
 
-def exposures(scene, n: int | None = None, most: int | None = None) -> list[int]:
-    """Frame indices of the exposures: every k-th frame, first and last included; ``n`` of them
-    (default: see the module docstring), at most ``most``."""
+@dataclass(frozen=True)
+class Exposures:
+    """The exposures of a strobe picture: ``frames`` (frame indices, first and last included),
+    ``step`` (s) the Δt of the even grid they were taken from, and ``gap`` (m) the least distance
+    between two poses (``Scene.pose_distance``) when poses that close were left out, else 0."""
+
+    frames: list[int]
+    step: float
+    gap: float = 0.0
+
+    @property
+    def thinned(self) -> bool:
+        return self.gap > 0
+
+
+def plan_exposures(scene, n: int | None = None, most: int | None = None) -> Exposures:
+    """The exposures of ``scene``: every k-th frame, first and last included; ``n`` of them
+    (default: see the module docstring), at most ``most``. Without ``n``, a pose closer than
+    MIN_SPACING creature sizes to one kept already is left out (the first and last never are)."""
     F = scene.n_frames
     if F <= 1:
-        return [0]
+        return Exposures([0], 0.0)
+    auto = n is None
     if n is None:
         cw, _ = scene.extent()
         d = scene.com[-1] - scene.com[0]
@@ -51,7 +78,30 @@ def exposures(scene, n: int | None = None, most: int | None = None) -> list[int]
             idx[-1] = F - 1
         else:
             idx.append(F - 1)
-    return idx
+    step = float(scene.t[idx[1]] - scene.t[idx[0]])
+    if not auto or len(idx) <= 2:
+        return Exposures(idx, step)
+    gap = _floor2(MIN_SPACING * scene.size())  # a round length, which the title states exactly
+    # Against every pose kept so far, not just the one before: a creature rocking back and forth
+    # comes back over its old poses, and those overlap as much as two successive ones.
+    kept = [idx[0], idx[-1]]
+    for f in idx[1:-1]:
+        if min(scene.pose_distance(f, g) for g in kept) >= gap:
+            kept.append(f)
+    if len(kept) == len(idx):
+        return Exposures(idx, step)
+    return Exposures(sorted(kept), step, gap)
+
+
+def _floor2(x: float) -> float:
+    """``x`` > 0 rounded down to two significant digits (0.1237 -> 0.12)."""
+    e = math.floor(math.log10(x)) - 1
+    return round(math.floor(x / 10**e * (1 + 1e-12)) * 10**e, 12)  # 0.059, which prints as 5.9 cm
+
+
+def exposures(scene, n: int | None = None, most: int | None = None) -> list[int]:
+    """Frame indices of the exposures (:func:`plan_exposures`)."""
+    return plan_exposures(scene, n, most).frames
 
 
 def strobe_height(scene, width: int) -> int:
@@ -88,22 +138,30 @@ def draw_legend(canvas, view: View, at: tuple[float, float], size: float = 11) -
     canvas.view = saved
 
 
-def draw_strobe(canvas, scene, view: View, idx: list[int], labels: bool = True, overlays: bool = True) -> None:
-    """Multi-exposure of ``scene`` at frames ``idx`` on ``canvas`` through ``view``; ``labels``:
-    distance labels on the ground; ``overlays``: Δt, title and scale bar."""
+def draw_strobe(canvas, scene, view: View, shots: Exposures, labels: bool = True, overlays: bool = True) -> None:
+    """Multi-exposure of ``scene`` at ``shots.frames`` on ``canvas`` through ``view``; ``labels``:
+    distance labels on the ground; ``overlays``: Δt (and the thinning), title and scale bar."""
     canvas.view = view
     sizes = draw.Sizes.for_view(view, scene.size())
     draw.draw_ground(canvas, scene, view, labels=labels)
     draw.draw_follow_path(canvas, scene)
     draw.draw_trail(canvas, scene, scene.n_frames - 1)
+    idx = shots.frames
     n = len(idx)
+    fades = [0.0 if j == n - 1 else FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8 for j in range(n)]
     for j, f in enumerate(idx):
-        fade = 0.0 if j == n - 1 else FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8
-        draw.draw_follow_point(canvas, scene, f, sizes, fade)
-        draw.draw_pose(canvas, scene, f, sizes, fade=fade, detail=True, com=j == n - 1)
+        draw.draw_follow_point(canvas, scene, f, sizes, fades[j])
+        draw.draw_pose(canvas, scene, f, sizes, fade=fades[j], detail=True, com=False, head=False)
+    # every pose's head over all the bodies (a later body would hide an earlier head: a creature
+    # moving along itself crawls over where its head was), then the newest centre of mass
+    for f, fade in zip(idx, fades):
+        draw.draw_head(canvas, scene, f, sizes, fade)
+    draw.draw_com(canvas, scene, idx[-1], sizes)
     if overlays:
-        step = scene.t[idx[1]] - scene.t[idx[0]] if n > 1 else 0.0
-        what = f"Δt = {step:.2f} s  ({n} exposures over {scene.duration:.1f} s)" if n > 1 else f"t = {scene.t[idx[0]]:.2f} s"
+        what = f"t = {scene.t[idx[0]]:.2f} s"
+        if n > 1:
+            thin = f", thinned to poses ≥ {draw.fmt_length(shots.gap)} apart" if shots.thinned else ""
+            what = f"Δt = {shots.step:.2f} s{thin}  ({n} exposures over {scene.duration:.1f} s)"
         arrow, words = motion(scene)
         if arrow:
             what += f"   moved {arrow} {words}"
@@ -119,19 +177,22 @@ def strobe(scene, width: int = 1000, n: int | None = None, nodes: bool = False):
     w = even(width)
     h = strobe_height(scene, w)
     view = fixed_view(scene, w, h)
-    idx = exposures(scene, n)
+    shots = plan_exposures(scene, n)
     total = h + (even(draw.panel_height(scene, w)) if nodes else 0)
     canvas = PillowCanvas(w, total, draw.BACKGROUND, view)
-    draw_strobe(canvas, scene, view, idx)
+    draw_strobe(canvas, scene, view, shots)
     if nodes:
-        draw.draw_panel(canvas, scene, (0, h, w, total), idx)
+        draw.draw_panel(canvas, scene, (0, h, w, total), shots.frames)
     return canvas.image()
 
 
 def write_strobe(scene, path: str, width: int = 1000, n: int | None = None, nodes: bool = False) -> dict:
+    """Write the strobe picture of ``scene`` as PNG; returns its path, size (px), the number of
+    exposures and their spacing: ``step_s`` (s) and ``gap_m`` (m, 0 unless thinned)."""
     im = strobe(scene, width, n, nodes)
     im.save(path, format="PNG", optimize=False)
-    return {"path": path, "size": im.size, "exposures": len(exposures(scene, n))}
+    shots = plan_exposures(scene, n)
+    return {"path": path, "size": im.size, "exposures": len(shots.frames), "step_s": shots.step, "gap_m": shots.gap}
 
 
 # ------------------------------------------------------------------------------ contact sheet
@@ -178,7 +239,7 @@ def contact_sheet(tiles: list[tuple[str, object]], title: str = "", width: int =
         # the tile's view: the picture's, extended up over the label strip
         inner = View(pic.x0, pic.y0, pic.x1, pic.y1 + LABEL / pic.scale, tw, th)
         canvas = PillowCanvas(tw, th, draw.BACKGROUND, inner)
-        draw_strobe(canvas, sc, inner, exposures(sc, most=TILE_EXPOSURES), labels=False, overlays=False)
+        draw_strobe(canvas, sc, inner, plan_exposures(sc, most=TILE_EXPOSURES), labels=False, overlays=False)
         canvas.view = View.screen(tw, th)
         canvas.rect((0, 0, tw, LABEL), draw.BACKGROUND, True)
         canvas.segment((0, LABEL - 0.5), (tw, LABEL - 0.5), 1.0, draw.GRID)

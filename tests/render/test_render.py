@@ -237,3 +237,125 @@ def test_strobes_say_which_way_it_moved_and_that_pale_is_early(scene1):
     corner = img[-30:, -140:].reshape(-1, 3)
     assert any(_close(p, draw.ROOT, 12) for p in corner)  # the legend's darkest swatch ...
     assert any(_close(p, mix(draw.ROOT, draw.BACKGROUND, strobe.FADE_OLDEST), 12) for p in corner)  # ... its palest
+
+
+# --------------------------------------------------------------------------- head and thinning
+
+# A top-view snake (docs/top-view-snake.md) of twelve 10 cm segments, the head s0 drawn backwards
+# so that its first point is the snout; its scenes below are made by hand (no simulation).
+SNAKE = """\
+name = "snake12"
+[world]
+plane = "horizontal"
+[[links]]
+name = "s0"
+mass = 0.05
+shape = "segment"
+points = [[0, 0], [-0.1, 0]]
+[[repeat]]
+count = 11
+[[repeat.links]]
+name = "s{i}"
+parent = "s{i-1}"
+mass = 0.05
+shape = "segment"
+points = [[0, 0], [-0.1, 0]]
+anchor = [-0.1, 0]
+[[repeat.sensors]]
+name = "straight{i}"
+type = "angle"
+link = "s{i}"
+min_deg = -10
+max_deg = 10
+[[repeat.actuators]]
+name = "m{i}"
+type = "angular"
+joint = "s{i}"
+min_deg = -40
+max_deg = 40
+ks = 0.01
+kd = 0.001
+"""
+
+
+def _snake_scene(head_x, seconds: float = 4.0, wave: float = 0.05):
+    """The 12-link snake, its head at (head_x(t), 0) heading along +x, a bending wave of
+    ``wave`` rad running down its joints; every frame at ``FPS``."""
+    from sanlab.creature import loads
+    from sanlab.render.scene import Scene
+
+    spec = loads(SNAKE)
+    t = np.arange(int(seconds * FPS) + 1) / FPS
+    F, L = len(t), len(spec.links)
+    links = np.zeros((F, L, 3))
+    links[:, 0, 0] = head_x(t)
+    for i in range(1, L):  # each joint at the tail of the one before, bent by the wave
+        x, y, a = links[:, i - 1].T
+        links[:, i] = np.stack([x - 0.1 * np.cos(a), y - 0.1 * np.sin(a), a + wave * np.sin(2 * np.pi * (t - i / 6))], 1)
+    com = links[:, :, :2].mean(1) - 0.05 * np.stack([np.cos(links[:, :, 2]), np.sin(links[:, :, 2])], -1).mean(1)  # mid-segments
+    contacts = np.zeros((F, 0, 2))
+    S, A = len(spec.sensors), len(spec.actuators)
+    return Scene(spec=spec, model=None, t=t, links=links, contacts=contacts, depth=np.zeros((F, 0)), com=com,  # type: ignore[arg-type]
+                 u=np.zeros((F, A)), bits=np.zeros((F, S)), nodes=np.zeros((F, A)), n_hidden=0, fps=FPS, title="snake12")
+
+
+def test_the_head_is_the_free_end_of_the_first_root(scene1):
+    snake = _snake_scene(lambda t: 0.05 * t)
+    assert snake.head_link == 0 and np.allclose(snake.head_point(), (0.0, 0.0))  # the snout, not the neck
+    assert np.allclose(snake.head()[:, 0], 0.05 * snake.t) and np.allclose(snake.head()[:, 1], 0.0)
+    # the cart's root is a body: the marker sits at its centroid of area, inside its outline
+    c = scene1.head_point()
+    from matplotlib.path import Path
+
+    assert scene1.head_link == 0 and Path(scene1.shape_points(0)).contains_point(c)
+    assert np.allclose(scene1.head()[0], scene1.to_world(0, 0, [c])[0])
+
+
+def test_films_and_strobes_mark_the_head(scene1):
+    """The head marker's colour at the head's pixel: in a film frame, and in a strobe picture at
+    every exposure (faded as its pose is), over the bodies of the later poses."""
+    pic = np.asarray(next(film.frames(scene1, 480)).convert("RGB"))
+    w, h = film.frame_size(480)
+    u, v = film.camera(scene1, w, h)[0].px(*scene1.head()[0])
+    assert _near(pic, float(u), float(v), draw.HEAD, tol=12)
+    snake = _snake_scene(lambda t: 0.05 * t)
+    img = np.asarray(strobe.strobe(snake, 1000).convert("RGB"))
+    view = film.fixed_view(snake, *img.shape[1::-1])
+    idx = strobe.exposures(snake)
+    n = len(idx)
+    for j, f in enumerate(idx):
+        fade = 0.0 if j == n - 1 else strobe.FADE_OLDEST * (1.0 - j / max(n - 1, 1)) ** 0.8
+        u, v = view.px(*snake.head()[f])
+        assert _near(img, float(u), float(v), draw.mix(draw.HEAD, draw.BACKGROUND, fade), tol=12), (j, f)
+
+
+def _pairs(frames):
+    return [(a, b) for k, a in enumerate(frames) for b in frames[k + 1 :] if (a, b) != (frames[0], frames[-1])]
+
+
+@pytest.mark.parametrize("head_x", [lambda t: 0.05 * t, lambda t: 0.05 * np.minimum(t, 4.0 - t)], ids=["ahead", "there-and-back"])
+def test_a_slow_long_creature_is_thinned_to_poses_apart(head_x, tmp_path):
+    """A 1.2 m snake moving 5 cm/s for 4 s: the even grid would pile 11 exposures 2 cm apart;
+    what is left are poses at least a twentieth of its size from one another (and from an
+    earlier pose it came back over), the first and the last always among them."""
+    snake = _snake_scene(head_x)
+    shots = strobe.plan_exposures(snake)
+    frames = shots.frames
+    assert frames[0] == 0 and frames[-1] == snake.n_frames - 1
+    assert shots.step == pytest.approx(0.4)  # the even grid's Δt, which the title still gives
+    assert shots.thinned and 0.05 <= shots.gap <= 0.06  # a twentieth of 1.2 m, rounded down to two digits
+    assert shots.gap == pytest.approx(np.floor(strobe.MIN_SPACING * snake.size() * 1000) / 1000)  # whole mm
+    assert 2 < len(frames) < strobe.MIN_EXPOSURES
+    assert all(snake.pose_distance(a, b) >= shots.gap for a, b in _pairs(frames))
+    assert set(frames) <= set(range(0, snake.n_frames - 1, round(0.4 * FPS))) | {snake.n_frames - 1}
+    info = strobe.write_strobe(snake, str(tmp_path / "s.png"), 600)
+    assert info["exposures"] == len(frames) and info["gap_m"] == shots.gap
+
+
+def test_poses_apart_are_not_thinned(scene1):
+    """The cart's built-in gait moves more than a twentieth of its size between exposures: its
+    strobe keeps every exposure of the even grid, as before."""
+    shots = strobe.plan_exposures(scene1)
+    assert not shots.thinned and shots.gap == 0
+    assert shots.frames == strobe.plan_exposures(scene1, n=len(shots.frames)).frames  # an explicit n is never thinned
+    assert strobe.MIN_EXPOSURES <= len(shots.frames)
