@@ -26,6 +26,8 @@ Layout: see :class:`Packed`.
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -186,7 +188,8 @@ def _library():
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
         lib.sanlab_rollout_san.restype = None
-        lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, ctypes.c_int64, ctypes.c_int64]
+        lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, ctypes.c_int64,
+                                           ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         _LIB = lib
     return _LIB
@@ -215,16 +218,60 @@ def _untile(x: np.ndarray, B: int) -> np.ndarray:
 
 ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers a row may carry its own of
 
+# what the observers accumulate per row (step.h, "observers"): the metric's ingredients (start
+# and end centre of mass (m), start height, hopping's integral (m^2 s), pursuit's (m), fell (0/1),
+# deepest contact (m)), then the descriptors' sums; then duty [touch sensors], the ring of sensor
+# words and their start times [EVENTS] each
+ACC = ("p0x", "p0y", "y0", "hop", "pursuit", "fell", "deepest", "px", "py", "steps", "height", "height2", "turn",
+       "angle", "airborne", "joint_speed", "word", "candidate", "since", "changes")
+EVENTS = 64
+METRIC_KINDS = ("distance", "distance_upright", "hopping", "pursuit")
+
+
+@dataclass(frozen=True)
+class Observe:
+    """What a rollout accumulates besides the state: the ingredients of a metric (paper §5.1; see
+    ``sanlab.metrics``) and the behaviour descriptors (``sanlab.descriptors``). Link, dof and sensor
+    numbers index the model's; angles in rad, heights in m above the ground."""
+
+    kind: str = "distance"  # one of METRIC_KINDS: which integral to keep (hopping's, pursuit's)
+    fell_links: tuple[int, ...] = ()  # fallen once one turns past fell_angle from upright
+    fell_angle: float = math.pi / 2
+    fell_com_height: float | None = None  # fallen once the centre of mass comes closer to the ground
+    fell_link_height: float | None = None  # or a fell link's centre of mass
+    depth: bool = False  # keep the deepest contact
+    root: int = -1  # the descriptors' rotating root link (-1: none)
+    sensors: int = 0  # sensors in the descriptors' word (0: no word; at most 30)
+    joints: tuple[int, ...] = ()  # dofs of the joints whose mean speed is kept
+    touch: tuple[int, ...] = ()  # sensor indices whose duty is kept
+
+    @property
+    def size(self) -> int:
+        """Accumulator values per row."""
+        return len(ACC) + len(self.touch) + 2 * EVENTS
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(oi int32, of float64), the kernel's config (step.h, "observers")."""
+        oi = [METRIC_KINDS.index(self.kind), self.fell_com_height is not None, self.fell_link_height is not None,
+              self.depth, self.root, self.sensors, len(self.fell_links), len(self.joints), len(self.touch),
+              *self.fell_links, *self.joints, *self.touch]
+        of = [self.fell_angle, self.fell_com_height or 0.0, self.fell_link_height or 0.0]
+        return np.array(oi, np.int32), np.array(of, np.float64)
+
 
 def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
-            rows: dict | None = None) -> dict:
+            rows: dict | None = None, observe: Observe | None = None, acc=None) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
     (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
     rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
     (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
-    Returns the state after them: q, p, anchor, istate, out, t (s), and the deepest penetration
-    dmax [B] (m; -inf without contacts). Raises ValueError for a per-row table of the wrong
-    shape."""
+    observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
+    accumulators to go on from (None: started from the first state).
+    Returns the state after them: q, p, anchor, istate, out, t (s), qd [B, D] the velocity
+    M(q)^-1 p (state coordinates), the deepest penetration dmax [B] (m; -inf without contacts),
+    and with ``observe`` the accumulators ``acc`` [B, observe.size] (columns: :data:`ACC`, then
+    duty, the words and their times). Raises ValueError for a per-row table of the wrong shape, or
+    weights that are not integers in [-2, 2]."""
     import ctypes
 
     W = lanes()
@@ -264,7 +311,17 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     w16[:B, :, :N] = np.swapaxes(w, 1, 2)
     w16[B:] = w16[B - 1] if B else 0
     ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
+    qd = np.zeros((T, pk.ndof, W))
+    oi = of = acc_t = None
+    if observe is not None:
+        oi, of = observe.arrays()
+        acc_t = _tile(np.zeros((B, observe.size)) if acc is None else np.asarray(acc, np.float64), W)
+    addr = lambda a: None if a is None else a.ctypes.data
     _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), per_row.ctypes.data, ptrs(st + ctrl), w16.ctypes.data,
-                                  NP, T, int(steps))
+                                  NP, addr(oi), addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, T, int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
-    return {n: _untile(a, B) for n, a in zip(names, st)}
+    res = {n: _untile(a, B) for n, a in zip(names, st)}
+    res["qd"] = _untile(qd, B)
+    if acc_t is not None:
+        res["acc"] = _untile(acc_t, B)
+    return res

@@ -229,3 +229,50 @@ def test_the_two_routes_of_the_kernels_linear_algebra_agree(source):
     assert relative_error(out[0], out[1]).max() < 1e-12
     with pytest.raises(ValueError, match="trees of rigid links"):
         kernel.pack(sim.compile_creature(creature.load("crawler"), dtype="float64"), 10, articulated=True)
+
+
+def observe_of(metric, desc) -> kernel.Observe:
+    """The kernel's observers for the engine's Metric and Descriptors (what the evaluator will pass)."""
+    from sanlab.descriptors import MAX_SENSORS
+
+    return kernel.Observe(kind=metric.kind, fell_links=metric.fell_links, fell_angle=metric.fell_angle,
+                          fell_com_height=metric.fell_com_height, fell_link_height=metric.fell_link_height,
+                          depth=metric.max_depth is not None, root=desc.root,
+                          sensors=desc.n_sensors if 0 < desc.n_sensors <= MAX_SENSORS else 0,
+                          joints=desc.joints, touch=desc.touch)
+
+
+@pytest.mark.parametrize("name, kind", [("bounder", None), ("bounder", "hopping"), ("fish", None), ("cart", None)])
+def test_the_kernels_observers_accumulate_what_the_engines_do(name, kind):
+    # the metric's ingredients and the descriptors over 200 steps (before chaos), in float64
+    from sanlab import descriptors
+    from sanlab.evaluate.evaluator import Observers
+    from sanlab.metrics import Metric
+
+    spec = creature.load(name)
+    m = sim.compile_creature(spec, dtype="float64")
+    metric, desc = Metric.for_creature(spec, kind), descriptors.Descriptors.for_creature(m)
+    san, sp = random_san_params(spec, 16, 4, dtype="float64")
+    s0 = dynamics.make_state(m)
+    r = sim.rollout(m, san, sp, steps=200, observer=Observers(metric, desc))
+    B, N = 16, san.n_nodes
+    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
+    ob = observe_of(metric, desc)
+    k = kernel.run_san(kernel.pack(m, san.n_hidden), sp.weights, sp.k1, sp.k2, tile(s0.q), tile(s0.p),
+                       tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)), 200, observe=ob)
+    acc = dict(zip(kernel.ACC, k["acc"].T))
+    ma, da = r.acc
+    close = lambda a, b: np.testing.assert_allclose(np.asarray(a, float), b, rtol=1e-9, atol=1e-11)
+    close(ma.p0[0], acc["p0x"]), close(ma.p0[1], acc["p0y"]), close(ma.y0, acc["y0"])
+    close(ma.p[0], acc["px"]), close(ma.p[1], acc["py"])
+    close(ma.hop, acc["hop"]), close(ma.pursuit, acc["pursuit"]), close(ma.deepest, np.maximum(acc["deepest"], 0))
+    assert np.array_equal(np.asarray(ma.fell), acc["fell"] > 0)
+    for name_ in ("steps", "height", "height2", "turn", "angle", "airborne", "joint_speed", "since"):
+        close(getattr(da, name_), acc[name_])
+    for name_ in ("word", "candidate", "changes"):
+        assert np.array_equal(np.asarray(getattr(da, name_)), acc[name_].astype(int)), name_
+    n_touch = len(ob.touch)
+    close(da.duty, k["acc"][:, len(kernel.ACC):len(kernel.ACC) + n_touch])
+    words = k["acc"][:, len(kernel.ACC) + n_touch:len(kernel.ACC) + n_touch + kernel.EVENTS]
+    assert np.array_equal(np.asarray(da.words), words.astype(int))
+    np.testing.assert_allclose(np.asarray(r.state.qd), k["qd"], rtol=1e-6, atol=1e-8)  # velocities: more sensitive

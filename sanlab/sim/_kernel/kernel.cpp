@@ -15,16 +15,34 @@ using namespace sanlab;
 // out [N], t, dmax, then the SAN's k1, k2 [N]
 template <class V> static size_t state_values(const Model &m) { return 2 * m.D + 2 * m.C + 2 * m.N + 2 + 2 * m.N; }
 
-template <class V> static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int NP, int64_t steps) {
+// The observers' config (see step.h, "observers"), or none
+struct Observe {
+  const int32_t *oi;
+  const double *of;
+  int init;  // 1: start the accumulators from this call's first state
+};
+
+template <class V>
+static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int NP, int64_t steps, const Observe &o,
+                     V *acc, V *qd_out) {
   V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *istate = (V *)(anchor + m.C), *out = istate + m.N;
   V *time = out + m.N, *dmax = time + 1, *k1 = dmax + 1, *k2 = k1 + m.N;
+  if (o.oi && o.init) {
+    positions(m, q, t);
+    observe_init(m, t, o.oi, acc);
+  }
   for (int64_t n = 0; n < steps; ++n) {
     prepare(m, q, p, t);
     sense(m, t, *time);
     san(m, t, weights, NP, k1, k2, istate, out);
+    if (o.oi) observe(m, t, o.oi, o.of, *time, acc);
     advance(m, t, q, p, anchor, *dmax);
     *time = *time + t.wf[W_DT];
   }
+  // the final state's velocity M^-1 p (state coordinates) and, for the metric, its centre of mass
+  prepare(m, q, p, t);
+  for (int d = 0; d < m.D; ++d) qd_out[d] = t.qd[d];
+  if (o.oi) centre_of_mass(m, t, acc[A_PX], acc[A_PY], (V *)nullptr, (V *)nullptr);
 }
 
 extern "C" {
@@ -39,8 +57,11 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // dmax [T, W] (updated in place), then the SAN's k1, k2 [T, N, W]; float64; weights: the SAN's
 // int16 [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node
 // count rounded up to a multiple of 32 (zeros past N).
+// oi, of: the observers' config (step.h, "observers"), or null for none; acc [T, obs_values, W]
+// their accumulators (started here when init is 1); qd [T, D, W] receives the final velocity.
 void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
-                        const int16_t *weights, int32_t NP, int64_t T, int64_t steps) {
+                        const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init,
+                        double *acc, double *qd, int64_t T, int64_t steps) {
   Model m;
   m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
   m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
@@ -62,7 +83,9 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
   m.kid_start = kid_start.data();
   m.kids = kids.data();
   const int W = Lanes<vd>::W;
-  const size_t nt = tile_values<vd>(m), ns = state_values<vd>(m);
+  const Observe o{oi, of, init};
+  const size_t na = oi ? (size_t)obs_values(oi) : 0;
+  const size_t nt = tile_values<vd>(m), ns = state_values<vd>(m) + na + m.D;
   const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
                           (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
@@ -85,9 +108,13 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
       }
       vd *at = s;
       for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
-      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps);
+      vd *a = s + state_values<vd>(m), *v = a + na;
+      if (na && !init) std::memcpy(a, acc + b * na * W, na * sizeof(vd));
+      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v);
       at = s;
       for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
+      if (na) std::memcpy(acc + b * na * W, a, na * sizeof(vd));
+      std::memcpy(qd + b * m.D * W, v, m.D * sizeof(vd));
     }
     std::free(mem);
   }

@@ -27,6 +27,7 @@ template <> struct Lanes<double> {
   static double min(double a, double b) { return a < b ? a : b; }
   static double max(double a, double b) { return a > b ? a : b; }
   static bool any(bool m) { return m; }
+  static bool on(bool m, int) { return m; }
   static double lane(double a, int) { return a; }
   static void set(double &a, int, double v) { a = v; }
 };
@@ -61,6 +62,7 @@ template <> struct Lanes<vd> {
     return r != 0;
   }
   static double lane(vd a, int l) { return a[l]; }
+  static bool on(vm m, int l) { return m[l] != 0; }
   static void set(vd &a, int l, double v) { a[l] = v; }
 };
 
@@ -1089,6 +1091,162 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
     out[n] = Ls::sel((o == 1.0) & (s == 0.0), V{}, Ls::sel((o == 0.0) & (s == 1.0), V{} + 1.0, o));
     if (n >= H) t.act[n - H] = (Ls::min(Ls::max(t.total[n], V{} - 2.0), V{} + 2.0) + 2.0) * 0.25;
   }
+}
+
+// ---------------------------------------------------------------- observers
+//
+// What a rollout accumulates besides the state (sanlab.metrics.Metric and
+// sanlab.descriptors.Descriptors, the XLA engine's observers): the metric's ingredients and the
+// behaviour descriptors, per lane, updated before each step from its prepared tile. The host turns
+// them into scores with the same functions as before (metrics.scores, descriptors.values).
+//
+// Config oi: kind (0 distance, 1 distance_upright, 2 hopping, 3 pursuit), fell_com (0/1),
+// fell_link (0/1), depth (0/1: track the deepest contact), root (descriptors' rotating root, -1
+// none), sensors (descriptors' word: 0 = no word), n_fell, n_joints, n_touch, then the fell links,
+// the joints' dofs and the touch sensors' indices; of: fell angle (rad), fell COM height, fell link
+// height (m).
+enum { O_KIND, O_FELL_COM, O_FELL_LINK, O_DEPTH, O_ROOT, O_SENSORS, O_NFELL, O_NJOINTS, O_NTOUCH, O_LISTS };
+constexpr int EVENTS = 64;
+constexpr double DEBOUNCE_S = 0.02;
+// accumulators, one V each: the metric's, then the descriptors' (duty [n_touch], words and times
+// [EVENTS] at the end)
+enum { A_P0X, A_P0Y, A_Y0, A_HOP, A_PURSUIT, A_FELL, A_DEEPEST, A_PX, A_PY, A_STEPS, A_HEIGHT, A_HEIGHT2, A_TURN,
+       A_ANGLE, A_AIRBORNE, A_JOINT_SPEED, A_WORD, A_CAND, A_SINCE, A_CHANGES, A_FIXED };
+
+inline int obs_values(const int32_t *oi) { return A_FIXED + oi[O_NTOUCH] + 2 * EVENTS; }
+
+// Whole-creature centre of mass (and, with a velocity-prepared tile, its velocity); links welded
+// to the world do not count (dynamics.centre_of_mass)
+template <class V> static inline void centre_of_mass(const Model &m, const Tile<V> &t, V &cx, V &cy, V *vx, V *vy) {
+  V mx{}, my{}, total{}, sx{}, sy{};
+  for (int i = 0; i < m.L; ++i) {
+    if (m.li[i * LI + L_WELDED]) continue;
+    V mass = t.lf[i * LF + F_MASS];
+    mx = mx + mass * t.com[i][0];
+    my = my + mass * t.com[i][1];
+    if (vx) {
+      V ux, uy;
+      point_vel(t, i, t.com[i][0], t.com[i][1], ux, uy);
+      sx = sx + mass * ux;
+      sy = sy + mass * uy;
+    }
+    total = total + mass;
+  }
+  V inv = 1.0 / total;
+  cx = mx * inv;
+  cy = my * inv;
+  if (vx) {
+    *vx = sx * inv;
+    *vy = sy * inv;
+  }
+}
+
+template <class V> static inline V ground_height(const Model &m, const Tile<V> &t, V x) {
+  using Ls = Lanes<V>;
+  const int kind = m.wi[W_TERRAIN];
+  if (kind == 0) return V{};
+  if (kind == 1) return t.wf[W_SLOPE] * x;
+  if (kind == 2) {
+    V H = t.wf[W_HILL_H], hw = t.wf[W_HILL_W], cx = t.wf[W_HILL_C], su, cu;
+    sincos((x - cx) * (M_PI / hw), su, cu);
+    return Ls::sel(Ls::abs(x - cx) < hw, 0.5 * H * (1.0 + cu), V{});
+  }
+  V h{};
+  for (int k = 0; k < m.K; ++k) {
+    V s, c;
+    sincos(t.rough[k * 3 + 1] * x + t.rough[k * 3 + 2], s, c);
+    h = h + t.rough[k * 3] * s;
+  }
+  return h;
+}
+
+// the accumulators at the start (positions of the tile already computed)
+template <class V> static inline void observe_init(const Model &m, const Tile<V> &t, const int32_t *oi, V *acc) {
+  for (int k = 0; k < obs_values(oi); ++k) acc[k] = V{};
+  V cx, cy;
+  centre_of_mass(m, t, cx, cy, (V *)nullptr, (V *)nullptr);
+  acc[A_P0X] = acc[A_PX] = cx;
+  acc[A_P0Y] = acc[A_PY] = acc[A_Y0] = cy;
+  acc[A_WORD] = acc[A_CAND] = V{} - 1.0;
+}
+
+// one step's update, from a prepared tile at time `time` (Metric.update, Descriptors.update)
+template <class V> static inline void observe(const Model &m, const Tile<V> &t, const int32_t *oi, const double *of,
+                                              V time, V *acc) {
+  using Ls = Lanes<V>;
+  const bool vertical = m.wi[W_PLANE] == 0;
+  const int32_t *fell = oi + O_LISTS, *joints = fell + oi[O_NFELL], *touch = joints + oi[O_NJOINTS];
+  const V dt = t.wf[W_DT];
+  // the metric
+  V f = acc[A_FELL];
+  for (int k = 0; k < oi[O_NFELL]; ++k) {
+    int i = fell[k];
+    V a = t.th[i] - (2 * M_PI) * Ls::floor((t.th[i] + M_PI) * (0.5 / M_PI));
+    f = Ls::sel(Ls::abs(a) > of[0], V{} + 1.0, f);
+    if (oi[O_FELL_LINK] && vertical)
+      f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < of[2], V{} + 1.0, f);
+  }
+  V px, py, vx, vy;
+  centre_of_mass(m, t, px, py, &vx, &vy);
+  if (oi[O_FELL_COM] && vertical) f = Ls::sel(py - ground_height(m, t, px) < of[1], V{} + 1.0, f);
+  acc[A_FELL] = f;
+  if (oi[O_KIND] == 2) {
+    V up = Ls::max(py - acc[A_Y0], V{});
+    acc[A_HOP] = acc[A_HOP] + up * up * dt;
+  } else if (oi[O_KIND] == 3) {
+    V fx, fy;
+    follow_point(m, t, time, fx, fy);
+    V dx = fx - px, dy = fy - py;
+    V inv = 1.0 / Ls::max(Ls::sqrt(dx * dx + dy * dy), V{} + 1e-9);
+    acc[A_PURSUIT] = acc[A_PURSUIT] + (vx * dx + vy * dy) * inv * dt;
+  }
+  if (oi[O_DEPTH] && m.C) {
+    V d = t.depth[0];
+    for (int c = 1; c < m.C; ++c) d = Ls::max(d, t.depth[c]);
+    acc[A_DEEPEST] = Ls::max(acc[A_DEEPEST], d);
+  }
+  // the descriptors
+  V y{}, air{};
+  if (vertical) {
+    y = py - ground_height(m, t, px);
+    auto any = V{} < 0.0;  // all false
+    for (int c = 0; c < m.C; ++c) any = any | (t.depth[c] > 0.0);
+    air = Ls::sel(any, V{}, V{} + 1.0);
+  }
+  const int root = oi[O_ROOT];
+  if (root >= 0) {
+    V th = t.th[root], d = th - acc[A_ANGLE];
+    d = d - (2 * M_PI) * Ls::floor((d + M_PI) * (0.5 / M_PI));
+    acc[A_TURN] = acc[A_TURN] + Ls::sel(acc[A_STEPS] > 0.0, d, V{});
+    acc[A_ANGLE] = th;
+  }
+  if (oi[O_NJOINTS]) {
+    V js{};
+    for (int k = 0; k < oi[O_NJOINTS]; ++k) js = js + Ls::abs(t.qd[joints[k]]);
+    acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / (double)oi[O_NJOINTS];
+  }
+  V *duty = acc + A_FIXED, *words = duty + oi[O_NTOUCH], *times = words + EVENTS;
+  for (int k = 0; k < oi[O_NTOUCH]; ++k) duty[k] = duty[k] + t.bits[touch[k]];
+  if (oi[O_SENSORS]) {
+    V w{};
+    for (int s = 0; s < oi[O_SENSORS]; ++s) w = w + Ls::sel(t.bits[s] > 0.5, V{} + (double)(1 << s), V{});
+    V since = Ls::sel(w == acc[A_CAND], acc[A_SINCE], time);
+    acc[A_SINCE] = since;
+    acc[A_CAND] = w;
+    auto fresh = (w != acc[A_WORD]) & (time - since + dt >= DEBOUNCE_S);
+    for (int l = 0; l < Ls::W; ++l) {
+      if (!Ls::on(fresh, l)) continue;
+      int slot = (int)Ls::lane(acc[A_CHANGES], l) % EVENTS;
+      Ls::set(words[slot], l, Ls::lane(w, l));
+      Ls::set(times[slot], l, Ls::lane(since, l));
+    }
+    acc[A_CHANGES] = acc[A_CHANGES] + Ls::sel(fresh, V{} + 1.0, V{});
+    acc[A_WORD] = Ls::sel(fresh, w, acc[A_WORD]);
+  }
+  acc[A_STEPS] = acc[A_STEPS] + 1.0;
+  acc[A_HEIGHT] = acc[A_HEIGHT] + y;
+  acc[A_HEIGHT2] = acc[A_HEIGHT2] + y * y;
+  acc[A_AIRBORNE] = acc[A_AIRBORNE] + air;
 }
 
 }  // namespace sanlab
