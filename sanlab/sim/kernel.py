@@ -188,8 +188,8 @@ def _library():
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
         lib.sanlab_rollout_san.restype = None
-        lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, ctypes.c_int64,
-                                           ctypes.c_int64]
+        lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64,
+                                           ctypes.c_int64, ctypes.c_int64, ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         _LIB = lib
     return _LIB
@@ -260,17 +260,21 @@ class Observe:
 
 
 def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
-            rows: dict | None = None, observe: Observe | None = None, acc=None) -> dict:
+            rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
     (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
     rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
     (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
     observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
-    accumulators to go on from (None: started from the first state).
+    accumulators to go on from (None: started from the first state). every: record a frame every
+    ``every`` steps from the first (0: none).
     Returns the state after them: q, p, anchor, istate, out, t (s), qd [B, D] the velocity
     M(q)^-1 p (state coordinates), the deepest penetration dmax [B] (m; -inf without contacts),
     and with ``observe`` the accumulators ``acc`` [B, observe.size] (columns: :data:`ACC`, then
-    duty, the words and their times). Raises ValueError for a per-row table of the wrong shape, or
+    duty, the words and their times); with ``every`` the frames: ``frames_q``, ``frames_qd`` [B, F, D]
+    (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
+    (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
+    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
     weights that are not integers in [-2, 2]."""
     import ctypes
 
@@ -317,11 +321,20 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
         oi, of = observe.arrays()
         acc_t = _tile(np.zeros((B, observe.size)) if acc is None else np.asarray(acc, np.float64), W)
     addr = lambda a: None if a is None else a.ctypes.data
+    D, S, A = pk.ndof, pk.si.shape[0], pk.ai.shape[0]
+    n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
+    frames = np.zeros((T, n_frames, 2 * D + S + A + 2 * N, W)) if every > 0 else None
     _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), per_row.ctypes.data, ptrs(st + ctrl), w16.ctypes.data,
-                                  NP, addr(oi), addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, T, int(steps))
+                                  NP, addr(oi), addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames),
+                                  int(every), n_frames, T, int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
     res = {n: _untile(a, B) for n, a in zip(names, st)}
     res["qd"] = _untile(qd, B)
     if acc_t is not None:
         res["acc"] = _untile(acc_t, B)
+    if frames is not None:
+        fr = _untile(frames, B)  # [B, F, values]
+        cuts = np.cumsum([D, D, S, A, N])
+        for name, part in zip(("q", "qd", "bits", "u", "istate", "out"), np.split(fr, cuts, axis=2)):
+            res["frames_" + name] = part
     return res

@@ -276,3 +276,23 @@ def test_the_kernels_observers_accumulate_what_the_engines_do(name, kind):
     words = k["acc"][:, len(kernel.ACC) + n_touch:len(kernel.ACC) + n_touch + kernel.EVENTS]
     assert np.array_equal(np.asarray(da.words), words.astype(int))
     np.testing.assert_allclose(np.asarray(r.state.qd), k["qd"], rtol=1e-6, atol=1e-8)  # velocities: more sensitive
+
+
+def test_the_kernel_records_the_frames_the_engine_records():
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec, dtype="float64")
+    san, sp = random_san_params(spec, 16, 6, dtype="float64")
+    s0 = dynamics.make_state(m)
+    r = sim.rollout(m, san, sp, steps=305, record_fps=100)  # a frame every 10 steps: 30 whole frames
+    B, N = 16, san.n_nodes
+    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
+    k = kernel.run_san(kernel.pack(m, san.n_hidden), sp.weights, sp.k1, sp.k2, tile(s0.q), tile(s0.p),
+                       tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)), 305, every=10)
+    fr = r.frames
+    assert k["frames_q"].shape == np.asarray(fr.q).shape == (16, 30, m.structure.ndof)
+    np.testing.assert_allclose(k["frames_q"], fr.q, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(k["frames_qd"], fr.qd, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(k["frames_u"], fr.u, atol=1e-12)
+    assert np.array_equal(k["frames_bits"], fr.bits)
+    assert np.array_equal(k["frames_out"], fr.cstate.out)
+    np.testing.assert_allclose(k["frames_istate"], fr.cstate.istate, atol=1e-12)

@@ -22,9 +22,18 @@ struct Observe {
   int init;  // 1: start the accumulators from this call's first state
 };
 
+// Frames to record: every `every` steps from the first, the first `n` of them; each frame holds
+// q, qd [D] (the velocity of that state), bits [S], u [A], istate, out [N] (the SAN's state
+// before that step), FV values of V in all
+struct Record {
+  int64_t every, n;
+};
+
+inline int64_t frame_values(const Model &m) { return 2 * m.D + m.S + m.A + 2 * m.N; }
+
 template <class V>
 static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int NP, int64_t steps, const Observe &o,
-                     V *acc, V *qd_out) {
+                     V *acc, V *qd_out, const Record &rec, V *frames) {
   V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *istate = (V *)(anchor + m.C), *out = istate + m.N;
   V *time = out + m.N, *dmax = time + 1, *k1 = dmax + 1, *k2 = k1 + m.N;
   if (o.oi && o.init) {
@@ -34,7 +43,18 @@ static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int
   for (int64_t n = 0; n < steps; ++n) {
     prepare(m, q, p, t);
     sense(m, t, *time);
+    const bool keep = frames && n % rec.every == 0 && n / rec.every < rec.n;
+    V *f = keep ? frames + (n / rec.every) * frame_values(m) : nullptr;
+    // the caller's frame buffer need not be aligned for V: stored value by value, unaligned
+    auto put = [&](int at, const V &v) { std::memcpy((void *)(f + at), &v, sizeof(V)); };
+    if (keep) {  // the state before this step, and the SAN's state before its update
+      for (int d = 0; d < m.D; ++d) { put(d, q[d]); put(m.D + d, t.qd[d]); }
+      for (int k = 0; k < m.S; ++k) put(2 * m.D + k, t.bits[k]);
+      for (int k = 0; k < m.N; ++k) { put(2 * m.D + m.S + m.A + k, istate[k]); put(2 * m.D + m.S + m.A + m.N + k, out[k]); }
+    }
     san(m, t, weights, NP, k1, k2, istate, out);
+    if (keep)
+      for (int k = 0; k < m.A; ++k) put(2 * m.D + m.S + k, t.act[k]);
     if (o.oi) observe(m, t, o.oi, o.of, *time, acc);
     advance(m, t, q, p, anchor, *dmax);
     *time = *time + t.wf[W_DT];
@@ -59,9 +79,11 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // count rounded up to a multiple of 32 (zeros past N).
 // oi, of: the observers' config (step.h, "observers"), or null for none; acc [T, obs_values, W]
 // their accumulators (started here when init is 1); qd [T, D, W] receives the final velocity.
+// frames: null, or [T, n_frames, frame_values, W] for a frame every `every` steps.
 void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
                         const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init,
-                        double *acc, double *qd, int64_t T, int64_t steps) {
+                        double *acc, double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T,
+                        int64_t steps) {
   Model m;
   m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
   m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
@@ -110,7 +132,9 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
       for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
       vd *a = s + state_values<vd>(m), *v = a + na;
       if (na && !init) std::memcpy(a, acc + b * na * W, na * sizeof(vd));
-      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v);
+      const Record rec{every > 0 ? every : 1, n_frames};
+      vd *fr = frames ? (vd *)frames + (size_t)b * n_frames * frame_values(m) : nullptr;
+      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v, rec, fr);
       at = s;
       for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
       if (na) std::memcpy(acc + b * na * W, a, na * sizeof(vd));
