@@ -191,6 +191,8 @@ def _library():
         lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64,
                                            ctypes.c_int64, ctypes.c_int64, ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
+        lib.sanlab_start.restype = None
+        lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
         _LIB = lib
     return _LIB
 
@@ -259,28 +261,16 @@ class Observe:
         return np.array(oi, np.int32), np.array(of, np.float64)
 
 
-def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
-            rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0) -> dict:
-    """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
-    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
-    rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
-    (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
-    observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
-    accumulators to go on from (None: started from the first state). every: record a frame every
-    ``every`` steps from the first (0: none).
-    Returns the state after them: q, p, anchor, istate, out, t (s), qd [B, D] the velocity
-    M(q)^-1 p (state coordinates), the deepest penetration dmax [B] (m; -inf without contacts),
-    and with ``observe`` the accumulators ``acc`` [B, observe.size] (columns: :data:`ACC`, then
-    duty, the words and their times); with ``every`` the frames: ``frames_q``, ``frames_qd`` [B, F, D]
-    (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
-    (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
-    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
-    weights that are not integers in [-2, 2]."""
-    import ctypes
+def _dims(pk: Packed, N: int) -> np.ndarray:
+    return np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
+                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
+                     pk.follow.shape[0]], np.int32)
 
+
+def _tables(pk: Packed, B: int, rows: dict | None) -> tuple[list, np.ndarray]:
+    """The kernel's tables for a call of B rows (``rows``: per-row ones, see :func:`run_san`),
+    and the per-row flags."""
     W = lanes()
-    B = q.shape[0]
-    N = istate.shape[1]
     rows = rows or {}
     unknown = sorted(set(rows) - set(ROW_TABLES))
     if unknown:
@@ -298,10 +288,58 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
         if T * W != B:  # padded like the state: copies of the last row
             x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
         tables.append(np.ascontiguousarray(x))
-    per_row = np.array([name in rows for name in ROW_TABLES], np.int32)
-    dims = np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
-                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
-                     pk.follow.shape[0]], np.int32)
+    return tables, np.array([name in rows for name in ROW_TABLES], np.int32)
+
+
+def _pointers(arrays: list):
+    import ctypes
+
+    return (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
+
+
+def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
+    clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
+    [B, C, 2] at the contact points). The momenta of a state at rest are zero. As
+    ``dynamics.seat_on_ground`` and ``dynamics.make_state`` compute them, to round-off, without
+    compiling anything for the creature."""
+    W = lanes()
+    q = np.asarray(q, np.float64)
+    B = q.shape[0]
+    tables, per_row = _tables(pk, B, rows)
+    vertical = pk.wi[W_PLANE] == 0
+    on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
+    qt, st = _tile(q, W), _tile(on, W)
+    anchor = np.zeros((qt.shape[0], pk.ci.shape[0], 2, W))
+    _library().sanlab_start(_dims(pk, 0).ctypes.data, _pointers(tables), per_row.ctypes.data, qt.ctypes.data,
+                            st.ctypes.data, anchor.ctypes.data, qt.shape[0])
+    return _untile(qt, B), _untile(anchor, B)
+
+
+def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
+            rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0) -> dict:
+    """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
+    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
+    rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
+    (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
+    observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
+    accumulators to go on from (None: started from the first state). every: record a frame every
+    ``every`` steps from the first (0: none).
+    Returns the state after them: q, p, anchor, istate, out, t (s), qd [B, D] the velocity
+    M(q)^-1 p (state coordinates), the deepest penetration dmax [B] (m; -inf without contacts),
+    and with ``observe`` the accumulators ``acc`` [B, observe.size] (columns: :data:`ACC`, then
+    duty, the words and their times); with ``every`` the frames: ``frames_q``, ``frames_qd`` [B, F, D]
+    (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
+    (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
+    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
+    weights that are not integers in [-2, 2]."""
+
+    W = lanes()
+    B = q.shape[0]
+    N = istate.shape[1]
+    dims = _dims(pk, N)
+    T = -(-B // W)
+    tables, per_row = _tables(pk, B, rows)
     st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.full(B, float(t0)),
                                                         np.full(B, -np.inf))]
     ctrl = [_tile(np.asarray(k1, np.float64), W), _tile(np.asarray(k2, np.float64), W)]
@@ -314,7 +352,6 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     w16 = np.zeros((T * W, w.shape[2], NP), np.int16)  # per creature, one row of nodes per input
     w16[:B, :, :N] = np.swapaxes(w, 1, 2)
     w16[B:] = w16[B - 1] if B else 0
-    ptrs = lambda arrays: (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
     qd = np.zeros((T, pk.ndof, W))
     oi = of = acc_t = None
     if observe is not None:
@@ -324,7 +361,8 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     D, S, A = pk.ndof, pk.si.shape[0], pk.ai.shape[0]
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     frames = np.zeros((T, n_frames, 2 * D + S + A + 2 * N, W)) if every > 0 else None
-    _library().sanlab_rollout_san(dims.ctypes.data, ptrs(tables), per_row.ctypes.data, ptrs(st + ctrl), w16.ctypes.data,
+    _library().sanlab_rollout_san(dims.ctypes.data, _pointers(tables), per_row.ctypes.data, _pointers(st + ctrl),
+                                  w16.ctypes.data,
                                   NP, addr(oi), addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames),
                                   int(every), n_frames, T, int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")

@@ -296,3 +296,19 @@ def test_the_kernel_records_the_frames_the_engine_records():
     assert np.array_equal(k["frames_bits"], fr.bits)
     assert np.array_equal(k["frames_out"], fr.cstate.out)
     np.testing.assert_allclose(k["frames_istate"], fr.cstate.istate, atol=1e-12)
+
+
+@pytest.mark.parametrize("terrain", ["flat", "rough", "hill"])
+def test_the_kernel_seats_a_creature_and_anchors_it_as_the_engine_does(terrain):
+    from sanlab.sim.model import assemble
+
+    spec = _on(creature.load("bounder"), terrain)
+    seated = sim.compile_creature(spec, dtype="float64")  # the engine's seat_on_ground
+    raw = assemble(spec, "float64")  # where the file puts it
+    q0 = np.asarray(raw.params.q0)[None].repeat(3, 0)
+    q0[1, 1] -= 0.05  # started inside the ground
+    q, anchor = kernel.start(kernel.pack(raw, 8), q0, seat=np.array([True, True, False]))
+    np.testing.assert_allclose(q[0], seated.params.q0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(q[1], seated.params.q0, rtol=1e-12, atol=1e-12)  # lifted back out
+    np.testing.assert_array_equal(q[2], q0[2])  # not seated: left where it was
+    np.testing.assert_allclose(anchor[0], dynamics.make_state(seated).anchor, rtol=1e-12, atol=1e-12)

@@ -65,6 +65,48 @@ static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int
   if (o.oi) centre_of_mass(m, t, acc[A_PX], acc[A_PY], (V *)nullptr, (V *)nullptr);
 }
 
+// The creature's tables as a Model, with the two tables derived from them (dense_idx, children)
+struct Tables {
+  Model m;
+  std::vector<int32_t> dense, kid_start, kids;
+  Tables(const int32_t *dims, const void *const *tables) {
+    m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
+    m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
+    const int32_t **ints[] = {&m.li, &m.ri, &m.rl, &m.rn, &m.ti, &m.ci, &m.si, &m.ai, &m.pi, &m.ei, &m.wi};
+    const double **reals[] = {&m.lf, &m.cf, &m.sf, &m.af, &m.pf, &m.ef, &m.wf, &m.rough, &m.follow};
+    int k = 0;
+    for (auto p : ints) *p = (const int32_t *)tables[k++];
+    for (auto p : reals) *p = (const double *)tables[k++];
+    dense.resize(m.D);
+    for (int d = 0; d < m.D; ++d) dense[d] = d;
+    m.dense_idx = dense.data();
+    kid_start.assign(m.L + 1, 0);
+    for (int i = 0; i < m.L; ++i) {
+      for (int j = 0; j < m.L; ++j)
+        if (m.li[j * LI + L_PARENT] == i) kids.push_back(j);
+      kid_start[i + 1] = (int32_t)kids.size();
+    }
+    kids.push_back(0);  // never read: keeps data() valid for a creature of one link
+    m.kid_start = kid_start.data();
+    m.kids = kids.data();
+  }
+};
+
+// A tile's numbers: each lane's row's own (per_row[k]: [T * W, n] tables), or the shared ones on
+// every lane
+static void fill_numbers(const Model &m, Tile<vd> &tile, const void *const *tables, const int32_t *per_row, int64_t b) {
+  const int W = Lanes<vd>::W;
+  const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
+                           (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
+  vd *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
+  for (int k = 0; k < 8; ++k) {
+    const double *src = (const double *)tables[11 + k];
+    const size_t n = counts[k];
+    for (size_t v = 0; v < n; ++v)
+      for (int l = 0; l < W; ++l) dst[k][v][l] = per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v];
+  }
+}
+
 extern "C" {
 
 int sanlab_kernel_lanes() { return Lanes<vd>::W; }
@@ -84,26 +126,8 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
                         const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init,
                         double *acc, double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T,
                         int64_t steps) {
-  Model m;
-  m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
-  m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
-  const int32_t **ints[] = {&m.li, &m.ri, &m.rl, &m.rn, &m.ti, &m.ci, &m.si, &m.ai, &m.pi, &m.ei, &m.wi};
-  const double **reals[] = {&m.lf, &m.cf, &m.sf, &m.af, &m.pf, &m.ef, &m.wf, &m.rough, &m.follow};
-  int k = 0;
-  for (auto p : ints) *p = (const int32_t *)tables[k++];
-  for (auto p : reals) *p = (const double *)tables[k++];
-  std::vector<int32_t> dense(m.D);
-  for (int d = 0; d < m.D; ++d) dense[d] = d;
-  m.dense_idx = dense.data();
-  std::vector<int32_t> kid_start(m.L + 1, 0), kids;
-  for (int i = 0; i < m.L; ++i) {
-    for (int j = 0; j < m.L; ++j)
-      if (m.li[j * LI + L_PARENT] == i) kids.push_back(j);
-    kid_start[i + 1] = (int32_t)kids.size();
-  }
-  kids.push_back(0);  // never read: keeps data() valid for a creature of one link
-  m.kid_start = kid_start.data();
-  m.kids = kids.data();
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
   const int W = Lanes<vd>::W;
   const Observe o{oi, of, init};
   const size_t na = oi ? (size_t)obs_values(oi) : 0;
@@ -111,8 +135,6 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
   const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
                           (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
-  const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
-                           (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
 #pragma omp parallel
   {
     vd *mem = (vd *)std::aligned_alloc(64, (nt + ns) * sizeof(vd));
@@ -120,14 +142,7 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
     vd *s = mem + nt;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
-      // the tile's numbers: each lane's row's own, or the shared ones on every lane
-      vd *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
-      for (int k = 0; k < 8; ++k) {
-        const double *src = (const double *)tables[11 + k];
-        const size_t n = counts[k];
-        for (size_t v = 0; v < n; ++v)
-          for (int l = 0; l < W; ++l) dst[k][v][l] = per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v];
-      }
+      fill_numbers(m, tile, tables, per_row, b);
       vd *at = s;
       for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
       vd *a = s + state_values<vd>(m), *v = a + na;
@@ -139,6 +154,37 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
       for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
       if (na) std::memcpy(acc + b * na * W, a, na * sizeof(vd));
       std::memcpy(qd + b * m.D * W, v, m.D * sizeof(vd));
+    }
+    std::free(mem);
+  }
+}
+
+// Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
+// place on the lanes where seat [T, W] is nonzero (dynamics.seat_on_ground), and the friction
+// anchors anchor [T, C, 2, W] at the contact points of the resulting pose.
+void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *q, const double *seat_rows,
+                  double *anchor, int64_t T) {
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
+  const int W = Lanes<vd>::W;
+  const size_t nt = tile_values<vd>(m);
+#pragma omp parallel
+  {
+    vd *mem = (vd *)std::aligned_alloc(64, (nt + 2 * m.D + 1) * sizeof(vd));
+    Tile<vd> tile = tile_at<vd>(m, mem);
+    vd *qt = mem + nt, *seated = qt + m.D, *on = seated + m.D;
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t b = 0; b < T; ++b) {
+      fill_numbers(m, tile, tables, per_row, b);
+      std::memcpy(qt, q + b * m.D * W, m.D * sizeof(vd));
+      std::memcpy(seated, qt, m.D * sizeof(vd));
+      std::memcpy(on, seat_rows + b * W, sizeof(vd));
+      seat(m, tile, seated);
+      for (int d = 0; d < m.D; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
+      positions(m, qt, tile);
+      std::memcpy(q + b * m.D * W, qt, m.D * sizeof(vd));
+      for (int c = 0; c < m.C; ++c)
+        for (int a = 0; a < 2; ++a) std::memcpy(anchor + ((b * m.C + c) * 2 + a) * W, &tile.cp[c][a], sizeof(vd));
     }
     std::free(mem);
   }

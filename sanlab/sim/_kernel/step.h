@@ -1065,6 +1065,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
 // that are on, added with a mask, 32 nodes per instruction. Exact, as the float sums were.
 // weights: the tile's creatures' [W][I][NP] (NP = N rounded up to whole vectors of NS nodes).
 typedef short vs __attribute__((vector_size(64)));
+typedef short vs_u __attribute__((vector_size(64), aligned(2)));  // the caller's rows: any alignment
 constexpr int NS = 32;
 
 template <class V> static inline void san(const Model &m, Tile<V> &t, const short *weights, int NP, const V *k1,
@@ -1074,7 +1075,7 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
   for (int l = 0; l < Ls::W; ++l) {
     vs acc[8];  // up to 256 nodes
     for (int c = 0; c < chunks; ++c) acc[c] = vs{};
-    const vs *rows = (const vs *)(weights + (size_t)l * I * NP);
+    const vs_u *rows = (const vs_u *)(weights + (size_t)l * I * NP);
     for (int i = 0; i < I; ++i) {
       double x = i < S ? Ls::lane(t.bits[i], l) : Ls::lane(out[i - S], l);
       short on = x != 0.0 ? (short)-1 : (short)0;
@@ -1247,6 +1248,25 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   acc[A_HEIGHT] = acc[A_HEIGHT] + y;
   acc[A_HEIGHT2] = acc[A_HEIGHT2] + y * y;
   acc[A_AIRBORNE] = acc[A_AIRBORNE] + air;
+}
+
+// ---------------------------------------------------------------- start states
+
+// Lifts every free tree just enough that none of its contact points is below the ground (the
+// vertical plane; dynamics.seat_on_ground), in place on q; then the tile holds q's positions.
+template <class V> static inline void seat(const Model &m, Tile<V> &t, V *q) {
+  using Ls = Lanes<V>;
+  positions(m, q, t);
+  for (int tr = 0; tr < m.T; ++tr) {
+    const int32_t *T = m.ti + tr * 3;
+    if (!T[1]) continue;
+    V lift{};
+    for (int c = 0; c < m.C; ++c)
+      if (m.li[m.ci[c] * LI + L_TREE] == tr) lift = Ls::max(lift, ground_height(m, t, t.cp[c][0]) - t.cp[c][1]);
+    int dy = m.li[T[0] * LI + L_DY];
+    q[dy] = q[dy] + lift;
+  }
+  positions(m, q, t);
 }
 
 }  // namespace sanlab
