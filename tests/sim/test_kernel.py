@@ -312,3 +312,50 @@ def test_the_kernel_seats_a_creature_and_anchors_it_as_the_engine_does(terrain):
     np.testing.assert_allclose(q[1], seated.params.q0, rtol=1e-12, atol=1e-12)  # lifted back out
     np.testing.assert_array_equal(q[2], q0[2])  # not seated: left where it was
     np.testing.assert_allclose(anchor[0], dynamics.make_state(seated).anchor, rtol=1e-12, atol=1e-12)
+
+
+def kernel_scores(spec, B: int, seed: int) -> np.ndarray:
+    """The scores of controllers 0..B-1 of a search seeded ``seed`` (one rollout each, the
+    creature's metric and evaluation time) on the kernel, from the creature's start at rest."""
+    from sanlab import descriptors
+    from sanlab.metrics import Metric, MetricAcc, scores
+
+    m = sim.compile_creature(spec, dtype="float64")
+    metric, desc = Metric.for_creature(spec), descriptors.Descriptors.for_creature(m)
+    san, sp = random_san_params(spec, B, seed, dtype="float64")
+    pk = kernel.pack(m, san.n_hidden)
+    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=False)
+    N = san.n_nodes
+    steps = int(round(spec.evaluation.seconds / spec.dt))
+    k = kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N)),
+                       steps, observe=observe_of(metric, desc))
+    a = dict(zip(kernel.ACC, k["acc"].T))
+    acc = MetricAcc((a["p0x"], a["p0y"]), a["y0"], a["hop"], a["pursuit"], a["fell"] > 0, (a["px"], a["py"]),
+                    np.maximum(a["deepest"], 0.0))
+    finite = np.isfinite(k["q"]).all(1) & (np.abs(k["qd"]) < 1e4).all(1) & np.isfinite(k["p"]).all(1)
+    return scores(metric, acc, finite, spec.evaluation.seconds, spec.world.plane)["score"]
+
+
+def engine_scores(spec, B: int, seed: int) -> np.ndarray:
+    """As :func:`kernel_scores` on the XLA engine in float32, as searches ran until now."""
+    from sanlab.metrics import Metric, scores
+
+    m = sim.compile_creature(spec)
+    metric = Metric.for_creature(spec)
+    san, sp = random_san_params(spec, B, seed)
+    r = sim.rollout(m, san, sp, spec.evaluation.seconds, observer=metric)
+    return scores(metric, r.acc, r.finite, spec.evaluation.seconds, spec.world.plane)["score"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", VERTICAL + HORIZONTAL)
+def test_the_kernels_scores_agree_with_the_float32_engines_in_distribution(name):
+    # chaotic runs part in the last bits (float64 against float32): the same 200 random SANs, each
+    # median within the other's 95 % bootstrap interval (2,000 resamples)
+    spec = creature.load(name)
+    a, b = engine_scores(spec, 200, 0), kernel_scores(spec, 200, 0)
+    rng = np.random.default_rng(0)
+    for x, y in ((a, b), (b, a)):
+        boot = np.median(x[rng.integers(0, len(x), (2000, len(x)))], axis=1)
+        lo, hi = np.quantile(boot, [0.025, 0.975])
+        assert lo - 1e-12 <= np.median(y) <= hi + 1e-12, (np.median(a), np.median(b), lo, hi)
