@@ -31,16 +31,34 @@ def _model(spec, dtype):
 
 
 def _start(spec, B: int, seed: int):
-    from sanlab.engine_report import random_san_params
-    from sanlab.sim import dynamics, kernel
+    """The kernel's inputs for controllers 0..B-1 of seed ``seed``, with nothing compiled for the
+    creature: its tables from the file (``model.assemble``, NumPy arrays), seated and anchored by
+    the kernel, the SANs' weights and rates in NumPy (``San.random_weights``, as a search draws
+    them)."""
+    from sanlab.san import San, SanParams
+    from sanlab.sim import kernel
+    from sanlab.sim.model import assemble
 
-    m = _model(spec, "float64")
-    san, sp = random_san_params(spec, B, seed, dtype="float64")
-    s0 = dynamics.make_state(m)
-    pk = kernel.pack(m, san.n_hidden)
+    m = assemble(spec, "float64", host=True)
+    san = San.for_creature(spec)
     N = san.n_nodes
-    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
-    return m, san, sp, pk, (tile(s0.q), tile(s0.p), tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)))
+    weights = np.stack([san.random_weights(seed, i) for i in range(B)]).astype(np.float64)
+    sp = SanParams(weights, np.full((B, N), 1.0 / spec.san.delay_on), np.full((B, N), -1.0 / spec.san.delay_off))
+    pk = kernel.pack(m, san.n_hidden)
+    seat = spec.world.plane == "vertical" and bool(m.structure.contacts)
+    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=seat)
+    return m, san, sp, pk, (q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N)))
+
+
+def new_creature(spec, B: int = 8, steps: int = 1000) -> float:
+    """Seconds from a creature file's spec to the final states of B random SANs after ``steps``
+    steps on the kernel: what a never-seen creature's first search waits for its simulation."""
+    from sanlab.sim import kernel
+
+    t0 = time.perf_counter()
+    _, _, sp, pk, (q, p, anchor, istate, out) = _start(spec, B, 0)
+    kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, p, anchor, istate, out, steps)
+    return time.perf_counter() - t0
 
 
 def run(form: str, spec, B: int, steps: int, seed: int):

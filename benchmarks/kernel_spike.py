@@ -9,7 +9,9 @@ were measured beside it and dropped (commit 6ef5cad has them; docs/engine-histor
 
 Printed, each as a ratio to the engine in the same run (these machines vary 2x run to run):
 - the first call of a creature no process has compiled (the bounder, and a 9-link chain): the
-  engine traces and compiles it (no compile cache), the kernels only pack its tables;
+  engine traces and compiles it (no compile cache), the kernel only packs its tables; and in one
+  process a never-seen chain's first simulation against its second (nothing compiled either
+  time: the issue's "within 1.5x of its second");
 - µs per step at batch 1, 32 and 2048 (random SANs, dt = 1 ms);
 - against MuJoCo's own C rollout loop (``mujoco.rollout`` on the converted model, open-loop servo
   targets: benchmarks/mujoco_route.py): the bounder at batch 1 on one thread and at batch 2048 on
@@ -94,6 +96,14 @@ def main() -> None:
                 k = first_call(f, links)
                 line += f" | {f} {k:.2f} s ({e / k:.1f}x)"
             print(line, flush=True)
+    print("a creature this process has never seen (8 SANs, 1 s), on the kernel, first and second time:")
+    from chains import chain_creature
+
+    for links in (9, 16):
+        spec9 = chain_creature(links)
+        first, second = bk.new_creature(spec9), bk.new_creature(spec9)
+        print(f"  {links}-link chain: first {first:.3f} s, second {second:.3f} s (first/second {first / second:.2f})",
+              flush=True)
     print("bounder, time per step (best of 3 after a warm-up):")
     ratios = {}
     for B, steps in ((1, args.steps), (32, args.steps), (2048, max(100, args.steps // 8))):
@@ -113,8 +123,6 @@ def main() -> None:
     print(f"bounder against MuJoCo's C loop: batch 1 (one thread) {1e6 / mj1:.2f} us/step, c++ {k1 * 1e6:.2f} us "
           f"({1 / (k1 * mj1):.2f}x); batch 2048 {mjb / 1e6:.3f} M/s, c++ {1e-6 / kb:.3f} M/s ({1 / (kb * mjb):.1f}x)")
     print("growth, c++ kernel, batch 256, ns per creature-step (MuJoCo's C loop on the same chain, batch 64):")
-    from chains import chain_creature
-
     cost = {}
     for n in [int(x) for x in args.growth.split(",") if x]:
         steps = 200

@@ -291,14 +291,16 @@ def articulated_supported(spec: Creature) -> bool:
                 or any(a.kind == "linear" for a in spec.actuators))
 
 
-def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = None) -> Model:
+def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = None, host: bool = False) -> Model:
     """Build the static structure and parameter arrays of ``spec``, bodies where the file puts
     them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
 
     dtype: "float32" (default) or "float64". articulated: the step's linear algebra, O(n)
     articulated-body (True) or dense (False); None (default) picks by size
-    (``ARTICULATED_FROM_DOFS``). Raises ValueError for True on a creature the articulated route
-    does not support (see :func:`articulated_supported`).
+    (``ARTICULATED_FROM_DOFS``). host: NumPy arrays rather than JAX ones (what the kernel reads,
+    ``sim.kernel.pack``: JAX compiles a small program for each new array shape it places, 11 of
+    them, 65 ms, for a new 16-link creature). Raises ValueError for True on a creature the
+    articulated route does not support (see :func:`articulated_supported`).
     """
     from sanlab import _jax
 
@@ -438,7 +440,7 @@ def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = 
         a = np.asarray(x, dtype=dt_np)
         if shape is not None:
             a = a.reshape(shape)
-        return jnp.asarray(a)
+        return a if host else jnp.asarray(a)
 
     L, C, E, A, S, N = len(links), len(contacts), len(edges), len(acts), len(sensors), len(springs)
     params = Params(
