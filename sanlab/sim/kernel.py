@@ -187,9 +187,10 @@ def _library():
             raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
-        lib.sanlab_rollout_san.restype = None
-        lib.sanlab_rollout_san.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64,
-                                           ctypes.c_int64, ctypes.c_int64, ctypes.c_int64]
+        for f in (lib.sanlab_rollout_san, lib.sanlab_rollout_san_scalar):
+            f.restype = None
+            f.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64, ctypes.c_int64,
+                          ctypes.c_int64, ctypes.c_int64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         lib.sanlab_start.restype = None
         lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
@@ -267,10 +268,9 @@ def _dims(pk: Packed, N: int) -> np.ndarray:
                      pk.follow.shape[0]], np.int32)
 
 
-def _tables(pk: Packed, B: int, rows: dict | None) -> tuple[list, np.ndarray]:
-    """The kernel's tables for a call of B rows (``rows``: per-row ones, see :func:`run_san`),
-    and the per-row flags."""
-    W = lanes()
+def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.ndarray]:
+    """The kernel's tables for a call of B rows in tiles of W (``rows``: per-row ones, see
+    :func:`run_san`), and the per-row flags."""
     rows = rows or {}
     unknown = sorted(set(rows) - set(ROW_TABLES))
     if unknown:
@@ -306,7 +306,7 @@ def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarra
     W = lanes()
     q = np.asarray(q, np.float64)
     B = q.shape[0]
-    tables, per_row = _tables(pk, B, rows)
+    tables, per_row = _tables(pk, B, rows, W)
     vertical = pk.wi[W_PLANE] == 0
     on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
     qt, st = _tile(q, W), _tile(on, W)
@@ -317,14 +317,16 @@ def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarra
 
 
 def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
-            rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0) -> dict:
+            rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0,
+            scalar: bool = False) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
     (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
     rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
     (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
     observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
     accumulators to go on from (None: started from the first state). every: record a frame every
-    ``every`` steps from the first (0: none).
+    ``every`` steps from the first (0: none). scalar: one creature per thread in plain double, the
+    form a GPU thread runs (tests compare it with the SIMD tiles, bit for bit).
     Returns the state after them: q, p, anchor, istate, out, t (s), qd [B, D] the velocity
     M(q)^-1 p (state coordinates), the deepest penetration dmax [B] (m; -inf without contacts),
     and with ``observe`` the accumulators ``acc`` [B, observe.size] (columns: :data:`ACC`, then
@@ -334,12 +336,12 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
     weights that are not integers in [-2, 2]."""
 
-    W = lanes()
+    W = 1 if scalar else lanes()
     B = q.shape[0]
     N = istate.shape[1]
     dims = _dims(pk, N)
     T = -(-B // W)
-    tables, per_row = _tables(pk, B, rows)
+    tables, per_row = _tables(pk, B, rows, W)
     st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.full(B, float(t0)),
                                                         np.full(B, -np.inf))]
     ctrl = [_tile(np.asarray(k1, np.float64), W), _tile(np.asarray(k2, np.float64), W)]
@@ -361,10 +363,9 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     D, S, A = pk.ndof, pk.si.shape[0], pk.ai.shape[0]
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     frames = np.zeros((T, n_frames, 2 * D + S + A + 2 * N, W)) if every > 0 else None
-    _library().sanlab_rollout_san(dims.ctypes.data, _pointers(tables), per_row.ctypes.data, _pointers(st + ctrl),
-                                  w16.ctypes.data,
-                                  NP, addr(oi), addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames),
-                                  int(every), n_frames, T, int(steps))
+    call = _library().sanlab_rollout_san_scalar if scalar else _library().sanlab_rollout_san
+    call(dims.ctypes.data, _pointers(tables), per_row.ctypes.data, _pointers(st + ctrl), w16.ctypes.data, NP, addr(oi),
+         addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T, int(steps))
     names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
     res = {n: _untile(a, B) for n, a in zip(names, st)}
     res["qd"] = _untile(qd, B)

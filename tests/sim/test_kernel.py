@@ -359,3 +359,25 @@ def test_the_kernels_scores_agree_with_the_float32_engines_in_distribution(name)
         boot = np.median(x[rng.integers(0, len(x), (2000, len(x)))], axis=1)
         lo, hi = np.quantile(boot, [0.025, 0.975])
         assert lo - 1e-12 <= np.median(y) <= hi + 1e-12, (np.median(a), np.median(b), lo, hi)
+
+
+@pytest.mark.parametrize("name", ["bounder", "crawler", "fish"])
+def test_the_gpus_form_steps_every_creature_bit_for_bit_as_the_simd_tiles(name):
+    # one creature per thread in plain double (what a GPU thread runs) against tiles of SIMD lanes:
+    # the same template, the same bits (both routes, water, eyes, observers and frames)
+    from sanlab import descriptors
+    from sanlab.metrics import Metric
+
+    spec = creature.load(name)
+    m = sim.compile_creature(spec, dtype="float64")
+    san, sp = random_san_params(spec, 11, 8, dtype="float64")
+    s0 = dynamics.make_state(m)
+    B, N = 11, san.n_nodes
+    tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
+    ob = observe_of(Metric.for_creature(spec), descriptors.Descriptors.for_creature(m))
+    out = [kernel.run_san(kernel.pack(m, san.n_hidden), sp.weights, sp.k1, sp.k2, tile(s0.q), tile(s0.p),
+                          tile(s0.anchor), np.zeros((B, N)), np.zeros((B, N)), 400, observe=ob, every=50, scalar=s)
+           for s in (False, True)]
+    assert out[0].keys() == out[1].keys()
+    for key in out[0]:
+        assert np.array_equal(out[0][key], out[1][key], equal_nan=True), key

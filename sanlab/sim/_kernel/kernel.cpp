@@ -94,16 +94,56 @@ struct Tables {
 
 // A tile's numbers: each lane's row's own (per_row[k]: [T * W, n] tables), or the shared ones on
 // every lane
-static void fill_numbers(const Model &m, Tile<vd> &tile, const void *const *tables, const int32_t *per_row, int64_t b) {
-  const int W = Lanes<vd>::W;
+template <class V>
+static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *tables, const int32_t *per_row, int64_t b) {
+  using Ls = Lanes<V>;
+  const int W = Ls::W;
   const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
                            (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
-  vd *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
+  V *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
   for (int k = 0; k < 8; ++k) {
     const double *src = (const double *)tables[11 + k];
     const size_t n = counts[k];
     for (size_t v = 0; v < n; ++v)
-      for (int l = 0; l < W; ++l) dst[k][v][l] = per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v];
+      for (int l = 0; l < W; ++l) Ls::set(dst[k][v], l, per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v]);
+  }
+}
+
+template <class V>
+static void rollout(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
+                    const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init, double *acc,
+                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps) {
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
+  const int W = Lanes<V>::W;
+  const Observe o{oi, of, init};
+  const size_t na = oi ? (size_t)obs_values(oi) : 0;
+  const size_t nt = tile_values<V>(m), ns = state_values<V>(m) + na + m.D;
+  const size_t bytes = ((nt + ns) * sizeof(V) + 63) / 64 * 64;
+  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
+                          (size_t)m.N, (size_t)m.N};
+  const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
+#pragma omp parallel
+  {
+    V *mem = (V *)std::aligned_alloc(64, bytes);
+    Tile<V> tile = tile_at<V>(m, mem);
+    V *s = mem + nt;
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t b = 0; b < T; ++b) {
+      fill_numbers(m, tile, tables, per_row, b);
+      V *at = s;
+      for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(V)); at += sizes[k]; }
+      V *a = s + state_values<V>(m), *v = a + na;
+      if (na && !init) std::memcpy(a, acc + b * na * W, na * sizeof(V));
+      const Record rec{every > 0 ? every : 1, n_frames};
+      V *fr = frames ? (V *)frames + (size_t)b * n_frames * frame_values(m) : nullptr;
+      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v, rec, fr);
+      at = s;
+      for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(V)); at += sizes[k]; }
+      if (na) std::memcpy(acc + b * na * W, a, na * sizeof(V));
+      std::memcpy(qd + b * m.D * W, v, m.D * sizeof(V));
+    }
+    std::free(mem);
   }
 }
 
@@ -126,37 +166,16 @@ void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const in
                         const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init,
                         double *acc, double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T,
                         int64_t steps) {
-  Tables tb(dims, tables);
-  const Model &m = tb.m;
-  const int W = Lanes<vd>::W;
-  const Observe o{oi, of, init};
-  const size_t na = oi ? (size_t)obs_values(oi) : 0;
-  const size_t nt = tile_values<vd>(m), ns = state_values<vd>(m) + na + m.D;
-  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
-                          (size_t)m.N, (size_t)m.N};
-  const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
-#pragma omp parallel
-  {
-    vd *mem = (vd *)std::aligned_alloc(64, (nt + ns) * sizeof(vd));
-    Tile<vd> tile = tile_at<vd>(m, mem);
-    vd *s = mem + nt;
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t b = 0; b < T; ++b) {
-      fill_numbers(m, tile, tables, per_row, b);
-      vd *at = s;
-      for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(vd)); at += sizes[k]; }
-      vd *a = s + state_values<vd>(m), *v = a + na;
-      if (na && !init) std::memcpy(a, acc + b * na * W, na * sizeof(vd));
-      const Record rec{every > 0 ? every : 1, n_frames};
-      vd *fr = frames ? (vd *)frames + (size_t)b * n_frames * frame_values(m) : nullptr;
-      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v, rec, fr);
-      at = s;
-      for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(vd)); at += sizes[k]; }
-      if (na) std::memcpy(acc + b * na * W, a, na * sizeof(vd));
-      std::memcpy(qd + b * m.D * W, v, m.D * sizeof(vd));
-    }
-    std::free(mem);
-  }
+  rollout<vd>(dims, tables, per_row, state, weights, NP, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
+}
+
+// The same with one creature per thread in plain double (W = 1): the form a GPU thread runs, here
+// for the tests that it steps every creature bit for bit as the vector form does.
+void sanlab_rollout_san_scalar(const int32_t *dims, const void *const *tables, const int32_t *per_row,
+                               double *const *state, const int16_t *weights, int32_t NP, const int32_t *oi,
+                               const double *of, int32_t init, double *acc, double *qd, double *frames, int64_t every,
+                               int64_t n_frames, int64_t T, int64_t steps) {
+  rollout<double>(dims, tables, per_row, state, weights, NP, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
 }
 
 // Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
