@@ -119,15 +119,16 @@ static void rollout(const int32_t *dims, const void *const *tables, const int32_
   const Observe o{oi, of, init};
   const size_t na = oi ? (size_t)obs_values(oi) : 0;
   const size_t nt = tile_values<V>(m), ns = state_values<V>(m) + na + m.D;
-  const size_t bytes = ((nt + ns) * sizeof(V) + 63) / 64 * 64;
+  // the scratch and the state in blocks of their own: a scratch that overran its layout would
+  // corrupt the state silently (it did once), and a sanitizer sees only writes past a block
+  auto block = [](size_t n) { return (V *)std::aligned_alloc(64, (n * sizeof(V) + 63) / 64 * 64); };
   const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
                           (size_t)m.N, (size_t)m.N};
   const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
 #pragma omp parallel
   {
-    V *mem = (V *)std::aligned_alloc(64, bytes);
+    V *mem = block(nt), *s = block(ns);
     Tile<V> tile = tile_at<V>(m, mem);
-    V *s = mem + nt;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
       fill_numbers(m, tile, tables, per_row, b);
@@ -144,6 +145,7 @@ static void rollout(const int32_t *dims, const void *const *tables, const int32_
       std::memcpy(qd + b * m.D * W, v, m.D * sizeof(V));
     }
     std::free(mem);
+    std::free(s);
   }
 }
 
@@ -189,9 +191,9 @@ void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t 
   const size_t nt = tile_values<vd>(m);
 #pragma omp parallel
   {
-    vd *mem = (vd *)std::aligned_alloc(64, (nt + 2 * m.D + 1) * sizeof(vd));
+    vd *mem = (vd *)std::aligned_alloc(64, nt * sizeof(vd)), *qt = (vd *)std::aligned_alloc(64, (2 * m.D + 1) * sizeof(vd));
     Tile<vd> tile = tile_at<vd>(m, mem);
-    vd *qt = mem + nt, *seated = qt + m.D, *on = seated + m.D;
+    vd *seated = qt + m.D, *on = seated + m.D;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
       fill_numbers(m, tile, tables, per_row, b);
@@ -206,6 +208,7 @@ void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t 
         for (int a = 0; a < 2; ++a) std::memcpy(anchor + ((b * m.C + c) * 2 + a) * W, &tile.cp[c][a], sizeof(vd));
     }
     std::free(mem);
+    std::free(qt);
   }
 }
 }

@@ -1,0 +1,92 @@
+"""The kernel under AddressSanitizer: every entry point, on creatures that exercise every table.
+
+Two memory errors reached the kernel's first drafts (a tile's scratch counted apart from its
+layout, and aligned vector loads from a caller's array) and only their symptoms caught them. Here
+the kernel is built again with ``-fsanitize=address`` and driven, in a process without JAX (its
+runtime does not load under the sanitizer), through ``run_san`` (SIMD tiles and the scalar form,
+observers, frames, per-row tables, a continued run) and ``start``; any out-of-bounds access ends
+that process with the sanitizer's report.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+HARNESS = """
+import importlib.util, pickle, sys
+import numpy as np
+spec = importlib.util.spec_from_file_location("kernel_alone", sys.argv[1])
+K = importlib.util.module_from_spec(spec)
+sys.modules["kernel_alone"] = K
+spec.loader.exec_module(K)
+
+
+class Load(pickle.Unpickler):
+    def find_class(self, module, name):
+        return getattr(K, name) if module == "sanlab.sim.kernel" else super().find_class(module, name)
+
+
+for c in Load(open(sys.argv[2], "rb")).load():
+    B, N = c["B"], c["N"]
+    z = np.zeros((B, N))
+    for scalar in (False, True):
+        r = K.run_san(c["pk"], c["w"], c["k1"], c["k2"], c["q"], c["p"], c["a"], z, z, 120, observe=c["ob"],
+                      every=7, rows=c["rows"], scalar=scalar)
+        K.run_san(c["pk"], c["w"], c["k1"], c["k2"], r["q"], r["p"], r["anchor"], r["istate"], r["out"], 30,
+                  acc=r["acc"], observe=c["ob"], scalar=scalar)
+    K.start(c["pk"], c["q"], seat=True)
+print("clean")
+"""
+
+
+def _libasan() -> str | None:
+    path = subprocess.run(["g++", "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()
+    return path if path and os.path.isabs(path) and os.path.exists(path) else None
+
+
+@pytest.mark.slow
+def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
+    from sanlab import creature, descriptors, sim
+    from sanlab.engine_report import random_san_params
+    from sanlab.metrics import Metric
+    from sanlab.sim import dynamics, kernel
+    from tests.sim.test_kernel import DATA, chain, observe_of
+
+    asan = _libasan()
+    if shutil.which("g++") is None or asan is None:
+        pytest.skip("needs g++ and its libasan (Debian: apt-get install g++)")
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    src = ROOT / "sanlab" / "sim" / "_kernel" / "kernel.cpp"
+    subprocess.run(["g++", "-O1", "-g", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fopenmp", "-fPIC",
+                    "-shared", "-std=c++17", "-fsanitize=address", "-fno-omit-frame-pointer", "-o",
+                    str(tmp_path / f"_kernel_lib{suffix}"), str(src)], check=True)
+    shutil.copy(ROOT / "sanlab" / "sim" / "kernel.py", tmp_path / "kernel.py")
+    cases = []
+    specs = [creature.load(n) for n in ("bounder", "crawler", "fish", "twolink")]
+    specs += [creature.load(str(DATA / "kitchen_sink.toml")), creature.loads(chain(12), source="chain12")]
+    for spec in specs:  # a batch of 13: tiles with a ragged last one
+        m = sim.compile_creature(spec, dtype="float64")
+        san, sp = random_san_params(spec, 13, 1, dtype="float64")
+        s0 = dynamics.make_state(m)
+        pk = kernel.pack(m, san.n_hidden)
+        rep = lambda x: np.repeat(np.asarray(x)[None], 13, 0)
+        cases.append(dict(pk=pk, w=np.asarray(sp.weights), k1=np.asarray(sp.k1), k2=np.asarray(sp.k2), q=rep(s0.q),
+                          p=rep(s0.p), a=rep(s0.anchor), N=san.n_nodes, B=13, rows={"lf": rep(pk.lf)},
+                          ob=observe_of(Metric.for_creature(spec), descriptors.Descriptors.for_creature(m))))
+    with open(tmp_path / "cases.pkl", "wb") as f:
+        pickle.dump(cases, f)
+    env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0")
+    out = subprocess.run([sys.executable, "-c", HARNESS, str(tmp_path / "kernel.py"), str(tmp_path / "cases.pkl")],
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0 and "clean" in out.stdout, out.stderr[-3000:]
