@@ -130,3 +130,29 @@ def substitute(command: str, ids: dict[str, str]) -> str:
         return ids[m.group(0)]
 
     return ID.sub(repl, command)
+
+
+def run_page(page: Path, folder: Path, check=None) -> None:
+    """Run a page's steps as written in ``folder``: write its files, run its commands in bash
+    (the venv's interpreter first on PATH, 100 columns, no colour) and assert each exits 0 and
+    prints what the page shows after it, in order. ``check(step, output)``: more assertions on
+    each command's output."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, COLUMNS="100", NO_COLOR="1", TERM="dumb")
+    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
+    ids: dict[str, str] = {}
+    for step in steps(page):
+        if step.kind == "file":
+            (folder / step.name).write_text(step.text, encoding="utf-8")
+            continue
+        command = substitute(step.text, ids)
+        r = subprocess.run(["bash", "-c", command], cwd=folder, env=env, stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True, timeout=600)
+        assert r.returncode == 0, f"$ {command}\n{r.stdout}"
+        missing = match(step.expected, r.stdout, ids)
+        assert not missing, f"$ {command}\nnot in its output (in order): {missing}\n--- output:\n{r.stdout}"
+        if check is not None:
+            check(step, r.stdout)

@@ -3,9 +3,6 @@ file loads as the page says and whose commands run as written (as docs/tutorial.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -32,16 +29,4 @@ def test_the_snake_is_a_top_view_chain_written_with_repeat():
 
 @pytest.mark.slow  # a search of a new creature: its compile
 def test_the_snake_page_runs_as_written(tmp_path):
-    env = dict(os.environ, COLUMNS="100", NO_COLOR="1", TERM="dumb")
-    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
-    ids: dict[str, str] = {}
-    for step in blocks.steps(PAGE):
-        if step.kind == "file":
-            (tmp_path / step.name).write_text(step.text, encoding="utf-8")
-            continue
-        command = blocks.substitute(step.text, ids)
-        r = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, text=True, timeout=600)
-        assert r.returncode == 0, f"$ {command}\n{r.stdout}"
-        missing = blocks.match(step.expected, r.stdout, ids)
-        assert not missing, f"$ {command}\nnot in its output (in order): {missing}\n--- output:\n{r.stdout}"
+    blocks.run_page(PAGE, tmp_path)
