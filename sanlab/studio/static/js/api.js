@@ -4,6 +4,10 @@
 //   api.on("library", msg => ...);                    // pushed messages by type
 //
 // It reconnects on its own (the server may be restarted); requests made while disconnected wait.
+// At most MAX_IN_FLIGHT requests are out at once, the rest wait their turn: the server answers
+// more than its own bound (sanlab/studio/app.py, MAX_IN_FLIGHT = 16) with "busy", and a run page
+// asks for a dozen mode animations at once. The margin leaves room for notifications.
+const MAX_IN_FLIGHT = 12;
 
 export class Api {
   constructor(url) {
@@ -12,6 +16,7 @@ export class Api {
     this.pending = new Map();
     this.handlers = new Map();
     this.queue = [];
+    this.waiting = []; // requests not yet sent: [id, text, {resolve, reject}]
     this.ws = null;
     this.connected = false;
     this.connect();
@@ -31,6 +36,7 @@ export class Api {
       this.connected = false;
       for (const [, p] of this.pending) p.reject(new Error("the connection to the studio was lost"));
       this.pending.clear();
+      for (const [, , p] of this.waiting.splice(0)) p.reject(new Error("the connection to the studio was lost"));
       if (was) this.emit("status", { connected: false });
       setTimeout(() => this.connect(), 1000);
     };
@@ -48,6 +54,7 @@ export class Api {
       const p = this.pending.get(msg.id);
       if (p) {
         this.pending.delete(msg.id);
+        this.sendWaiting();
         if (msg.ok) p.resolve(msg.data);
         else p.reject(new Error(msg.error));
       } else if (!msg.ok) {
@@ -66,9 +73,17 @@ export class Api {
   request(op, args = {}) {
     const id = this.nextId++;
     return new Promise((resolve, reject) => {
-      this.pending.set(id, { resolve, reject });
-      this.send(JSON.stringify({ id, op, ...args }));
+      this.waiting.push([id, JSON.stringify({ id, op, ...args }), { resolve, reject }]);
+      this.sendWaiting();
     });
+  }
+
+  sendWaiting() {
+    while (this.waiting.length && this.pending.size < MAX_IN_FLIGHT) {
+      const [id, text, p] = this.waiting.shift();
+      this.pending.set(id, p);
+      this.send(text);
+    }
   }
 
   // Fire and forget (no reply on success; an error still comes back and is shown).
