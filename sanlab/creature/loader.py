@@ -47,6 +47,7 @@ from ._toml import (
     radians_field,
     spec_default,
 )
+from .free import Design, read_design
 from .spec import (
     DELAY_RANGE,
     DIRECTIONS,
@@ -73,7 +74,7 @@ from .spec import (
     World,
 )
 
-__all__ = ["CreatureError", "loads"]
+__all__ = ["CreatureError", "build", "loads", "loads_design"]
 
 SLOPE = _num("a number in (-90, 90) (deg)", lambda x: -90 < x < 90)
 
@@ -90,9 +91,17 @@ def _stem(source: str) -> str:
 
 def loads(text: str, source: str = "<string>") -> Creature:
     """Parse and validate creature TOML ``text``; ``source`` names the file in error messages.
+    A file with free numbers (``free``) gives its creature at their defaults, couplings applied.
 
     Raises :class:`CreatureError` (one printable line) for anything that is not a valid creature
     within the format's limits (``spec.MAX_*``; FORMAT.md, "Limits"), and for nothing else."""
+    return loads_design(text, source)[1]
+
+
+def loads_design(text: str, source: str = "<string>") -> tuple[Design, Creature]:
+    """The free numbers and couplings of creature TOML ``text`` (``free.Design``: none for a file
+    without ranges) and its creature at their defaults (what :func:`loads` returns), checked.
+    Raises :class:`CreatureError` as :func:`loads` does."""
     shown = printable(source)  # messages stay one printable line whatever the file is called
     if not isinstance(text, str):
         raise CreatureError(f"{shown}: expected TOML text, got {type(text).__name__}")
@@ -120,9 +129,19 @@ def loads(text: str, source: str = "<string>") -> Creature:
         raise CreatureError(f"{shown}: {_long_integer(text)}: expected valid TOML, got an integer of more than "
                             f"{sys.get_int_max_str_digits()} digits") from None
     try:
-        data = expand_repeats(data, shown)
-        return _creature(_Table(shown, "", data, TOP), _stem(source))
+        stem = _stem(source)
+        design = read_design(data, shown, lambda d: expand_repeats(d, shown), lambda d: build(d, shown, stem))
+        return design, design.creature()
     except RecursionError:  # a deeply nested value that parsed, met where a number was expected
+        raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
+
+
+def build(data: dict, shown: str, stem: str) -> Creature:
+    """The creature of parsed, written-out TOML ``data`` (no free numbers, no ``[[repeat]]``).
+    Raises :class:`CreatureError` naming ``shown``."""
+    try:
+        return _creature(_Table(shown, "", data, TOP), stem)
+    except RecursionError:
         raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
 
 
