@@ -245,6 +245,29 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
 
 
+def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers: int, trials: int, top: int,
+                 ens: Ensemble, seconds: float) -> dict:
+    """A creature's robust tuned speed, scored as a Table 1 row is: phase 1 (``controllers``
+    random SANs), phase 2 (``trials`` annealing trials on each of the ``top`` best, as parallel
+    chains) and each chain's audited selection; every step taken from the library where an
+    earlier call stored it (an interrupted search or tuning continues). Returns {"speed": the
+    best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
+    "search": the phase-1 run, "phase1_cm_s": phase 1's best speed, "chains": each chain's
+    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. Raises as ``run_search`` and ``tune``."""
+    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens)
+    best = lib.top(run_id, top)
+    tuned_ids, _ = _tune(lib, text, [e.gait_id for e in best], seed, trials, ens)
+    chains = []
+    for tid in tuned_ids:
+        sel, _ = _select(lib, tid.split("#")[0])
+        assert sel is not None  # _select with run=True always makes one
+        chains.append({"tuned": tid, "tuned_cm_s": lib.gait(tid).speed_cm_s, "robust": sel["gait"],
+                       "robust_cm_s": float(sel["speed"] or 0.0)})
+    pick = max(chains, key=lambda c: c["robust_cm_s"])
+    return {"speed": pick["robust_cm_s"], "gait": pick["robust"], "search": run_id,
+            "phase1_cm_s": float(best[0].speed_cm_s), "chains": chains}
+
+
 def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens: Ensemble, top: int,
             audit: bool) -> dict:
     """What makes a row: the creature and the SHA-256 of its file's text (a changed file is

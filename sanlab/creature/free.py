@@ -120,6 +120,23 @@ class Design:
     def defaults(self) -> np.ndarray:
         return np.array([f.default for f in self.free], float)
 
+    def slots(self) -> dict[str, _Slot]:
+        """Path (``links[1].points[1][1]``) -> the slot there: which free number, times, plus."""
+        out: dict[str, _Slot] = {}
+
+        def walk(v: Any, path: str) -> None:
+            if isinstance(v, _Slot):
+                out[path] = v
+            elif isinstance(v, dict):
+                for k, x in v.items():
+                    walk(x, _join(path, k))
+            elif isinstance(v, list):
+                for i, x in enumerate(v):
+                    walk(x, _join(path, i))
+
+        walk(self.template, "")
+        return out
+
     def project(self, values: Sequence[float] | np.ndarray) -> np.ndarray:
         """``values`` clipped to their ranges, every ``[[design.total]]`` made to hold: the numbers
         of a total are scaled together about their lower ends until they sum to its value (the
