@@ -55,6 +55,8 @@ def design(
     seeds: Annotated[str | None, typer.Option(help="Validation seeds, other than --seed (default: --seed + 1).")] = None,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write the chosen body's creature file here "
                                                                   "(default: NAME-design.toml).")] = None,
+    render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
+                                                                  "robust gaits side by side (a .png contact sheet).")] = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -83,6 +85,8 @@ def design(
         raise fail(f"{creature}: expected free numbers to design (a range in place of a number, e.g. "
                    "mass = { min = 0.1, max = 0.3 }: docs/creature-format.md), got none")
     target = out if out is not None else Path(f"{spec.name}-design.toml")
+    if render is not None and not render.lower().endswith(".png"):
+        raise fail(f"design: --render: expected a .png file, got {render!r}")
     configure()
     from sanlab.design import DesignSettings, run_design
 
@@ -106,6 +110,9 @@ def design(
         raise fail(f"design: {e}") from None
     target.write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
+    if render is not None:
+        _render(lib, render, [("reference (the file's defaults)", ref.speeds[s.seed]), ("chosen", ch.speeds[s.seed])],
+                f"{spec.name}: the reference and the chosen body (seed {s.seed})")
     if as_json:
         typer.echo(dump_json(record("design", {"creature": spec.name, "source": where, "written": str(target),
                                                **result.to_json(), "seconds": result.seconds})))
@@ -123,6 +130,24 @@ def design(
 
     for line in changes(d, ch.values):
         console.print(f"  {safe(line)}", soft_wrap=True)
-    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)")
+    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
+                  + (f" and {safe(render)}" if render else ""))
     gait = ch.speeds[s.seed]["gait"]
     print_next(db, [f"sanlab check {target}", *( [f"sanlab render {gait}"] if gait else [])])
+
+
+def _render(lib, path: str, bodies: list[tuple[str, dict]], title: str) -> None:
+    """A contact sheet of each body's robust gait (its best chain's tuned gait where no rung kept
+    its speed), labelled, side by side."""
+    from sanlab.cli.render import gait_scene
+    from sanlab.render.strobe import contact_sheet
+
+    tiles = []
+    for label, rec in bodies:
+        gait_id = rec["gait"] or max(rec["chains"], key=lambda c: c["tuned_cm_s"])["tuned"]
+        _, gait, sc = gait_scene(lib, gait_id)
+        tiles.append((f"{label}   {gait.gait_id}  {gait.speed_cm_s:.1f} cm/s", sc))
+    try:
+        contact_sheet(tiles, title).save(path, format="PNG")
+    except OSError as e:
+        raise fail(f"design: --render {path}: cannot write ({e.strerror or e}); the design is stored") from None

@@ -13,10 +13,22 @@ from sanlab.cli import _schemas, app
 from sanlab.creature import load_design, loads
 from sanlab.design import body_text, changes
 from sanlab.search.bodies import BodyProblem, make_bodies
-from tests.helpers import DATA
+from tests.helpers import DATA, ROOT
 
 HOPPER = DATA / "hopper_free.toml"
 runner = CliRunner()
+# The small design of README.md and docs/design.md, run by the slow test below
+SMALL = ("--designs 3 --generation 3 --controllers 16 --trials 4 --top 1 --seconds 2 --validate 1").split()
+
+
+def test_the_documented_file_and_command_are_the_tested_ones():
+    import re
+
+    for page in ("docs/design.md", "docs/creature-format.md"):
+        blocks = re.findall(r'```toml title="hopper.toml"\n(.*?)```', (ROOT / page).read_text(), re.S)
+        assert blocks == [HOPPER.read_text()], page
+    for page in ("docs/design.md", "README.md"):
+        assert f"sanlab design hopper.toml {' '.join(SMALL)}\n" in (ROOT / page).read_text(), page
 
 
 def test_a_file_without_free_numbers_is_refused_in_one_line(tmp_path):
@@ -29,6 +41,7 @@ def test_a_file_without_free_numbers_is_refused_in_one_line(tmp_path):
     (["--seeds", "0"], "--seeds: expected seeds other than --seed 0"),
     (["--seeds", "a"], "--seeds: expected seeds separated by commas"),
     (["--strategy", "cma"], "--strategy: expected cma-es or random, got 'cma'"),
+    (["--render", "x.gif"], "--render: expected a .png file, got 'x.gif'"),
 ])
 def test_bad_options_are_one_line_errors(tmp_path, args, message):
     r = runner.invoke(app, ["design", str(HOPPER), *args, "--db", str(tmp_path / "x.db")])
@@ -107,8 +120,7 @@ anchor = [-0.1, 0]
 @pytest.mark.slow  # compiles a small creature's search, tuning and audit programs (about a minute on 2 cores)
 def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resumes(tmp_path):
     db, out = str(tmp_path / "d.db"), tmp_path / "chosen.toml"
-    args = ["design", str(HOPPER), "--designs", "3", "--generation", "3", "--controllers", "16", "--trials", "4",
-            "--top", "1", "--seconds", "2", "--validate", "1", "--db", db, "-o", str(out)]
+    args = ["design", str(HOPPER), *SMALL, "--db", db, "-o", str(out)]
     r = runner.invoke(app, [*args, "--json"])
     assert r.exit_code == 0, r.output
     rec = json.loads(r.stdout)
@@ -123,7 +135,11 @@ def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resume
     assert loads(text) == design.creature(chosen["values"])
     assert "mean on seeds 1 (validation); the reference (the file's defaults)" in text
     runs = runner.invoke(app, ["runs", "--db", db, "--json"]).stdout
-    again = runner.invoke(app, args)  # made again: every body's runs are found in the library
+    png = tmp_path / "beside.png"
+    again = runner.invoke(app, [*args, "--render", str(png)])  # made again: every body's runs are in the library
     assert again.exit_code == 0, again.output
+    from PIL import Image
+
+    assert Image.open(png).size[0] > 2 * Image.open(png).size[1]  # two tiles side by side
     assert runner.invoke(app, ["runs", "--db", db, "--json"]).stdout == runs and out.read_text() == text
     assert "reference" in again.stdout and "(chosen)" in again.stdout
