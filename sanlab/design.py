@@ -104,63 +104,13 @@ def rounded(values) -> np.ndarray:
 
 
 def body_text(design: Design, text: str, values, note: str = "") -> str:
-    """The creature file of one body: ``text`` (the file with free numbers) with each free number
-    and each use of one replaced by its value, the masses the couplings give written into the
-    links, and no ``[design]`` table; ``note`` (lines) as a comment block on top. Comments and
-    layout are kept; a file with ``[[repeat]]`` tables is written out (one table per part), as
-    ``sanlab export --toml`` does. The result loads as ``design.creature(values)``."""
-    import tomlkit
-
-    v = design.project(np.asarray(values, float))
-    creature = design.creature(v)
-    if "repeat" in tomlkit.parse(text):
-        doc = tomlkit.document()
-        doc.update(design.expand(design.data(v)))
-    else:
-        doc = tomlkit.parse(text)
-        _fill(doc, v, design.slots())
-        if "design" in doc:
-            del doc["design"]
-    if design.coupling.density or design.coupling.strength_mass or design.coupling.total_mass is not None:
-        for link, table in zip(creature.links, doc["links"], strict=True):
-            table["mass"] = float(link.mass)  # exact, so the file loads as the body
-            if "inertia" in table:
-                table["inertia"] = float(link.inertia)
-    head = "".join(f"# {line}".rstrip() + "\n" for line in note.splitlines())
-    return (head + "\n" if head else "") + tomlkit.dumps(doc)
-
-
-def _fill(node, values: np.ndarray, slots: dict) -> None:
-    """Replace, in a tomlkit document, each free number and each use of one by its value
-    (``slots``: path -> slot, ``Design.slots``)."""
-    from sanlab.creature.free import _join
-
-    def walk(x, path: str) -> None:
-        keys = list(x.keys()) if isinstance(x, dict) else range(len(x)) if isinstance(x, list) else []
-        for k in keys:
-            at = _join(path, k)
-            if at in slots:
-                x[k] = float(slots[at].times * values[slots[at].index] + slots[at].plus)  # repr: exact
-            else:
-                walk(x[k], at)
-
-    walk(node, "")
+    """The creature file of one body (``Design.text``)."""
+    return design.text(text, values, note)
 
 
 def changes(design: Design, values) -> list[str]:
-    """One line per free number (and per link mass the couplings change): the default, the
-    body's value and the change."""
-    v = design.project(np.asarray(values, float))
-    out = []
-    for f, x in zip(design.free, v, strict=True):
-        rel = f" ({100 * (x - f.default) / abs(f.default):+.0f} %)" if f.default else ""
-        out.append(f"{f.name}: {f.default:.6g} -> {x:.6g}{rel}")
-    ref, now = design.creature(), design.creature(v)
-    if design.coupling.any:
-        for a, b in zip(ref.links, now.links, strict=True):
-            if abs(a.mass - b.mass) > 1e-12:
-                out.append(f"mass of {a.name}: {a.mass:.4g} -> {b.mass:.4g} kg ({100 * (b.mass - a.mass) / a.mass:+.0f} %)")
-    return out
+    """What changed, one line each (``Design.changes``)."""
+    return design.changes(values)
 
 
 Reporter = Callable[[int, int, float, str], None]  # (bodies scored, bodies in all, best speed, what now)

@@ -184,6 +184,49 @@ class Design:
                 links[i]["inertia"] = links[i]["inertia"] * float(m) / old  # written inertia follows the mass
         return self.build(data)
 
+    def text(self, text: str, values: Sequence[float] | np.ndarray, note: str = "") -> str:
+        """The creature file of one body: ``text`` (the file with free numbers) with each free
+        number and each use of one replaced by its value (projected), the masses the couplings
+        give written into the links, and no ``[design]`` table; ``note`` (lines) as a comment
+        block on top. Comments and layout are kept; a file with ``[[repeat]]`` tables is written
+        out (one table per part), as ``sanlab export --toml`` does. The result loads as
+        ``self.creature(values)``; raises CreatureError where that is no valid creature."""
+        import tomlkit
+
+        v = self.project(values)
+        creature = self.creature(v)
+        if "repeat" in tomlkit.parse(text):
+            doc = tomlkit.document()
+            doc.update(self.expand(self.data(v)))
+        else:
+            doc = tomlkit.parse(text)
+            _write(doc, v, self.slots())
+            if "design" in doc:
+                del doc["design"]
+        if self.coupling.density or self.coupling.strength_mass or self.coupling.total_mass is not None:
+            for link, table in zip(creature.links, doc["links"], strict=True):
+                table["mass"] = float(link.mass)  # exact (repr), so the file loads as the body
+                if "inertia" in table:
+                    table["inertia"] = float(link.inertia)
+        head = "".join(f"# {line}".rstrip() + "\n" for line in note.splitlines())
+        return (head + "\n" if head else "") + tomlkit.dumps(doc)
+
+    def changes(self, values: Sequence[float] | np.ndarray) -> list[str]:
+        """One line per free number (and per link mass the couplings change): its default, the
+        body's value and the change relative to the default's magnitude."""
+        v = self.project(values)
+        out = []
+        for f, x in zip(self.free, v, strict=True):
+            rel = f" ({100 * (x - f.default) / abs(f.default):+.0f} %)" if f.default else ""
+            out.append(f"{f.name}: {f.default:.6g} -> {x:.6g}{rel}")
+        if self.coupling.any:
+            for a, b in zip(self.creature().links, self.creature(v).links, strict=True):
+                if abs(a.mass - b.mass) > 1e-12:
+                    out.append(f"mass of {a.name}: {a.mass:.4g} -> {b.mass:.4g} kg "
+                               f"({100 * (b.mass - a.mass) / a.mass:+.0f} %)")
+        return out
+
+
     def _stated(self) -> Creature:
         """The creature at the defaults, before couplings (the reference sizes and strengths)."""
         return self.build(self.expand(self.data()))
@@ -322,6 +365,21 @@ def read_design(data: dict, shown: str, expand: Callable[[dict], dict], build: C
     numbers = tuple(FreeNumber(f["name"], f["path"], f["min"], f["max"], f["default"], tuple(f["uses"])) for f in free)
     coupling = _coupling(data.get("design"), shown, numbers, data)
     return Design(shown, numbers, coupling, template, expand, build)
+
+
+def _write(node: Any, values: np.ndarray, slots: dict[str, _Slot]) -> None:
+    """Replace, in a tomlkit document, each free number and each use of one by its value."""
+
+    def walk(x: Any, path: str) -> None:
+        keys = list(x.keys()) if isinstance(x, dict) else range(len(x)) if isinstance(x, list) else []
+        for k in keys:
+            at = _join(path, k)
+            if at in slots:
+                x[k] = float(slots[at].times * values[slots[at].index] + slots[at].plus)  # repr: exact
+            else:
+                walk(x[k], at)
+
+    walk(node, "")
 
 
 def _resolve(v: Any, slots: dict[str, _Slot]) -> Any:

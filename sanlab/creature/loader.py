@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 import sys
 import tomllib
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from . import geometry
@@ -129,9 +131,11 @@ def loads_design(text: str, source: str = "<string>") -> tuple[Design, Creature]
         raise CreatureError(f"{shown}: {_long_integer(text)}: expected valid TOML, got an integer of more than "
                             f"{sys.get_int_max_str_digits()} digits") from None
     try:
-        stem = _stem(source)
-        design = read_design(data, shown, lambda d: expand_repeats(d, shown), lambda d: build(d, shown, stem))
-        return design, design.creature()
+        # partials of module functions, not lambdas: a creature with its design is pickled to Ray workers
+        design = read_design(data, shown, partial(expand_repeats, shown=shown), partial(build, shown=shown,
+                                                                                         stem=_stem(source)))
+        creature = design.creature()
+        return design, (replace(creature, design=design) if design.free else creature)
     except RecursionError:  # a deeply nested value that parsed, met where a number was expected
         raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
 
