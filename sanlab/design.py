@@ -117,10 +117,11 @@ Reporter = Callable[[int, int, float, str], None]  # (bodies scored, bodies in a
 
 
 def run_design(lib: Library, design: Design, text: str, where: str, settings: DesignSettings,
-               reporter: Reporter | None = None) -> DesignResult:
+               reporter: Reporter | None = None, backend=None) -> DesignResult:
     """Search the free numbers of ``design`` (the parsed ``text``, read from ``where``) as the
     module docstring says; every run goes to ``lib``. Raises ValueError for a file without free
-    numbers or bad settings, and as ``run_search`` and ``tune`` do."""
+    numbers or bad settings, and as ``run_search`` and ``tune`` do. ``backend``: where each body's
+    search and tuning evaluate (``sanlab.evaluate.backends``; default this machine)."""
     from sanlab.reproduce import robust_tuned
 
     if not design.free:
@@ -145,7 +146,7 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
             report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
             t = body_text(design, text, body.values, f"A body of `sanlab design`: {body.values}")
             body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
-                                             top=s.top, ens=ens, seconds=seconds)
+                                             top=s.top, ens=ens, seconds=seconds, backend=backend)
         done[0] += 1
         if seed == s.seed:
             best[0] = max(best[0], body.speed(seed))

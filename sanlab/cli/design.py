@@ -10,11 +10,15 @@ import typer
 from rich.table import Table
 
 from sanlab.cli._common import (
+    AddressOpt,
+    BackendOpt,
     CreatureArg,
     DbOpt,
     EnsembleOpt,
     JsonOpt,
     ProgressBar,
+    WorkersOpt,
+    backend_or_exit,
     check_count,
     check_seed,
     console,
@@ -57,6 +61,9 @@ def design(
                                                                   "(default: NAME-design.toml).")] = None,
     render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
                                                                   "robust gaits side by side (a .png contact sheet).")] = None,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -90,6 +97,8 @@ def design(
     configure()
     from sanlab.design import DesignSettings, run_design
 
+    engine = backend_or_exit(backend, address, workers)
+
     settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
                               validate, valid_seeds)
     lib = open_library(db, create=True)
@@ -101,7 +110,7 @@ def design(
     try:
         with bar:
             bar.waiting("design: the reference body (a first compile takes a minute)")
-            result = run_design(lib, d, text, where, settings, report)
+            result = run_design(lib, d, text, where, settings, report, engine)
     except KeyboardInterrupt:
         typer.echo("interrupted; every finished run is in the library: run the same command again to continue",
                    err=True)
