@@ -6,7 +6,9 @@ body's score is what a user will quote: its **robust tuned speed** (cm/s), measu
 row is (``sanlab.reproduce.robust_tuned``): phase 1 (``controllers`` random SANs), a short phase
 2 (``trials`` annealing trials on each of its ``top`` best SANs) and the audited selection of
 each chain (the best rung that keeps its speed at dt/2, dt/4 and in float64). Phase 1 only
-picks the SANs that phase 2 starts from: it never chooses a body. Every run is stored in the gait
+picks the SANs that phase 2 starts from: it never chooses a body, though it may prune one
+(``prune``: a body whose best phase-1 speed falls below a fraction of the reference's skips
+phase 2 and scores 0, which saves its tuning and audits). Every run is stored in the gait
 library and found there again, keyed by the body's creature file (its text) and the settings,
 so a design made again on the same library asks the same bodies (the body strategies are
 deterministic given their seed and the scores told) and continues where it stopped; each search
@@ -45,7 +47,9 @@ class DesignSettings:
     """What a design run does: ``designs`` bodies in all (the reference not counted),
     ``generation`` per round of the ``strategy``; per body ``controllers`` random SANs, ``top``
     chains of ``trials`` trials, scored over ``seconds`` (None: the file's) with an ensemble of
-    ``ensemble`` members; ``validate`` best bodies scored again on ``seeds``."""
+    ``ensemble`` members; ``validate`` best bodies scored again on ``seeds``. ``prune``: a body of
+    the search whose phase-1 best speed is below this fraction of the reference's skips phase 2
+    and scores 0 (0: none is pruned); the validation never prunes."""
 
     designs: int = 8
     generation: int = 4
@@ -58,6 +62,7 @@ class DesignSettings:
     seed: int = 0
     validate: int = 2
     seeds: tuple[int, ...] = (1,)
+    prune: float = 0.0
 
 
 @dataclass
@@ -129,6 +134,8 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     s = settings
     if s.seed in s.seeds:
         raise ValueError(f"seeds: expected seeds other than the search's own ({s.seed}), got {list(s.seeds)}")
+    if not 0 <= s.prune < 1:
+        raise ValueError(f"prune: expected a fraction in [0, 1), got {s.prune}")
     for name in ("designs", "generation", "controllers", "trials", "top", "ensemble"):
         if getattr(s, name) < 1:
             raise ValueError(f"{name}: expected >= 1, got {getattr(s, name)}")
@@ -141,12 +148,13 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     bodies: list[Body] = []
     best = [0.0]
 
-    def score(body: Body, seed: int) -> None:
-        if seed not in body.speeds:
+    def score(body: Body, seed: int, prune_below: float | None = None) -> None:
+        if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
             report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
             t = body_text(design, text, body.values, f"A body of `sanlab design`: {body.values}")
             body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
-                                             top=s.top, ens=ens, seconds=seconds, backend=backend)
+                                             top=s.top, ens=ens, seconds=seconds, backend=backend,
+                                             prune_below=prune_below)
         done[0] += 1
         if seed == s.seed:
             best[0] = max(best[0], body.speed(seed))
@@ -154,13 +162,14 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
 
     reference = Body(rounded(design.defaults).tolist(), -1, 0)
     score(reference, s.seed)
+    below = s.prune * reference.speeds[s.seed]["phase1_cm_s"] if s.prune > 0 else None
     strategy = make_bodies(s.strategy, BodyProblem(design.lo, design.hi, design.defaults, s.designs, s.generation, s.seed))
     rnd = 0
     while not strategy.done:
         asked = strategy.ask()
         batch = [Body(rounded(design.project(x)).tolist(), rnd, k) for k, x in enumerate(asked)]
         for b in batch:
-            score(b, s.seed)
+            score(b, s.seed, below)
         strategy.tell(asked, np.array([b.speed(s.seed) for b in batch]))
         bodies += batch
         rnd += 1

@@ -247,7 +247,7 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
 
 
 def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers: int, trials: int, top: int,
-                 ens: Ensemble, seconds: float, backend=None) -> dict:
+                 ens: Ensemble, seconds: float, backend=None, prune_below: float | None = None) -> dict:
     """A creature's robust tuned speed, scored as a Table 1 row is: phase 1 (``controllers``
     random SANs), phase 2 (``trials`` annealing trials on each of the ``top`` best, as parallel
     chains) and each chain's audited selection; every step taken from the library where an
@@ -255,9 +255,14 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
     "search": the phase-1 run, "phase1_cm_s": phase 1's best speed, "chains": each chain's
     {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search and the tuning
-    evaluate (default: this machine; the audits run here). Raises as ``run_search`` and ``tune``."""
+    evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
+    (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
+    Raises as ``run_search`` and ``tune``."""
     run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend)
     best = lib.top(run_id, top)
+    if prune_below is not None and best[0].speed_cm_s < prune_below:
+        return {"speed": 0.0, "gait": None, "search": run_id, "phase1_cm_s": float(best[0].speed_cm_s),
+                "chains": [], "pruned": True}
     tuned_ids, _ = _tune(lib, text, [e.gait_id for e in best], seed, trials, ens, backend)
     chains = []
     for tid in tuned_ids:

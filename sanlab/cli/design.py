@@ -57,6 +57,9 @@ def design(
     validate: Annotated[int, typer.Option(min=1, help="Best bodies scored again on --seeds; the chosen one is "
                                                        "the best of them there.")] = 2,
     seeds: Annotated[str | None, typer.Option(help="Validation seeds, other than --seed (default: --seed + 1).")] = None,
+    prune: Annotated[float, typer.Option(min=0.0, max=0.99, help=(
+        "Skip phase 2 for a body whose best phase-1 speed is below this fraction of the reference's "
+        "(it scores 0); 0: prune none. Phase 1 never chooses a body."))] = 0.0,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write the chosen body's creature file here "
                                                                   "(default: NAME-design.toml).")] = None,
     render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
@@ -100,7 +103,7 @@ def design(
     engine = backend_or_exit(backend, address, workers)
 
     settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
-                              validate, valid_seeds)
+                              validate, valid_seeds, prune)
     lib = open_library(db, create=True)
     bar = ProgressBar(console.is_terminal and not as_json, "design")
 
@@ -120,8 +123,9 @@ def design(
     target.write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
     if render is not None:
-        _render(lib, render, [("reference (the file's defaults)", ref.speeds[s.seed]), ("chosen", ch.speeds[s.seed])],
-                f"{spec.name}: the reference and the chosen body (seed {s.seed})")
+        rec = ch.speeds[s.seed] if not ch.speeds[s.seed].get("pruned") else ch.speeds[s.seeds[0]]
+        _render(lib, render, [("reference (the file's defaults)", ref.speeds[s.seed]), ("chosen", rec)],
+                f"{spec.name}: the reference and the chosen body")
     if as_json:
         typer.echo(dump_json(record("design", {"creature": spec.name, "source": where, "written": str(target),
                                                **result.to_json(), "seconds": result.seconds})))
@@ -131,7 +135,7 @@ def design(
         name = "reference" if b.round < 0 else f"{b.round}.{b.index}" + (" (chosen)" if b is ch else "")
         table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
                       *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
-                      safe(str(b.speeds[s.seed]["gait"] or "none")))
+                      "pruned (phase 1)" if b.speeds[s.seed].get("pruned") else safe(str(b.speeds[s.seed]["gait"] or "none")))
     console.print(table)
     console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")

@@ -143,3 +143,53 @@ def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resume
     assert Image.open(png).size[0] > 2 * Image.open(png).size[1]  # two tiles side by side
     assert runner.invoke(app, ["runs", "--db", db, "--json"]).stdout == runs and out.read_text() == text
     assert "reference" in again.stdout and "(chosen)" in again.stdout
+
+
+def _fake_scores(monkeypatch, calls):
+    """robust_tuned replaced by a score of the body's mass: phase 1 = 10 x mass, the robust tuned
+    speed 20 x mass on the search's seed 0 and 20 x (2 - mass) on any other (a search's winner
+    that does not hold on fresh seeds), honouring prune_below as the real one does."""
+    import sanlab.reproduce
+
+    def fake(lib, text, where, *, seed, prune_below=None, **kw):
+        mass = loads(text).links[0].mass
+        calls.append((round(mass, 6), seed, prune_below))
+        p1 = 10 * mass
+        if prune_below is not None and p1 < prune_below:
+            return {"speed": 0.0, "gait": None, "search": "s", "phase1_cm_s": p1, "chains": [], "pruned": True}
+        speed = 20 * mass if seed == 0 else 20 * (2 - mass)
+        return {"speed": speed, "gait": f"g{mass:.3f}", "search": "s", "phase1_cm_s": p1, "chains": []}
+
+    monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
+
+
+def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(monkeypatch):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=3, seeds=(1, 2))
+    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    search = sorted((b for b in r.bodies if b.round >= 0), key=lambda b: -b.speed(0))
+    assert r.chosen in search[:3] and r.chosen is not search[0]  # the lightest of the three heaviest
+    assert r.chosen.mean((1, 2)) == max(b.mean((1, 2)) for b in search[:3])
+    assert set(r.reference.speeds) == {0, 1, 2} and r.reference.values == [1.0, -0.275, -0.275, 0.02]
+    assert all(seed == 0 for m, seed, _ in calls[:9])  # the reference and the 8 bodies, then validation
+    assert sorted(seed for _, seed, _ in calls[9:]) == [1] * 4 + [2] * 4
+
+
+def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_validation(monkeypatch):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=2, seeds=(1,), prune=0.9)
+    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    assert calls[0][2] is None  # the reference is never pruned
+    assert all(p == pytest.approx(9.0) for _, seed, p in calls[1:9])  # 0.9 x the reference's phase 1 (10 cm/s)
+    assert all(p is None for _, seed, p in calls[9:])  # validation scores in full
+    pruned = [b for b in r.bodies if b.speeds[0].get("pruned")]
+    assert pruned and all(b.values[0] < 0.9 and b.speed(0) == 0.0 for b in pruned)
+    assert not r.chosen.speeds[1].get("pruned")
