@@ -12,10 +12,10 @@ seeds (not biased: the figure a user quotes) and the reference's, then the ratio
     python benchmarks/design.py [--creature tests/data/hopper_free.toml] [--designs 8] [--generation 4]
                                 [--controllers 16] [--trials 8] [--top 1] [--seconds 2] [--seeds 1,2]
 
-The default run is small (about 4 minutes on 2 CPU cores, most of it the first compile): at
+The default run is small (about 2 minutes on 2 CPU cores, a minute of it the first compile): at
 this budget a body's robust tuned speed is a noisy figure and a ratio near 1 says only that
-neither strategy is broken; a real comparison takes a larger --designs and --controllers. The
-last line is ``validated_ratio=<x> search_ratio=<y>`` (CMA-ES over random).
+neither strategy is broken; a real comparison takes a larger --designs and --controllers
+(figures: docs/design.md). The last line is ``validated_ratio=<x> search_ratio=<y>`` (CMA-ES over random).
 """
 
 from __future__ import annotations
