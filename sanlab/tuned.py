@@ -130,8 +130,8 @@ def apply_to_file(gait: Gait) -> str:
     s, t = gait.spec, _tuned(gait)
     text = gait.creature_text
     free = gait.params.free
-    if free is not None and s.design is not None:  # the tuned body first: its free numbers written in
-        text = s.design.text(text, free)
+    if s.design is not None:  # the body first, its free numbers written in: the file is this gait's, not a range
+        text = s.design.text(text, free if free is not None else s.design.defaults)
     doc = tomlkit.parse(text)
     written_out = "repeat" in doc
     if written_out:  # each repeated part gets values of its own: write the copies out (comments are lost)

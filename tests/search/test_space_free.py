@@ -73,6 +73,9 @@ def test_tune_morphology_on_free_numbers_stores_replays_and_exports_the_body(tmp
     out = r.invoke(app, ["search", HOPPER, "--controllers", "8", "--seconds", "1", "--db", db, "--json"])
     assert out.exit_code == 0, out.output
     run = json.loads(out.stdout)["run_id"]
+    first = r.invoke(app, ["export", f"{run}/1", "--toml", "--db", db])  # a phase-1 gait: the file at its defaults
+    assert first.exit_code == 0, first.output
+    assert "min =" not in first.stdout and loads(first.stdout) == load(HOPPER)
     out = r.invoke(app, ["tune", f"{run}/1", "--morphology", "--trials", "6", "--db", db, "--json"])
     assert out.exit_code == 0, out.output
     tuned = json.loads(out.stdout)[0]["tuned_gait"]
