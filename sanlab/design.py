@@ -76,9 +76,11 @@ class Body:
     speeds: dict[int, dict] = field(default_factory=dict)
 
     def speed(self, seed: int) -> float:
+        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, or pruned)."""
         return float(self.speeds[seed]["speed"])
 
     def mean(self, seeds) -> float:
+        """The mean robust tuned speed (cm/s) over ``seeds``; KeyError for a seed not scored."""
         return float(np.mean([self.speed(s) for s in seeds]))
 
 
@@ -95,6 +97,8 @@ class DesignResult:
     seconds: float
 
     def to_json(self) -> dict:
+        """The ``sanlab/design/1`` record's fields (``sanlab/schemas/design.json``) but its own."""
+
         def body(b: Body) -> dict:
             return {"values": b.values, "round": b.round, "index": b.index,
                     "speeds": {str(k): v for k, v in b.speeds.items()}}
@@ -105,17 +109,8 @@ class DesignResult:
 
 
 def rounded(values) -> np.ndarray:
+    """``values`` [D] to :data:`DIGITS` significant digits."""
     return np.array([float(f"{float(x):.{DIGITS}g}") for x in values])
-
-
-def body_text(design: Design, text: str, values, note: str = "") -> str:
-    """The creature file of one body (``Design.text``)."""
-    return design.text(text, values, note)
-
-
-def changes(design: Design, values) -> list[str]:
-    """What changed, one line each (``Design.changes``)."""
-    return design.changes(values)
 
 
 Reporter = Callable[[int, int, float, str], None]  # (bodies scored, bodies in all, best speed, what now)
@@ -151,7 +146,7 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     def score(body: Body, seed: int, prune_below: float | None = None) -> None:
         if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
             report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
-            t = body_text(design, text, body.values, f"A body of `sanlab design`: {body.values}")
+            t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
             body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
                                              top=s.top, ens=ens, seconds=seconds, backend=backend,
                                              prune_below=prune_below)
@@ -184,7 +179,7 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
             score(b, seed)
     chosen = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
     note = _note(design, where, s, chosen, reference, len(bodies))
-    out = body_text(design, text, chosen.values, note)
+    out = design.text(text, chosen.values, note)
     return DesignResult(s, [reference, *bodies], reference, chosen, out, time.perf_counter() - t0)
 
 
@@ -199,9 +194,9 @@ def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference
         f"mean on seeds {seeds} (validation); the reference (the file's defaults): "
         f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
         "What changed (default -> chosen):",
-        *[f"  {line}" for line in changes(design, chosen.values)],
+        *[f"  {line}" for line in design.changes(chosen.values)],
     ]
     return "\n".join(lines)
 
 
-__all__ = ["Body", "DesignResult", "DesignSettings", "body_text", "changes", "run_design"]
+__all__ = ["Body", "DesignResult", "DesignSettings", "run_design"]

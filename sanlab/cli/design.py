@@ -139,9 +139,7 @@ def design(
     console.print(table)
     console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
-    from sanlab.design import changes
-
-    for line in changes(d, ch.values):
+    for line in d.changes(ch.values):
         console.print(f"  {safe(line)}", soft_wrap=True)
     console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
                   + (f" and {safe(render)}" if render else ""))

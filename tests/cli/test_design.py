@@ -11,7 +11,6 @@ from typer.testing import CliRunner
 
 from sanlab.cli import _schemas, app
 from sanlab.creature import load_design, loads
-from sanlab.design import body_text, changes
 from sanlab.search.bodies import BodyProblem, make_bodies
 from tests.helpers import DATA, ROOT
 
@@ -86,11 +85,11 @@ def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
     design, _ = load_design(str(HOPPER))
     text = HOPPER.read_text()
     v = [0.7, -0.3, -0.25, 0.025]
-    out = body_text(design, text, v, "a note\nof two lines")
+    out = design.text(text, v, "a note\nof two lines")
     assert out.startswith("# a note\n# of two lines\n")
     assert loads(out) == design.creature(v) and "[design]" not in out and "min =" not in out
-    assert changes(design, v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (-9 %)"]
-    assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in changes(design, v)
+    assert design.changes(v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (-9 %)"]
+    assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
 
 
 def test_a_body_of_a_file_with_repeats_is_written_out():
@@ -113,7 +112,7 @@ anchor = [-0.1, 0]
     from sanlab.creature.loader import loads_design
 
     design, _ = loads_design(text)
-    out = body_text(design, text, [0.07])
+    out = design.text(text, [0.07])
     assert "repeat" not in out and [k.mass for k in loads(out).links] == [0.05, 0.07, 0.07]
 
 
