@@ -27,9 +27,9 @@ _MODEL_KEYS = {
     "act_min": ("A",), "act_max": ("A",), "act_ks": ("A",), "act_kd": ("A",), "sens_min": ("S",),
     "sens_max": ("S",), "mass": ("L",), "inertia": ("L",), "com": ("L", 2), "anchor": ("L", 2),
     "contact": ("C", 2), "act_pts": ("A", 2, 2), "sens_pts": ("S", 2, 2), "spr_pts": ("N", 2, 2),
-    "edge": ("E", 2, 2), "q0": ("D",),
+    "edge": ("E", 2, 2), "q0": ("D",), "root_pose": ("L", 3), "contact_load": ("C",),
 }  # fmt: skip
-_PARAM_KEYS = {"delay_on", "delay_off", "k1", "k2", "model", "scale"}
+_PARAM_KEYS = {"delay_on", "delay_off", "k1", "k2", "model", "scale", "free"}
 SCALE_RANGE = (0.1, 10.0)  # link length scales (tuning keeps them in [0.5, 1.5])
 
 
@@ -62,6 +62,15 @@ def check_params(spec: Creature, params: Any) -> None:
         a, b = SCALE_RANGE
         _array(params["scale"], (len(spec.links),), "params.scale", f"{len(spec.links)} length scales in [{a:g}, {b:g}]",
                lambda v: a <= v <= b)
+    if "free" in params:
+        design = spec.design
+        if design is None:
+            raise ValueError("params.free: expected no free values (the creature file has no free numbers)")
+        n = len(design.free)
+        arr = _array(params["free"], (n,), "params.free", f"{n} values of the file's free numbers")
+        for i, (x, f) in enumerate(zip(arr, design.free, strict=True)):
+            if not f.min <= x <= f.max:
+                raise ValueError(f"params.free[{i}]: expected a value of {f.name} within [{f.min:g}, {f.max:g}], got {x:g}")
     model = params.get("model")
     if model is None:
         return

@@ -165,7 +165,7 @@ def _earlier(lib: Library, kind: str, text: str, seed: int, wanted) -> Run | Non
 
 
 def _search(lib: Library, text: str, where: str, seconds: float, seed: int, controllers: int,
-            ens: Ensemble) -> tuple[str, bool]:
+            ens: Ensemble, backend=None) -> tuple[str, bool]:
     """Phase 1 of one creature: (run id, whether an earlier call had stored some of it)."""
     from sanlab.search import run_search
 
@@ -180,12 +180,13 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     if run is not None and run.status == "done":
         return run.run_id, True
     if run is not None:
-        return run_search(lib, text, where, resume=run.run_id), True
+        return run_search(lib, text, where, resume=run.run_id, backend=backend), True
     return run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed, batch=SEARCH_BATCH,
-                      ensemble=ens), False
+                      ensemble=ens, backend=backend), False
 
 
-def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, ens: Ensemble) -> tuple[list[str], bool]:
+def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, ens: Ensemble,
+          backend=None) -> tuple[list[str], bool]:
     """Phase 2 of one creature: ``trials`` annealing trials on each gait of ``parents`` (the
     search's best first), as parallel chains 0, 1, ...: (the tuned gait id of each chain, whether
     an earlier call had stored some of it)."""
@@ -205,11 +206,11 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
     if len(runs) == len(parents):
         todo = [r.run_id for r in runs if r.status != "done"]
         if todo:
-            tune(lib, resume=todo)
+            tune(lib, resume=todo, backend=backend)
         return [f"{r.run_id}#0" for r in runs], True
     # the chains are created together before the first trial, so a partial set is a crash
     # between two creations: start all of them again (their random streams depend on the chain)
-    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens)
+    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens, backend=backend)
     return [r.tuned_gait for r in res], False
 
 
@@ -243,6 +244,35 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
     c = sel.chosen
     return {"gait": sel.gait_id, "speed": None if c is None else c.nominal_cm_s, "trial": None if c is None else c.trial,
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
+
+
+def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers: int, trials: int, top: int,
+                 ens: Ensemble, seconds: float, backend=None, prune_below: float | None = None) -> dict:
+    """A creature's robust tuned speed, scored as a Table 1 row is: phase 1 (``controllers``
+    random SANs), phase 2 (``trials`` annealing trials on each of the ``top`` best, as parallel
+    chains) and each chain's audited selection; every step taken from the library where an
+    earlier call stored it (an interrupted search or tuning continues). Returns {"speed": the
+    best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
+    "search": the phase-1 run, "phase1_cm_s": phase 1's best speed, "chains": each chain's
+    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search and the tuning
+    evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
+    (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
+    Raises as ``run_search`` and ``tune``."""
+    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend)
+    best = lib.top(run_id, top)
+    if prune_below is not None and best[0].speed_cm_s < prune_below:
+        return {"speed": 0.0, "gait": None, "search": run_id, "phase1_cm_s": float(best[0].speed_cm_s),
+                "chains": [], "pruned": True}
+    tuned_ids, _ = _tune(lib, text, [e.gait_id for e in best], seed, trials, ens, backend)
+    chains = []
+    for tid in tuned_ids:
+        sel, _ = _select(lib, tid.split("#")[0])
+        assert sel is not None  # _select with run=True always makes one
+        chains.append({"tuned": tid, "tuned_cm_s": lib.gait(tid).speed_cm_s, "robust": sel["gait"],
+                       "robust_cm_s": float(sel["speed"] or 0.0)})
+    pick = max(chains, key=lambda c: c["robust_cm_s"])
+    return {"speed": pick["robust_cm_s"], "gait": pick["robust"], "search": run_id,
+            "phase1_cm_s": float(best[0].speed_cm_s), "chains": chains}
 
 
 def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens: Ensemble, top: int,

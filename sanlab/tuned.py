@@ -5,7 +5,8 @@ names, and the creature file with a tuned gait's parameters applied (``sanlab sh
 
 What a tuned gait changes (``sanlab.search.space``): per-node delays, actuator ranges and gains,
 range-sensor ranges, and with ``--morphology`` a length scale per link (its outline, contacts,
-centre of mass and attachment points scale with it, its mass as tuned). Everything but per-node
+centre of mass and attachment points scale with it, its mass as tuned), or, for a file with free
+numbers, the values of those (``sanlab.creature.free``). Everything but per-node
 delays has a place in the file; delays that differ between nodes do not ([san] holds one pair),
 so :func:`apply_to_file` writes them as a comment and leaves [san] as it was.
 """
@@ -68,8 +69,10 @@ def file_values(gait: Gait) -> dict:
     """The gait's parameters in the creature file's units, beside the file's own values:
     {"rows": [{"part", "name", "value", "file", "unit"}]}: each node's delays (s), each
     actuator's range (deg or m) and gains (N·m/deg, N·m·s/deg or N/m, N·s/m), each range
-    sensor's range (deg or m), and with a morphology each link's length scale and mass (kg)."""
+    sensor's range (deg or m), and with a morphology each link's length scale and mass (kg), or
+    each free number's value (the file's units)."""
     s, t = gait.spec, _tuned(gait)
+    free = gait.params.free
     rows: list[dict[str, Any]] = []
 
     def add(part: str, name: str, value: float, file: float | None, unit: str) -> None:
@@ -99,6 +102,9 @@ def file_values(gait: Gait) -> dict:
         k = 1.0 if length else PER_DEG
         add(f"sensor {sen.name}", "min" if length else "min_deg", t["sens_min"][i] * k, sen.min * k, "m" if length else "deg")
         add(f"sensor {sen.name}", "max" if length else "max_deg", t["sens_max"][i] * k, sen.max * k, "m" if length else "deg")
+    if free is not None and s.design is not None:
+        for f, x in zip(s.design.free, free, strict=True):
+            add(f"free number {f.name}", "value", x, f.default, "")
     if gait.params.to_json().get("scale"):
         for i, link in enumerate(s.links):
             add(f"link {link.name}", "length scale", gait.params.to_json()["scale"][i], 1.0, "")
@@ -122,7 +128,11 @@ def apply_to_file(gait: Gait) -> str:
     import tomlkit
 
     s, t = gait.spec, _tuned(gait)
-    doc = tomlkit.parse(gait.creature_text)
+    text = gait.creature_text
+    free = gait.params.free
+    if s.design is not None:  # the body first, its free numbers written in: the file is this gait's, not a range
+        text = s.design.text(text, free if free is not None else s.design.defaults)
+    doc = tomlkit.parse(text)
     written_out = "repeat" in doc
     if written_out:  # each repeated part gets values of its own: write the copies out (comments are lost)
         import tomllib

@@ -119,3 +119,28 @@ def test_validation_rescores_the_best_on_fresh_sans_once_and_picks_by_its_mean(b
     text = (tmp_path / "best.toml").read_text()
     top = max(checks, key=lambda r: r["speed_cm_s"])
     assert f"candidate {top['of'][1]}," in text and "validated on fresh SANs" in text
+
+
+def test_the_fourlink_design_file_loads_as_the_built_in():
+    """experiments/fourlink_design.toml, the script's design as free numbers (issue 47): at its
+    defaults it is the built-in fourlink (to the last bits: kd = ks / 10 is computed, not written),
+    and its free numbers are the script's, by name and range (the fold thresholds in degrees)."""
+    from sanlab.creature import load_design, read_source
+
+    fl = _design("fourlink")
+    text = (ROOT / "experiments" / "fourlink_design.toml").read_text()
+    from sanlab.creature.loader import loads
+    from sanlab.sim.compiler import compile_creature
+
+    a, b = loads(read_source("fourlink")[0]), loads(text)
+    assert (a.san, a.evaluation, a.sensors, a.world, a.links) == (b.san, b.evaluation, b.sensors, b.world, b.links)
+    ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
+    assert ma.structure == mb.structure
+    for x, y in zip(jax.tree_util.tree_leaves(ma.params), jax.tree_util.tree_leaves(mb.params), strict=True):
+        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=0)
+    design, _ = load_design(str(ROOT / "experiments" / "fourlink_design.toml"))
+    ranges = {n: (lo, hi) for n, lo, hi in fl.RANGES}
+    for f in design.free:
+        if f.name in ranges:
+            assert (f.min, f.max) == ranges[f.name], f.name
+    assert set(design.names) == (set(ranges) - {"sense"}) | {"fold_end", "fold_mid"}

@@ -13,7 +13,8 @@ Layers, lowest first (a module may import from its own layer and the ones below)
                       for a second: `sanlab check --simulate`)
     library           the gait library (SQLite)
     search | render   side by side, neither imports the other: search holds the phase 1 and 2
-                      drivers, reproduce (both phases per creature, the Table 1 report) and
+                      drivers, reproduce (both phases per creature, the Table 1 report), design
+                      (free numbers searched with robust tuned speed) and
                       audit (a gait re-scored under nudges), modes (a run's gaits grouped);
                       render draws scenes, scores and traces it is handed
     cli, studio, gym  the applications: the command line, the web studio, and Gymnasium
@@ -42,7 +43,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics", "sanlab.descriptors"), "interop": ("sanlab.interop",)}),
     ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
-    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
+    ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.design", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",), "gym": ("sanlab.gym",)}),
 ]
 SIDE_BY_SIDE = {"search and render"}

@@ -1,7 +1,7 @@
 """The ``sanlab`` command line: this module only composes the commands, one module per group.
 
 ``creatures`` (check, creatures), ``simulate``, ``search``, ``library`` (runs, show, export,
-import), ``modes``, ``tune``, ``audit``, ``reproduce``, ``render``, ``mjcf`` (import-mjcf, export-mjcf: MuJoCo
+import), ``modes``, ``tune``, ``design``, ``audit``, ``reproduce``, ``render``, ``mjcf`` (import-mjcf, export-mjcf: MuJoCo
 models in and out), ``studio`` (the web studio, an optional extra);
 ``_common`` holds what they share (``fail``, the options, opening the library, the progress bar).
 Heavy imports (JAX, the drawing libraries, the web stack) stay inside the commands that need them,
@@ -21,7 +21,7 @@ from typing import Annotated, Any
 import typer
 
 from sanlab import __version__
-from sanlab.cli import audit, creatures, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
+from sanlab.cli import audit, creatures, design, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
 
 
 def _flag_types_hidden() -> None:
@@ -166,6 +166,7 @@ app.command()(modes.modes)
 app.command("export")(library.export_)
 app.command("import")(library.import_)
 app.command()(tune.tune)
+app.command()(design.design)
 app.command()(audit.audit)
 app.command()(reproduce.reproduce)
 app.command()(render.render)

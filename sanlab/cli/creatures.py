@@ -44,7 +44,10 @@ def check(
     """Validate a creature file and summarise it; --simulate adds warnings from a short drop."""
     check_dtype(dtype)
     c, where = load_or_exit(creature)
+    design = _design_or_exit(creature)
     out = _summary(c, where)
+    if design.free or design.coupling.any:
+        out |= _free(design)
     findings = []
     if simulate:
         from sanlab import configure
@@ -92,7 +95,62 @@ def check(
         for f in findings:
             mark = "[yellow]warning[/yellow]" if f.warning else "[green]ok[/green]     "
             console.print(f"  {mark} {safe(f.message)}", soft_wrap=True)
+    if "free" in out:
+        _print_free(out)
     _strict(strict, out["warnings"], creature)
+
+
+def _design_or_exit(creature: str):
+    from sanlab.creature import CreatureError, load_design
+
+    try:
+        return load_design(creature)[0]
+    except CreatureError as e:
+        raise fail(str(e)) from None
+
+
+def _free(design) -> dict:
+    """The --json fields of a file's free numbers (their ranges, the total mass at both ends)
+    and couplings (paper §6.3; docs/creature-format.md, "Free numbers")."""
+    rows = [{"name": f.name, "path": f.path, "min": f.min, "max": f.max, "default": f.default, "uses": list(f.uses),
+             "mass_at_min": _finite(lo), "mass_at_max": _finite(hi)} for f, (lo, hi) in zip(design.free, design.ends(), strict=True)]
+    cp = design.coupling
+    couplings = {"density": list(cp.density), "strength_mass": cp.strength_mass,
+                 "total_mass": cp.total_mass, "totals": [{"of": list(t.of), "value": t.value} for t in cp.totals]}
+    return {"free": rows, "couplings": couplings, "mass": design.total_mass()}
+
+
+def _kg(x: float | None) -> str:
+    return "no valid creature" if x is None else f"{x:.4g} kg"
+
+
+def _finite(x: float) -> float | None:
+    return x if x == x else None  # NaN (no valid creature at that end): null in JSON
+
+
+def _print_free(out: dict) -> None:
+    """The free numbers, one line each with the word "free", and the couplings."""
+    n = len(out["free"])
+    console.print(f"[bold]free numbers[/bold]: {n} (the file loads at each default; total mass {out['mass']:.4g} kg)")
+    for f in out["free"]:
+        shared = f" (also {', '.join(safe(u) for u in f['uses'][1:])})" if len(f["uses"]) > 1 else ""
+        console.print(f"  {safe(f['name'])}: free in [{f['min']:g}, {f['max']:g}], default {f['default']:g}{shared}; "
+                      f"total mass {_kg(f['mass_at_min'])} at min, {_kg(f['mass_at_max'])} at max", soft_wrap=True)
+    cp = out["couplings"]
+    lines = []
+    if cp["density"]:
+        who = "every link" if cp["density"] == ["*"] else ", ".join(safe(x) for x in cp["density"])
+        lines.append(f"density: mass follows size (segment length, polygon area) for {who}")
+    if cp["strength_mass"]:
+        lines.append(f"strength_mass: {cp['strength_mass']:g} kg per N·m/deg of ks above its default, on the link "
+                     "each angular actuator moves")
+    if cp["total_mass"] is not None:
+        total = "the stated total" if cp["total_mass"] == "stated" else f"{cp['total_mass']:g} kg"
+        lines.append(f"total_mass: link masses scaled to {total}")
+    lines += [f"total: {' + '.join(safe(x) for x in t['of'])} = {t['value']:g}" for t in cp["totals"]]
+    console.print(f"[bold]couplings[/bold]: {len(lines) or 'none'}")
+    for line in lines:
+        console.print(f"  {line}", soft_wrap=True)
 
 
 def _strict(strict: bool, warnings: int, creature: str) -> None:

@@ -51,7 +51,9 @@ def tune(
     trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
     seed: Annotated[int, typer.Option(help="Seed of the perturbations.")] = 0,
     top: Annotated[int | None, typer.Option(min=1, help="Tune a run's top K gaits as parallel chains.")] = None,
-    morphology: Annotated[bool, typer.Option("--morphology", help="Also tune link lengths (and so masses).")] = False,
+    morphology: Annotated[bool, typer.Option("--morphology", help=(
+        "Also tune the body: a file's free numbers that shape it (the local case of `sanlab design`), "
+        "else link lengths (and so masses)."))] = False,
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
     batch: Annotated[int | None, typer.Option(min=1, help=(
         "Evaluations simulated together per round (default: 8 on the CPU, or one per chain if more; 128 on a GPU: "

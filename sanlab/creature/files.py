@@ -9,10 +9,11 @@ from importlib import resources
 from pathlib import Path
 
 from ._checks import CreatureError, printable
-from .loader import loads
+from .free import Design
+from .loader import loads, loads_design
 from .spec import MAX_FILE_BYTES, Creature
 
-__all__ = ["NotRegularFile", "TooLarge", "builtin_names", "load", "load_file", "read_regular_file", "read_source"]
+__all__ = ["NotRegularFile", "TooLarge", "builtin_names", "load", "load_design", "load_file", "read_regular_file", "read_source"]
 
 
 def _builtin_dir():
@@ -120,3 +121,10 @@ def load(name_or_path: str | Path) -> Creature:
     """Load a built-in creature by name (e.g. "cart"), or else a .toml file by path."""
     text, where = read_source(name_or_path)
     return loads(text, where if where.startswith("builtin:") else str(name_or_path))
+
+
+def load_design(name_or_path: str | Path) -> tuple[Design, Creature]:
+    """A creature file's free numbers and couplings (``free.Design``) and its creature at their
+    defaults, by built-in name or path (as :func:`load`); raises :class:`CreatureError`."""
+    text, where = read_source(name_or_path)
+    return loads_design(text, where if where.startswith("builtin:") else str(name_or_path))

@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 import sys
 import tomllib
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from . import geometry
@@ -47,6 +49,7 @@ from ._toml import (
     radians_field,
     spec_default,
 )
+from .free import Design, read_design
 from .spec import (
     DELAY_RANGE,
     DIRECTIONS,
@@ -73,7 +76,7 @@ from .spec import (
     World,
 )
 
-__all__ = ["CreatureError", "loads"]
+__all__ = ["CreatureError", "build", "loads", "loads_design"]
 
 SLOPE = _num("a number in (-90, 90) (deg)", lambda x: -90 < x < 90)
 
@@ -90,9 +93,17 @@ def _stem(source: str) -> str:
 
 def loads(text: str, source: str = "<string>") -> Creature:
     """Parse and validate creature TOML ``text``; ``source`` names the file in error messages.
+    A file with free numbers (``free``) gives its creature at their defaults, couplings applied.
 
     Raises :class:`CreatureError` (one printable line) for anything that is not a valid creature
     within the format's limits (``spec.MAX_*``; FORMAT.md, "Limits"), and for nothing else."""
+    return loads_design(text, source)[1]
+
+
+def loads_design(text: str, source: str = "<string>") -> tuple[Design, Creature]:
+    """The free numbers and couplings of creature TOML ``text`` (``free.Design``: none for a file
+    without ranges) and its creature at their defaults (what :func:`loads` returns), checked.
+    Raises :class:`CreatureError` as :func:`loads` does."""
     shown = printable(source)  # messages stay one printable line whatever the file is called
     if not isinstance(text, str):
         raise CreatureError(f"{shown}: expected TOML text, got {type(text).__name__}")
@@ -120,9 +131,21 @@ def loads(text: str, source: str = "<string>") -> Creature:
         raise CreatureError(f"{shown}: {_long_integer(text)}: expected valid TOML, got an integer of more than "
                             f"{sys.get_int_max_str_digits()} digits") from None
     try:
-        data = expand_repeats(data, shown)
-        return _creature(_Table(shown, "", data, TOP), _stem(source))
+        # partials of module functions, not lambdas: a creature with its design is pickled to Ray workers
+        design = read_design(data, shown, partial(expand_repeats, shown=shown), partial(build, shown=shown,
+                                                                                         stem=_stem(source)))
+        creature = design.creature()
+        return design, (replace(creature, design=design) if design.free else creature)
     except RecursionError:  # a deeply nested value that parsed, met where a number was expected
+        raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
+
+
+def build(data: dict, shown: str, stem: str) -> Creature:
+    """The creature of parsed, written-out TOML ``data`` (no free numbers, no ``[[repeat]]``).
+    Raises :class:`CreatureError` naming ``shown``."""
+    try:
+        return _creature(_Table(shown, "", data, TOP), stem)
+    except RecursionError:
         raise CreatureError(f"{shown}: expected a creature file, got values nested too deep to check") from None
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
 Vec2 = tuple[float, float]
 
@@ -406,6 +406,9 @@ class Creature:
     evaluation: Evaluation = field(default_factory=Evaluation)
     dt: float = 1.0e-3  # s
     description: str = ""
+    # the file's free numbers (``free.Design``) when it has any, else None: what tuning with
+    # --morphology moves (``sanlab.search.space``); not part of the creature's identity
+    design: Any = field(default=None, compare=False, repr=False)
 
     def link(self, name: str) -> Link:
         for link in self.links:

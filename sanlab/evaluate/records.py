@@ -27,7 +27,8 @@ class GaitParams:
     has per-node rates (``k1`` [N] 1/s > 0, ``k2`` [N] 1/s < 0; T_on = 1/k1, T_off = -1/k2), and
     ``model`` overrides of the creature's numbers ({``sanlab.sim.Params`` field: nested list},
     SI: actuator ranges and gains, sensor ranges, and with ``--morphology`` masses, lengths and
-    the start pose), and with ``--morphology`` ``scale`` [L] (each link's length factor).
+    the start pose), and with ``--morphology`` ``scale`` [L] (each link's length factor), or, for
+    a file with free numbers, ``free`` [F] (every free number's value, ``sanlab.creature.free``).
     Unset fields are absent from the JSON form, which is what the library stores.
     """
 
@@ -37,6 +38,7 @@ class GaitParams:
     k2: tuple[float, ...] | None = None
     model: dict[str, Any] = field(default_factory=dict)
     scale: tuple[float, ...] | None = None
+    free: tuple[float, ...] | None = None  # tuned with --morphology on a file with free numbers: all of them [F]
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -52,6 +54,8 @@ class GaitParams:
             out["model"] = self.model
         if self.scale is not None:
             out["scale"] = list(self.scale)
+        if self.free is not None:
+            out["free"] = list(self.free)
         return out
 
     @classmethod
@@ -61,7 +65,7 @@ class GaitParams:
         d = d or {}
         num = lambda k: None if d.get(k) is None else float(d[k])
         return cls(num("delay_on"), num("delay_off"), _floats(d.get("k1")), _floats(d.get("k2")),
-                   dict(d.get("model") or {}), _floats(d.get("scale")))
+                   dict(d.get("model") or {}), _floats(d.get("scale")), _floats(d.get("free")))
 
     def rates(self, n_nodes: int, delay_on: float, delay_off: float) -> tuple[np.ndarray, np.ndarray]:
         """(k1 [N], k2 [N]) in 1/s: the per-node rates, else from this record's delays, else from

@@ -235,6 +235,8 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
     if with_end:
         P = {k: v[:-1] for k, v in P.items()}
     spec = gait.spec
+    if gait.params.free is not None and spec.design is not None:  # tuned free numbers: draw that body
+        spec = spec.design.creature(gait.params.free)
     follow = path = None
     if model.structure.follow:
         follow = follow_samples(model, np.asarray(fr.t))

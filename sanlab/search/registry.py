@@ -3,12 +3,17 @@
 A new optimiser is one module implementing ``sanlab.search.base.Strategy`` (constructed from a
 ``Problem``; ``phase`` 1 searches weights from scratch, phase 2 tunes a start's parameters) plus
 its line here; ``tests/search/test_strategies.py`` then runs the shared API checks on it.
+
+``BODIES`` are the strategies of the outer search of ``sanlab design`` (``sanlab.search.bodies``):
+ask/tell over a creature file's free numbers, each body scored by a whole phase 1, phase 2 and
+audited selection (``sanlab.design``), whose searches and tunings run on the driver.
 """
 
 from __future__ import annotations
 
 from sanlab.search.anneal import Anneal
 from sanlab.search.base import Problem, Strategy, StrategyClass
+from sanlab.search.bodies import BODIES, make_bodies
 from sanlab.search.map_elites import MapElites
 from sanlab.search.random_search import RandomSearch
 from sanlab.search.sga import SGA
@@ -31,3 +36,6 @@ def make(name: str, problem: Problem) -> Strategy:
     if name not in STRATEGIES:
         raise ValueError(f"method: expected one of {list(STRATEGIES)}, got {name!r}")
     return STRATEGIES[name](problem)
+
+
+__all__ = ["BODIES", "STRATEGIES", "make", "make_bodies", "names"]

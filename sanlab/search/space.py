@@ -7,7 +7,14 @@ sensors have no range) the vector holds, in this order:
     Amin, Amax, ks, kd of each actuator       4 A
     Smin, Smax of each range sensor           2 R
 
-(the bounder: 2x8 + 4x4 + 2x6 = 44, the paper's count). With ``morphology`` it also holds one
+(the bounder: 2x8 + 4x4 + 2x6 = 44, the paper's count). With ``morphology``, a creature file
+with free numbers (``sanlab.creature.free``) adds its free numbers that shape the body (§6.3;
+``sanlab design`` searches the same numbers globally, this is the local case): each within its
+range, perturbed by 5 % of it, the couplings of its ``[design]`` table applied, the body
+compiled again for each vector. Free numbers that only set what the vector above already holds
+(a range end, a gain, a delay) are left to it, and so are those that set numbers a gait cannot
+store (:data:`BODY_FIELDS`: the ground, the gravity, a joint's spring ...): those stay at their
+defaults. A file without free numbers gets, with ``morphology``, one
 length scale per link (§6.3): the link's outline, contact points, centre of mass and the points
 attached to it (children's joints, actuator, spring and sensor attachments) scale with it; its
 mass scales with its length and with the square root of the strength (ks) of the actuator
@@ -37,12 +44,18 @@ from sanlab.evaluate.records import GaitParams
 from sanlab.san import San
 from sanlab.sim.model import drag_edges
 
+# The compiled numbers a free number may move for tuning to move it: what a gait's model
+# overrides can hold (``sanlab.gait``), besides the controller's own (CONTROLLER_FIELDS).
+BODY_FIELDS = ("mass", "inertia", "com", "anchor", "contact", "act_pts", "sens_pts", "spr_pts", "edge", "q0",
+               "root_pose", "contact_load")
+CONTROLLER_FIELDS = ("act_min", "act_max", "act_ks", "act_kd", "sens_min", "sens_max")
+
 
 @dataclass(frozen=True)
 class Param:
-    name: str  # e.g. "H3.T_on", "A1.min", "S4.max", "L2.scale"
-    kind: str  # t_on, t_off, amin, amax, ks, kd, smin, smax, scale
-    index: int  # node, actuator, sensor or link index
+    name: str  # e.g. "H3.T_on", "A1.min", "S4.max", "L2.scale", a free number's name
+    kind: str  # t_on, t_off, amin, amax, ks, kd, smin, smax, scale, free
+    index: int  # node, actuator, sensor, link or free number index
     delta: float
     lo: float
     hi: float
@@ -77,7 +90,13 @@ class Space:
             n = len(params)
             params.append(Param(f"{sen.name}.min", "smin", s, 0.05 * width, lo, hi, n + 1, 0.01 * width))
             params.append(Param(f"{sen.name}.max", "smax", s, 0.05 * width, lo, hi, n, 0.01 * width))
-        if morphology:
+        self.design = spec.design if morphology and spec.design is not None else None
+        self._bodies: dict[tuple[float, ...], dict] = {}
+        if self.design is not None:
+            for j in body_numbers(spec):
+                f = self.design.free[j]
+                params.append(Param(f.name, "free", j, 0.05 * (f.max - f.min), f.min, f.max))
+        elif morphology:
             for i, link in enumerate(spec.links):
                 params.append(Param(f"{link.name}.scale", "scale", i, 0.05, 0.5, 1.5))
         self.params = tuple(params)
@@ -104,6 +123,8 @@ class Space:
             "smin": np.asarray(model.get("sens_min", [getattr(x, "min", 0.0) for x in s.sensors]), float),
             "smax": np.asarray(model.get("sens_max", [getattr(x, "max", 0.0) for x in s.sensors]), float),
             "scale": np.asarray(gp.scale if gp.scale is not None else [1.0] * len(s.links), float),
+            "free": np.asarray(gp.free if gp.free is not None else
+                               (self.design.defaults if self.design is not None else []), float),
             "t_on": 1.0 / k1[:H],
             "t_off": -1.0 / k2[:H],
         }
@@ -137,6 +158,10 @@ class Space:
         k1, k2, over = self._arrays(theta)
         overrides = {k: np.asarray(v).tolist() for k, v in over.items()}
         scale = None
+        if self.design is not None:
+            overrides["q0"] = np.asarray(self.batch(theta[None], model)[2].params.q0[0]).tolist()
+            return GaitParams(k1=tuple(k1.tolist()), k2=tuple(k2.tolist()), model=overrides,
+                              free=tuple(float(x) for x in self.free_values(theta)))
         if self.morphology:
             scale = tuple(float(theta[i]) for i, p in enumerate(self.params) if p.kind == "scale")
             overrides["q0"] = np.asarray(self.batch(theta[None], model)[2].params.q0[0]).tolist()
@@ -163,11 +188,38 @@ class Space:
                 k2[p.index] = -1.0 / v
             elif p.kind == "scale":
                 scale[p.index] = v
-            else:
+            elif p.kind != "free":
                 over[key[p.kind]][p.index] = v
-        if self.morphology:
+        if self.design is not None:
+            over.update(self._body(self.free_values(theta)))
+        elif self.morphology:
             over.update(self._morphology(scale, over["act_ks"]))
         return k1, k2, over
+
+    def free_values(self, theta: np.ndarray) -> np.ndarray:
+        """Every free number of the file [F] (its own units) at ``theta``: the tuned ones from
+        it, the rest at their defaults; totals held (``Design.project``)."""
+        assert self.design is not None
+        v = self.design.defaults.copy()
+        for x, p in zip(theta, self.params):
+            if p.kind == "free":
+                v[p.index] = x
+        return self.design.project(v)
+
+    def _body(self, v: np.ndarray) -> dict:
+        """The body arrays (:data:`BODY_FIELDS`) of the file's creature at free values ``v``,
+        compiled once per distinct vector."""
+        from sanlab.sim.compiler import compile_creature
+
+        key = tuple(float(x) for x in v)
+        if key not in self._bodies:
+            assert self.design is not None
+            m = compile_creature(self.design.creature(v), "float64")
+            arrays = {f: np.asarray(getattr(m.params, f), float) for f in BODY_FIELDS}
+            self._bodies[key] = {f: a for f, a in arrays.items() if a.size}  # none for no springs, no edges
+            if len(self._bodies) > 4096:  # a long tuning visits many: keep memory bounded
+                self._bodies.pop(next(iter(self._bodies)))
+        return self._bodies[key]
 
     def _morphology(self, scale: np.ndarray, ks: np.ndarray) -> dict:
         """Model arrays for link length scales (see the module docstring)."""
@@ -252,3 +304,35 @@ def _rest_on_ground(batched, nominal):
         if ls.parent < 0 and ls.dof_y >= 0:
             q0 = q0.at[:, ls.dof_y].add(shift)
     return jnp.asarray(q0)
+
+
+def body_numbers(spec: Creature) -> list[int]:
+    """Indices of the file's free numbers (``spec.design``) that tuning with ``morphology``
+    moves (see the module docstring): those that, between a quarter and three quarters of their
+    range, change some of :data:`BODY_FIELDS` in the compiled creature and nothing outside them
+    and the controller's arrays, and none of the controller's arrays (which the vector holds)."""
+    from sanlab.creature import CreatureError
+    from sanlab.sim.compiler import compile_creature
+
+    design = spec.design
+    if design is None:
+        return []
+    out = []
+    for j, f in enumerate(design.free):
+        ends = []
+        for t in (0.25, 0.75):
+            v = design.defaults.copy()
+            v[j] = f.min + t * (f.max - f.min)
+            try:
+                ends.append(compile_creature(design.creature(v), "float64"))
+            except CreatureError:
+                break
+        if len(ends) < 2 or ends[0].structure != ends[1].structure:
+            continue
+        a, b = ends[0].params, ends[1].params
+        moved = {k for k in a.__dataclass_fields__
+                 if np.asarray(getattr(a, k)).shape != np.asarray(getattr(b, k)).shape
+                 or not np.array_equal(np.asarray(getattr(a, k)), np.asarray(getattr(b, k)))}
+        if moved and moved <= set(BODY_FIELDS):
+            out.append(j)
+    return out

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from sanlab.creature import _toml
+from sanlab.creature import _toml, free
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "creature-format.md"
@@ -17,7 +17,8 @@ def _fields() -> dict[str, set[str]]:
     tables = {"top level": _toml.TOP, "[world]": _toml.WORLD, "[world.ground]": _toml.GROUND,
               "[world.follow]": _toml.FOLLOW, "[san]": _toml.SAN, "[evaluation]": _toml.EVALUATION,
               "[[links]]": _toml.LINK, "spring": _toml.SPRING, "limit": _toml.LIMIT, "friction": _toml.FRICTION,
-              "a point": _toml.POINT, "[[springs]]": _toml.SPRINGS}
+              "a point": _toml.POINT, "[[springs]]": _toml.SPRINGS, "a free number": free.FREE,
+              "a use of one": free.SAME, "[design]": free.DESIGN, "[[design.total]]": free.TOTAL}
     for kind, keys in _toml.TERRAIN.items():
         tables[f"terrain {kind}"] = keys
     for kind, keys in _toml.SENSOR.items():

@@ -1,0 +1,164 @@
+"""``sanlab design FILE``: search a creature file's free numbers together with its controllers
+(paper §6.3; ``sanlab.design``), every run stored in the library; made again, it continues."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from sanlab.cli._common import (
+    AddressOpt,
+    BackendOpt,
+    CreatureArg,
+    DbOpt,
+    EnsembleOpt,
+    JsonOpt,
+    ProgressBar,
+    WorkersOpt,
+    backend_or_exit,
+    check_count,
+    check_seed,
+    console,
+    dump_json,
+    fail,
+    open_library,
+    print_next,
+    record,
+    safe,
+)
+
+
+def _seeds(text: str) -> tuple[int, ...]:
+    try:
+        seeds = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise fail(f"design: --seeds: expected seeds separated by commas (e.g. 1,2), got {text!r}") from None
+    if not seeds:
+        raise fail(f"design: --seeds: expected at least one seed, got {text!r}")
+    for x in seeds:
+        check_seed(x, "--seeds")
+    return seeds
+
+
+def design(
+    creature: CreatureArg,
+    designs: Annotated[int, typer.Option(min=1, help="Bodies to score in the search (the reference not counted).")] = 8,
+    generation: Annotated[int, typer.Option(min=1, help="Bodies per round of the strategy.")] = 4,
+    strategy: Annotated[str, typer.Option(help="cma-es (pyribs' CMA-ES over the free numbers) or random.")] = "cma-es",
+    controllers: Annotated[int, typer.Option(min=1, help="Random SANs of each body's phase 1.")] = 200,
+    trials: Annotated[int, typer.Option(min=1, help="Annealing trials of each chain of each body's phase 2.")] = 100,
+    top: Annotated[int, typer.Option(min=1, help="Chains per body: its best phase-1 SANs tuned.")] = 2,
+    seconds: Annotated[float | None, typer.Option(min=0.01, help="Evaluation time (s); default: the file's.")] = None,
+    ensemble: EnsembleOpt = 8,
+    seed: Annotated[int, typer.Option(help="Seed of the search (its SANs, draws and bodies).")] = 0,
+    validate: Annotated[int, typer.Option(min=1, help="Best bodies scored again on --seeds; the chosen one is "
+                                                       "the best of them there.")] = 2,
+    seeds: Annotated[str | None, typer.Option(help="Validation seeds, other than --seed (default: --seed + 1).")] = None,
+    prune: Annotated[float, typer.Option(min=0.0, max=0.99, help=(
+        "Skip phase 2 for a body whose best phase-1 speed is below this fraction of the reference's "
+        "(it scores 0); 0: prune none. Phase 1 never chooses a body."))] = 0.0,
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Write the chosen body's creature file here "
+                                                                  "(default: NAME-design.toml).")] = None,
+    render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
+                                                                  "robust gaits side by side (a .png contact sheet).")] = None,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
+    db: DbOpt = "sanlab.db",
+    as_json: JsonOpt = False,
+) -> None:
+    """Search a file's free numbers with its controllers, scored by robust tuned speed (§6.3).
+
+    Each body is scored as a Table 1 row: phase 1, a short phase 2 on its best SANs, the audited
+    selection. The best bodies and the reference (the file's defaults) are scored again on other
+    seeds; the chosen body is written as a creature file. Run it again to continue."""
+    from sanlab import configure
+    from sanlab.creature import CreatureError, load_design, read_source
+
+    check_count("--controllers", controllers)
+    check_count("--ensemble", ensemble, 1, 256)
+    check_seed(seed)
+    valid_seeds = _seeds(seeds) if seeds is not None else (seed + 1,)
+    if seed in valid_seeds:
+        raise fail(f"design: --seeds: expected seeds other than --seed {seed} (the search's own), got {seeds}")
+    if strategy not in ("cma-es", "random"):
+        raise fail(f"design: --strategy: expected cma-es or random, got {strategy!r}")
+    try:
+        text, where = read_source(creature)
+        d, spec = load_design(creature)
+    except CreatureError as e:
+        raise fail(str(e)) from None
+    if not d.free:
+        raise fail(f"{creature}: expected free numbers to design (a range in place of a number, e.g. "
+                   "mass = { min = 0.1, max = 0.3 }: docs/creature-format.md), got none")
+    target = out if out is not None else Path(f"{spec.name}-design.toml")
+    if render is not None and not render.lower().endswith(".png"):
+        raise fail(f"design: --render: expected a .png file, got {render!r}")
+    configure()
+    from sanlab.design import DesignSettings, run_design
+
+    engine = backend_or_exit(backend, address, workers)
+
+    settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
+                              validate, valid_seeds, prune)
+    lib = open_library(db, create=True)
+    bar = ProgressBar(console.is_terminal and not as_json, "design")
+
+    def report(done: int, total: int, best: float, what: str) -> None:
+        bar.update(f"design {what}" if what else "design", done, total, 0.0, best)
+
+    try:
+        with bar:
+            bar.waiting("design: the reference body (a first compile takes a minute)")
+            result = run_design(lib, d, text, where, settings, report, engine)
+    except KeyboardInterrupt:
+        typer.echo("interrupted; every finished run is in the library: run the same command again to continue",
+                   err=True)
+        raise typer.Exit(130) from None
+    except ValueError as e:
+        raise fail(f"design: {e}") from None
+    target.write_text(result.text, encoding="utf-8")
+    s, ch, ref = settings, result.chosen, result.reference
+    if render is not None:
+        rec = ch.speeds[s.seed] if not ch.speeds[s.seed].get("pruned") else ch.speeds[s.seeds[0]]
+        _render(lib, render, [("reference (the file's defaults)", ref.speeds[s.seed]), ("chosen", rec)],
+                f"{spec.name}: the reference and the chosen body")
+    if as_json:
+        typer.echo(dump_json(record("design", {"creature": spec.name, "source": where, "written": str(target),
+                                               **result.to_json(), "seconds": result.seconds})))
+        return
+    table = Table("body", "round", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait")
+    for b in result.bodies:
+        name = "reference" if b.round < 0 else f"{b.round}.{b.index}" + (" (chosen)" if b is ch else "")
+        table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
+                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
+                      "pruned (phase 1)" if b.speeds[s.seed].get("pruned") else safe(str(b.speeds[s.seed]["gait"] or "none")))
+    console.print(table)
+    console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
+                  f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
+    for line in d.changes(ch.values):
+        console.print(f"  {safe(line)}", soft_wrap=True)
+    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
+                  + (f" and {safe(render)}" if render else ""))
+    gait = ch.speeds[s.seed]["gait"]
+    print_next(db, [f"sanlab check {target}", *( [f"sanlab render {gait}"] if gait else [])])
+
+
+def _render(lib, path: str, bodies: list[tuple[str, dict]], title: str) -> None:
+    """A contact sheet of each body's robust gait (its best chain's tuned gait where no rung kept
+    its speed), labelled, side by side."""
+    from sanlab.cli.render import gait_scene
+    from sanlab.render.strobe import contact_sheet
+
+    tiles = []
+    for label, rec in bodies:
+        gait_id = rec["gait"] or max(rec["chains"], key=lambda c: c["tuned_cm_s"])["tuned"]
+        _, gait, sc = gait_scene(lib, gait_id)
+        tiles.append((f"{label}   {gait.gait_id}  {gait.speed_cm_s:.1f} cm/s", sc))
+    try:
+        contact_sheet(tiles, title).save(path, format="PNG")
+    except OSError as e:
+        raise fail(f"design: --render {path}: cannot write ({e.strerror or e}); the design is stored") from None

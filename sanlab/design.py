@@ -1,0 +1,202 @@
+"""``sanlab design FILE``: search a creature file's free numbers together with its controllers
+(paper §6.3, "Evolution"; issue 47, part 2).
+
+A *body* is one vector of the file's free values (``sanlab.creature.free``; couplings applied). A
+body's score is what a user will quote: its **robust tuned speed** (cm/s), measured as a Table 1
+row is (``sanlab.reproduce.robust_tuned``): phase 1 (``controllers`` random SANs), a short phase
+2 (``trials`` annealing trials on each of its ``top`` best SANs) and the audited selection of
+each chain (the best rung that keeps its speed at dt/2, dt/4 and in float64). Phase 1 only
+picks the SANs that phase 2 starts from: it never chooses a body, though it may prune one
+(``prune``: a body whose best phase-1 speed falls below a fraction of the reference's skips
+phase 2 and scores 0, which saves its tuning and audits). Every run is stored in the gait
+library and found there again, keyed by the body's creature file (its text) and the settings,
+so a design made again on the same library asks the same bodies (the body strategies are
+deterministic given their seed and the scores told) and continues where it stopped; each search
+and tuning runs on the one driver.
+
+The outer search over bodies is a body strategy (``sanlab.search.bodies``: CMA-ES by default,
+or random). Then the ``validate`` best bodies, and the reference (the file's defaults), are
+scored again on ``seeds`` (other seeds than the search's: fresh SANs, fresh ensemble draws), and
+the chosen body is the one with the best mean robust tuned speed on those seeds: the search's
+own scores are biased up (the best of many noisy scores), the validation's are not. The
+reference is scored by the same rules beside it.
+
+Every candidate shares the reference's structure (links, sensors, actuators), so a body that
+adds or drops a link is not possible: free numbers are numbers.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from sanlab import __version__
+from sanlab.creature.free import Design
+from sanlab.evaluate.ensemble import default_ensemble
+from sanlab.library import Library
+from sanlab.search.bodies import BodyProblem, make_bodies
+
+DIGITS = 6  # significant digits of a body's values (its file's text, so its runs' key, is stable)
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """What a design run does: ``designs`` bodies in all (the reference not counted),
+    ``generation`` per round of the ``strategy``; per body ``controllers`` random SANs, ``top``
+    chains of ``trials`` trials, scored over ``seconds`` (None: the file's) with an ensemble of
+    ``ensemble`` members; ``validate`` best bodies scored again on ``seeds``. ``prune``: a body of
+    the search whose phase-1 best speed is below this fraction of the reference's skips phase 2
+    and scores 0 (0: none is pruned); the validation never prunes."""
+
+    designs: int = 8
+    generation: int = 4
+    strategy: str = "cma-es"
+    controllers: int = 200
+    trials: int = 100
+    top: int = 2
+    seconds: float | None = None
+    ensemble: int = 8
+    seed: int = 0
+    validate: int = 2
+    seeds: tuple[int, ...] = (1,)
+    prune: float = 0.0
+
+
+@dataclass
+class Body:
+    """One body scored: its ``values`` [D], the robust tuned ``speed`` (cm/s) on each seed
+    (``speeds``: seed -> the ``robust_tuned`` record), ``round`` (-1: the reference)."""
+
+    values: list[float]
+    round: int
+    index: int
+    speeds: dict[int, dict] = field(default_factory=dict)
+
+    def speed(self, seed: int) -> float:
+        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, or pruned)."""
+        return float(self.speeds[seed]["speed"])
+
+    def mean(self, seeds) -> float:
+        """The mean robust tuned speed (cm/s) over ``seeds``; KeyError for a seed not scored."""
+        return float(np.mean([self.speed(s) for s in seeds]))
+
+
+@dataclass
+class DesignResult:
+    """A finished design: every body scored (``bodies``, the reference first), the ``chosen``
+    one and the ``reference``, the chosen body's creature file ``text``, and the seconds spent."""
+
+    settings: DesignSettings
+    bodies: list[Body]
+    reference: Body
+    chosen: Body
+    text: str
+    seconds: float
+
+    def to_json(self) -> dict:
+        """The ``sanlab/design/1`` record's fields (``sanlab/schemas/design.json``) but its own."""
+
+        def body(b: Body) -> dict:
+            return {"values": b.values, "round": b.round, "index": b.index,
+                    "speeds": {str(k): v for k, v in b.speeds.items()}}
+
+        return {"settings": {**asdict(self.settings), "seeds": list(self.settings.seeds)},
+                "reference": body(self.reference), "chosen": body(self.chosen),
+                "bodies": [body(b) for b in self.bodies]}
+
+
+def rounded(values) -> np.ndarray:
+    """``values`` [D] to :data:`DIGITS` significant digits."""
+    return np.array([float(f"{float(x):.{DIGITS}g}") for x in values])
+
+
+Reporter = Callable[[int, int, float, str], None]  # (bodies scored, bodies in all, best speed, what now)
+
+
+def run_design(lib: Library, design: Design, text: str, where: str, settings: DesignSettings,
+               reporter: Reporter | None = None, backend=None) -> DesignResult:
+    """Search the free numbers of ``design`` (the parsed ``text``, read from ``where``) as the
+    module docstring says; every run goes to ``lib``. Raises ValueError for a file without free
+    numbers or bad settings, and as ``run_search`` and ``tune`` do. ``backend``: where each body's
+    search and tuning evaluate (``sanlab.evaluate.backends``; default this machine)."""
+    from sanlab.reproduce import robust_tuned
+
+    if not design.free:
+        raise ValueError(f"{where}: no free numbers to design (write a range, e.g. mass = {{ min = 0.1, max = 0.3 }})")
+    s = settings
+    if s.seed in s.seeds:
+        raise ValueError(f"seeds: expected seeds other than the search's own ({s.seed}), got {list(s.seeds)}")
+    if not 0 <= s.prune < 1:
+        raise ValueError(f"prune: expected a fraction in [0, 1), got {s.prune}")
+    for name in ("designs", "generation", "controllers", "trials", "top", "ensemble"):
+        if getattr(s, name) < 1:
+            raise ValueError(f"{name}: expected >= 1, got {getattr(s, name)}")
+    t0 = time.perf_counter()
+    ens = default_ensemble(s.ensemble)
+    seconds = s.seconds if s.seconds is not None else design.creature().evaluation.seconds
+    report = reporter or (lambda *a: None)
+    total = 1 + s.designs + (min(s.validate, s.designs) + 1) * len(s.seeds)
+    done = [0]
+    bodies: list[Body] = []
+    best = [0.0]
+
+    def score(body: Body, seed: int, prune_below: float | None = None) -> None:
+        if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
+            report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
+            t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
+            body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
+                                             top=s.top, ens=ens, seconds=seconds, backend=backend,
+                                             prune_below=prune_below)
+        done[0] += 1
+        if seed == s.seed:
+            best[0] = max(best[0], body.speed(seed))
+        report(done[0], total, best[0], "")
+
+    reference = Body(rounded(design.defaults).tolist(), -1, 0)
+    score(reference, s.seed)
+    below = s.prune * reference.speeds[s.seed]["phase1_cm_s"] if s.prune > 0 else None
+    strategy = make_bodies(s.strategy, BodyProblem(design.lo, design.hi, design.defaults, s.designs, s.generation, s.seed))
+    rnd = 0
+    while not strategy.done:
+        asked = strategy.ask()
+        batch = [Body(rounded(design.project(x)).tolist(), rnd, k) for k, x in enumerate(asked)]
+        for b in batch:
+            score(b, s.seed, below)
+        strategy.tell(asked, np.array([b.speed(s.seed) for b in batch]))
+        bodies += batch
+        rnd += 1
+    ranked = sorted(bodies, key=lambda b: -b.speed(s.seed))
+    picks = []
+    for b in ranked:  # distinct bodies: two rounds may ask the same one
+        if all(b.values != p.values for p in picks):
+            picks.append(b)
+    picks = picks[:max(1, s.validate)]
+    for seed in s.seeds:
+        for b in [*picks, reference]:
+            score(b, seed)
+    chosen = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
+    note = _note(design, where, s, chosen, reference, len(bodies))
+    out = design.text(text, chosen.values, note)
+    return DesignResult(s, [reference, *bodies], reference, chosen, out, time.perf_counter() - t0)
+
+
+def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:
+    seeds = ", ".join(str(x) for x in s.seeds)
+    lines = [
+        f"Written by `sanlab design` (sanlab {__version__}) from {where}: the body chosen among {n} "
+        f"({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index}).",
+        f"Scored by robust tuned speed: phase 1 ({s.controllers} random SANs), phase 2 ({s.top} chains x "
+        f"{s.trials} trials), the audited selection.",
+        f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
+        f"mean on seeds {seeds} (validation); the reference (the file's defaults): "
+        f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
+        "What changed (default -> chosen):",
+        *[f"  {line}" for line in design.changes(chosen.values)],
+    ]
+    return "\n".join(lines)
+
+
+__all__ = ["Body", "DesignResult", "DesignSettings", "run_design"]

@@ -1,0 +1,194 @@
+"""``sanlab design`` (issue 47, part 2): a file's free numbers searched with its controllers,
+each body scored by its robust tuned speed; the body strategies; the chosen body's file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from sanlab.cli import _schemas, app
+from sanlab.creature import load_design, loads
+from sanlab.search.bodies import BodyProblem, make_bodies
+from tests.helpers import DATA, ROOT
+
+HOPPER = DATA / "hopper_free.toml"
+runner = CliRunner()
+# The small design of README.md and docs/design.md, run by the slow test below
+SMALL = ("--designs 3 --generation 3 --controllers 16 --trials 4 --top 1 --seconds 2 --validate 1").split()
+
+
+def test_the_documented_file_and_command_are_the_tested_ones():
+    import re
+
+    for page in ("docs/design.md", "docs/creature-format.md"):
+        blocks = re.findall(r'```toml title="hopper.toml"\n(.*?)```', (ROOT / page).read_text(), re.S)
+        assert blocks == [HOPPER.read_text()], page
+    for page in ("docs/design.md", "README.md"):
+        assert f"sanlab design hopper.toml {' '.join(SMALL)}\n" in (ROOT / page).read_text(), page
+
+
+def test_a_file_without_free_numbers_is_refused_in_one_line(tmp_path):
+    r = runner.invoke(app, ["design", "cart", "--db", str(tmp_path / "x.db")])
+    assert r.exit_code == 2
+    assert "cart: expected free numbers to design" in r.output and len(r.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--seeds", "0"], "--seeds: expected seeds other than --seed 0"),
+    (["--seeds", "a"], "--seeds: expected seeds separated by commas"),
+    (["--strategy", "cma"], "--strategy: expected cma-es or random, got 'cma'"),
+    (["--render", "x.gif"], "--render: expected a .png file, got 'x.gif'"),
+])
+def test_bad_options_are_one_line_errors(tmp_path, args, message):
+    r = runner.invoke(app, ["design", str(HOPPER), *args, "--db", str(tmp_path / "x.db")])
+    assert r.exit_code == 2 and message in r.output
+
+
+def _problem(seed: int = 0) -> BodyProblem:
+    return BodyProblem(np.array([0.0, -1.0, 10.0]), np.array([1.0, 1.0, 20.0]), np.array([0.5, 0.0, 15.0]), 24, 6, seed)
+
+
+@pytest.mark.parametrize("name", ["cma-es", "random"])
+def test_body_strategies_stay_in_the_box_and_repeat_themselves(name):
+    target = np.array([0.9, -0.8, 19.0])
+
+    def run(seed):
+        s, asked = make_bodies(name, _problem(seed)), []
+        while not s.done:
+            x = s.ask()
+            assert np.all(x >= _problem().lo) and np.all(x <= _problem().hi)
+            s.tell(x, -np.abs((x - target) / (_problem().hi - _problem().lo)).sum(axis=1))
+            asked.append(x)
+        return np.concatenate(asked)
+
+    a = run(0)
+    assert len(a) == 24 and np.array_equal(a, run(0)) and not np.array_equal(a, run(1))
+
+
+def test_cma_es_moves_towards_better_bodies():
+    """On a smooth score, CMA-ES's last generation is nearer the best body than its first."""
+    target = np.array([0.9, -0.8, 19.0])
+    p = BodyProblem(_problem().lo, _problem().hi, _problem().x0, 60, 6, 0)
+    s = make_bodies("cma-es", p)
+    gens = []
+    while not s.done:
+        x = s.ask()
+        s.tell(x, -np.abs((x - target) / (p.hi - p.lo)).sum(axis=1))
+        gens.append(np.abs((x - target) / (p.hi - p.lo)).sum(axis=1).mean())
+    assert gens[-1] < 0.5 * gens[0]
+
+
+def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
+    design, _ = load_design(str(HOPPER))
+    text = HOPPER.read_text()
+    v = [0.7, -0.3, -0.25, 0.025]
+    out = design.text(text, v, "a note\nof two lines")
+    assert out.startswith("# a note\n# of two lines\n")
+    assert loads(out) == design.creature(v) and "[design]" not in out and "min =" not in out
+    assert design.changes(v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (-9 %)"]
+    assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
+
+
+def test_a_body_of_a_file_with_repeats_is_written_out():
+    text = """name = "chain"
+[[links]]
+name = "s0"
+mass = 0.05
+shape = "segment"
+points = [[0, 0], [-0.1, 0]]
+[[repeat]]
+count = 2
+[[repeat.links]]
+name = "s{i}"
+parent = "s{i-1}"
+mass = { min = 0.02, max = 0.08 }
+shape = "segment"
+points = [[0, 0], [-0.1, 0]]
+anchor = [-0.1, 0]
+"""
+    from sanlab.creature.loader import loads_design
+
+    design, _ = loads_design(text)
+    out = design.text(text, [0.07])
+    assert "repeat" not in out and [k.mass for k in loads(out).links] == [0.05, 0.07, 0.07]
+
+
+@pytest.mark.slow  # compiles a small creature's search, tuning and audit programs (about a minute on 2 cores)
+def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resumes(tmp_path):
+    db, out = str(tmp_path / "d.db"), tmp_path / "chosen.toml"
+    args = ["design", str(HOPPER), *SMALL, "--db", db, "-o", str(out)]
+    r = runner.invoke(app, [*args, "--json"])
+    assert r.exit_code == 0, r.output
+    rec = json.loads(r.stdout)
+    _schemas.validate(rec, "design")
+    assert [b["round"] for b in rec["bodies"]] == [-1, 0, 0, 0]  # the reference first
+    ref, chosen = rec["reference"], rec["chosen"]
+    assert ref["values"] == [1.0, -0.275, -0.275, 0.02] and set(ref["speeds"]) == {"0", "1"}
+    assert set(chosen["speeds"]) == {"0", "1"}  # validated on seed 1, not only the search's seed 0
+    assert chosen["round"] == 0 and chosen["speeds"]["1"]["gait"] is not None
+    text = out.read_text()
+    design, _ = load_design(str(HOPPER))
+    assert loads(text) == design.creature(chosen["values"])
+    assert "mean on seeds 1 (validation); the reference (the file's defaults)" in text
+    runs = runner.invoke(app, ["runs", "--db", db, "--json"]).stdout
+    png = tmp_path / "beside.png"
+    again = runner.invoke(app, [*args, "--render", str(png)])  # made again: every body's runs are in the library
+    assert again.exit_code == 0, again.output
+    from PIL import Image
+
+    assert Image.open(png).size[0] > 2 * Image.open(png).size[1]  # two tiles side by side
+    assert runner.invoke(app, ["runs", "--db", db, "--json"]).stdout == runs and out.read_text() == text
+    assert "reference" in again.stdout and "(chosen)" in again.stdout
+
+
+def _fake_scores(monkeypatch, calls):
+    """robust_tuned replaced by a score of the body's mass: phase 1 = 10 x mass, the robust tuned
+    speed 20 x mass on the search's seed 0 and 20 x (2 - mass) on any other (a search's winner
+    that does not hold on fresh seeds), honouring prune_below as the real one does."""
+    import sanlab.reproduce
+
+    def fake(lib, text, where, *, seed, prune_below=None, **kw):
+        mass = loads(text).links[0].mass
+        calls.append((round(mass, 6), seed, prune_below))
+        p1 = 10 * mass
+        if prune_below is not None and p1 < prune_below:
+            return {"speed": 0.0, "gait": None, "search": "s", "phase1_cm_s": p1, "chains": [], "pruned": True}
+        speed = 20 * mass if seed == 0 else 20 * (2 - mass)
+        return {"speed": speed, "gait": f"g{mass:.3f}", "search": "s", "phase1_cm_s": p1, "chains": []}
+
+    monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
+
+
+def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(monkeypatch):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=3, seeds=(1, 2))
+    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    search = sorted((b for b in r.bodies if b.round >= 0), key=lambda b: -b.speed(0))
+    assert r.chosen in search[:3] and r.chosen is not search[0]  # the lightest of the three heaviest
+    assert r.chosen.mean((1, 2)) == max(b.mean((1, 2)) for b in search[:3])
+    assert set(r.reference.speeds) == {0, 1, 2} and r.reference.values == [1.0, -0.275, -0.275, 0.02]
+    assert all(seed == 0 for m, seed, _ in calls[:9])  # the reference and the 8 bodies, then validation
+    assert sorted(seed for _, seed, _ in calls[9:]) == [1] * 4 + [2] * 4
+
+
+def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_validation(monkeypatch):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=2, seeds=(1,), prune=0.9)
+    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    assert calls[0][2] is None  # the reference is never pruned
+    assert all(p == pytest.approx(9.0) for _, seed, p in calls[1:9])  # 0.9 x the reference's phase 1 (10 cm/s)
+    assert all(p is None for _, seed, p in calls[9:])  # validation scores in full
+    pruned = [b for b in r.bodies if b.speeds[0].get("pruned")]
+    assert pruned and all(b.values[0] < 0.9 and b.speed(0) == 0.0 for b in pruned)
+    assert not r.chosen.speeds[1].get("pruned")
