@@ -44,6 +44,7 @@ LF = 19
 # wf entries
 (W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
  W_FOLLOW_SPEED) = range(13)
+W_COUNT = 13
 # wi entries
 W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED = range(6)
 TERRAINS = {"flat": 0, "slope": 1, "hill": 2, "rough": 3}
@@ -112,19 +113,12 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
     i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)
     L = len(st.links)
     li = np.full((L, LI), -1, np.int32)
-    lf = np.zeros((L, LF), np.float64)
-    mass, inertia, com, anchor, pose = f(p.mass), f(p.inertia), f(p.com), f(p.anchor), f(p.root_pose)
-    mu, jspring, limit = f(p.mu), f(p.jspring), f(p.limit)
     for ls in st.links:
         i = ls.index
         aniso = st.aniso[i]
         welded = ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0
         li[i] = (ls.parent, int(ls.point), ls.dof_x, ls.dof_y, ls.dof_rot, ls.tree, int(welded), aniso[0], aniso[1],
                  aniso[2], int(i in st.joint_springs), int(i in st.limits))
-        lf[i, :F_MU] = (mass[i], inertia[i], com[i, 0], com[i, 1], anchor[i, 0], anchor[i, 1], *pose[i])
-        lf[i, F_MU:F_MU + 3] = mu[i]
-        lf[i, F_JSPRING:F_JSPRING + 3] = jspring[i]
-        lf[i, F_LIMIT:F_LIMIT + 4] = limit[i]
     R = 2 + max(len(ls.chain) for ls in st.links)
     ri = np.zeros((L, R), np.int32)
     rl = np.full((L, R), -3, np.int32)
@@ -138,7 +132,6 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
             ri[ls.index, a], rl[ls.index, a] = d, k
     ti = i32([(t.root, int(t.free), int(t.point)) for t in st.trees], -1, 3)
     ci = i32(st.contacts, -1)
-    cf = np.concatenate([f(p.contact).reshape(-1, 2), f(p.contact_load).reshape(-1, 1)], 1)
     si = np.full((len(st.sensors), 4), -1, np.int32)
     for s, (kind, link, idx) in enumerate(st.sensors):
         if kind == "touch":
@@ -149,22 +142,42 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
             si[s] = (SENSORS[kind], *st.lengths[idx], -1)
         else:
             si[s] = (SENSORS[kind], link, -1, -1)
-    sf = np.concatenate([f(p.sens_min).reshape(-1, 1), f(p.sens_max).reshape(-1, 1), f(p.sens_pts).reshape(-1, 4)], 1)
     ai = np.array([(0, ref, -1) if kind == "angular" else (1, *st.lin_act[ref]) for kind, ref in st.actuators],
                   np.int32).reshape(-1, 3)
-    af = np.concatenate([np.stack([f(p.act_min), f(p.act_max), f(p.act_ks), f(p.act_kd)], 1).reshape(-1, 4),
-                         f(p.act_pts).reshape(-1, 4)], 1)
     pi = i32(st.springs, -1, 2)
-    pf = np.concatenate([f(p.spr_pts).reshape(-1, 4), f(p.spr).reshape(-1, 3)], 1)
     ei = i32(st.edges, -1)
-    ef = f(p.edge).reshape(-1, 4)
-    terrain = f(p.terrain)
-    wf = np.array([f(p.gravity), f(p.ground_k), f(p.ground_c), f(p.slip), f(p.dt), *terrain, f(p.water_k), f(p.water_t),
-                   f(p.follow_ds), f(p.follow_speed)], np.float64)
     wi = np.array([TERRAINS[st.terrain], hidden, int(st.plane == "horizontal"), int(st.follow), int(st.follow_loop),
                    int(art)], np.int32)
-    return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, lf, cf, sf, af, pf, ef, wf, f(p.rough).reshape(-1, 3),
-                  f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
+    x = numbers(model.structure, p)
+    return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, x["lf"], x["cf"], x["sf"], x["af"], x["pf"], x["ef"],
+                  x["wf"], x["rough"], f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
+
+
+def numbers(structure, params, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
+    """The float tables of :data:`ROW_TABLES` (float64) of ``params`` (a ``sim.Params``) whose
+    leaves carry the leading axes ``batch`` (``()``: one creature; ``(B,)``: B rows, as a tuned or
+    ensemble model's) -> {name: [*batch, *the table's shape]}. See :class:`Packed` for the
+    columns."""
+    p, st = params, structure
+    L, C, S, A = len(st.links), len(st.contacts), len(st.sensors), len(st.actuators)
+    P, E, K = len(st.springs), len(st.edges), np.shape(p.rough)[-2]
+    f = lambda x, *shape: np.broadcast_to(np.asarray(x, np.float64), (*batch, *shape)) if shape else \
+        np.broadcast_to(np.asarray(x, np.float64), batch)
+    col = lambda x, n: f(x, n)[..., None]
+    lf = np.concatenate([col(p.mass, L), col(p.inertia, L), f(p.com, L, 2), f(p.anchor, L, 2), f(p.root_pose, L, 3),
+                         f(p.mu, L, 3), f(p.jspring, L, 3), f(p.limit, L, 4)], -1)
+    cf = np.concatenate([f(p.contact, C, 2), col(p.contact_load, C)], -1)
+    sf = np.concatenate([col(p.sens_min, S), col(p.sens_max, S), f(p.sens_pts, S, 2, 2).reshape(*batch, S, 4)], -1)
+    af = np.concatenate([col(p.act_min, A), col(p.act_max, A), col(p.act_ks, A), col(p.act_kd, A),
+                         f(p.act_pts, A, 2, 2).reshape(*batch, A, 4)], -1)
+    pf = np.concatenate([f(p.spr_pts, P, 2, 2).reshape(*batch, P, 4), f(p.spr, P, 3)], -1)
+    ef = f(p.edge, E, 2, 2).reshape(*batch, E, 4)
+    w = lambda x: f(x)[..., None]
+    wf = np.concatenate([w(p.gravity), w(p.ground_k), w(p.ground_c), w(p.slip), w(p.dt), f(p.terrain, 4),
+                         w(p.water_k), w(p.water_t), w(p.follow_ds), w(p.follow_speed)], -1)
+    assert lf.shape[-1] == LF and wf.shape[-1] == W_COUNT
+    out = {"lf": lf, "cf": cf, "sf": sf, "af": af, "pf": pf, "ef": ef, "wf": wf, "rough": f(p.rough, K, 3)}
+    return {k: np.ascontiguousarray(v) for k, v in out.items()}
 
 
 # ------------------------------------------------------------------ the C++ kernel (sanlab/sim/_kernel)
