@@ -15,7 +15,9 @@ Printed, in order:
 - first call (no per-creature compile): a fresh process meets chains no process has seen
   (benchmarks/chains.py ``random_chain``, a new seed each run unless ``--seed``): the seconds
   from its file to the final states of 8 SANs after 1 s (pack, start, run), the first and the
-  second time, for a 9-link then a 16-link chain; the XLA engine's first call of the same 9-link
+  second time, for a 9-link then a 16-link chain (the process's first creature also pays the
+  first-time costs of the library and of lazy imports; the second creature's first/second ratio
+  is the "nothing compiled" figure); the XLA engine's first call of the same 9-link
   chain in a fresh process without compile caches; then, through the CLI in fresh processes
   with an empty cache, ``sanlab search FILE -n 8 --seconds 1`` and ``sanlab check FILE
   --simulate`` on a never-seen 9-link chain, first and second run (these time the commands as
@@ -33,7 +35,8 @@ Printed, in order:
 - with ``--agreement``, the kernel's final states against the XLA engine's in float64; with
   ``--replay``, a 6 s bounder replay at batch 1 through ``sim.rollout`` in fresh processes.
 
-Then the goals, each with its figure and whether this run met it, and one last line of
+Compared calls alternate (``bench_kernels.best``), so that a change in the machine's load falls
+on both. Then the goals, each with its figure and whether this run met it, and one last line of
 ``key=value`` pairs (nan where a part was skipped).
 
     python benchmarks/engine.py [--batch 2048] [--steps 2000] [--growth 2,4,8,16,32]
