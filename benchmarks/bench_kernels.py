@@ -1,4 +1,4 @@
-"""Helpers of benchmarks/kernel_spike.py: one rollout of random SANs on each form of the step."""
+"""Helpers of benchmarks/engine.py: one rollout of random SANs on the kernel or the XLA engine."""
 
 from __future__ import annotations
 
@@ -7,14 +7,17 @@ import time
 import numpy as np
 
 
-def best(f, n: int) -> float:
-    """The best of n timed calls of f, after one untimed call."""
-    f()
-    out = float("inf")
-    for _ in range(n):
-        t0 = time.perf_counter()
-        f()
-        out = min(out, time.perf_counter() - t0)
+def best(calls: list, repeats: int) -> list[float]:
+    """The best seconds of each of ``calls`` over ``repeats`` rounds that call each in turn, after
+    a round of untimed calls (compiles, first-time costs): a change in the machine's load falls on
+    all of them."""
+    out = [float("inf")] * len(calls)
+    for r in range(repeats + 1):
+        for i, f in enumerate(calls):
+            t = time.perf_counter()
+            f()
+            if r:
+                out[i] = min(out[i], time.perf_counter() - t)
     return out
 
 
@@ -30,11 +33,13 @@ def _model(spec, dtype):
     return _MODELS[key]
 
 
-def _start(spec, B: int, seed: int):
+def _start(spec, B: int, seed: int, rows=None):
     """The kernel's inputs for controllers 0..B-1 of seed ``seed``, with nothing compiled for the
     creature: its tables from the file (``model.assemble``, NumPy arrays), seated and anchored by
     the kernel, the SANs' weights and rates in NumPy (``San.random_weights``, as a search draws
-    them)."""
+    them): (model, san, params, packed tables, start state, per-row tables). rows: a function of
+    the packed tables giving ``kernel.run_san``'s per-row tables (a mixed batch), or None (one
+    shared table)."""
     from sanlab.san import San, SanParams
     from sanlab.sim import kernel
     from sanlab.sim.model import assemble
@@ -46,8 +51,9 @@ def _start(spec, B: int, seed: int):
     sp = SanParams(weights, np.full((B, N), 1.0 / spec.san.delay_on), np.full((B, N), -1.0 / spec.san.delay_off))
     pk = kernel.pack(m, san.n_hidden)
     seat = spec.world.plane == "vertical" and bool(m.structure.contacts)
-    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=seat)
-    return m, san, sp, pk, (q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N)))
+    per_row = rows(pk) if rows is not None else None
+    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=seat, rows=per_row)
+    return m, san, sp, pk, (q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N))), per_row
 
 
 def new_creature(spec, B: int = 8, steps: int = 1000) -> float:
@@ -56,7 +62,7 @@ def new_creature(spec, B: int = 8, steps: int = 1000) -> float:
     from sanlab.sim import kernel
 
     t0 = time.perf_counter()
-    _, _, sp, pk, (q, p, anchor, istate, out) = _start(spec, B, 0)
+    _, _, sp, pk, (q, p, anchor, istate, out), _ = _start(spec, B, 0)
     kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, p, anchor, istate, out, steps)
     return time.perf_counter() - t0
 
@@ -67,8 +73,9 @@ def run(form: str, spec, B: int, steps: int, seed: int):
     return prepared(form, spec, B, steps, seed)()
 
 
-def prepared(form: str, spec, B: int, steps: int, seed: int):
-    """:func:`run` as a callable with its inputs made: calling it times the rollout alone."""
+def prepared(form: str, spec, B: int, steps: int, seed: int, rows=None):
+    """:func:`run` as a callable with its inputs made: calling it times the rollout alone. rows
+    (the kernel only): see :func:`_start`."""
     if form in ("engine", "engine64"):
         import jax
 
@@ -81,11 +88,10 @@ def prepared(form: str, spec, B: int, steps: int, seed: int):
         return lambda: np.asarray(jax.block_until_ready(sim.rollout(m, san, sp, steps=steps).state.q))
     from sanlab.sim import kernel
 
-    m, san, sp, pk, (q, p, anchor, istate, out) = _start(spec, B, seed)
+    m, san, sp, pk, (q, p, anchor, istate, out), per_row = _start(spec, B, seed, rows)
     w = np.asarray(sp.weights, np.float64)
     k1, k2 = np.asarray(sp.k1, np.float64), np.asarray(sp.k2, np.float64)
-    return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps)["q"]
-
+    return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps, rows=per_row)["q"]
 
 
 def agreement(spec, B: int, steps: int) -> np.ndarray:

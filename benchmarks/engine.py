@@ -1,104 +1,104 @@
-"""Engine benchmark: the bounder under random closed-loop SANs, sanlab vs MuJoCo, same run.
+"""Engine benchmark: issue 46's goals for the kernel that reads the creature as data, one run.
 
-sanlab route: the built-in bounder, dt = 1 ms, random sensor-actuator networks (12 threshold
-nodes x 20 integer weights, evaluated every step inside the compiled step), a batch of
-``--batch`` creatures sharded over every core, ``--steps`` steps per rollout; the best of
-``--repeats`` timed rollouts after a warm-up (compile) call. MuJoCo route: the same creature
-converted to MJCF, C stepping, the same SAN in NumPy every step, one worker process per core
-(benchmarks/mujoco_route.py).
+The simulator's kernel (``sanlab.sim.kernel``, C++ in sanlab/sim/_kernel, built once per
+install) steps random closed-loop SANs (dt = 1 ms; the SAN evaluated every step inside the
+kernel, float64). Every figure is printed beside a reference timed in the same run, as a ratio:
+these machines vary 2x from run to run, so a figure alone says little. The references: the XLA
+engine that the kernel replaces (``sim.rollout``, float32, one device per core; ``--no-xla``
+leaves it out), MuJoCo's C step and C rollout loop (``mujoco.rollout`` on the same creature
+converted to MJCF, open-loop servo targets: no network in its loop; benchmarks/mujoco_route.py),
+MuJoCo stepping with the same SAN in NumPy, and the kernel itself (a creature's second call,
+a batch with one shared table).
 
-Also measured: the cold compile time (persistent cache off) and the start-up of a fresh process
-with a warm persistent cache (the time to the first result of a short rollout).
+Printed, in order:
+- build: the kernel's one-time compile (``setup.py build_ext`` into a temporary folder);
+- first call (no per-creature compile): a fresh process meets chains no process has seen
+  (benchmarks/chains.py ``random_chain``, a new seed each run unless ``--seed``): the seconds
+  from its file to the final states of 8 SANs after 1 s (pack, start, run), the first and the
+  second time, for a 9-link then a 16-link chain (the process's first creature also pays the
+  first-time costs of the library and of lazy imports; the second creature's first/second ratio
+  is the "nothing compiled" figure); the XLA engine's first call of the same 9-link
+  chain in a fresh process without compile caches; then, through the CLI in fresh processes
+  with an empty cache, ``sanlab search FILE -n 8 --seconds 1`` and ``sanlab check FILE
+  --simulate`` on a never-seen 9-link chain, first and second run (these time the commands as
+  they are: whichever engine they run on);
+- latency: µs per bounder step at batch 1 and 32 (against the XLA engine), and batch 1 against
+  MuJoCo's C step on one thread;
+- throughput: the bounder at ``--batch`` (2048) against the XLA engine, MuJoCo's C rollout loop
+  at the same batch (one thread per core) and the MuJoCo + NumPy route;
+- growth: ns per creature-step of N-link chains (``--growth 2,4,8,16,32``) on the kernel and on
+  MuJoCo's C loop at the same batch, cost(longest) / cost(shortest);
+- mixed batches: the bounder at ``--batch`` with every row carrying its own numbers (every float
+  table of ``kernel.ROW_TABLES``, each number jittered by up to 2 %: ``run_san(..., rows=)``)
+  against one shared table, same batch, steps and SANs;
+- the GPU: unmeasured (the kernel has no GPU twin yet; benchmarks/gpu.py times the XLA engine);
+- with ``--agreement``, the kernel's final states against the XLA engine's in float64; with
+  ``--replay``, a 6 s bounder replay at batch 1 through ``sim.rollout`` in fresh processes.
 
-Then the latency of a small batch (32 bounders, per step), and the growth table: N-link chains
-(benchmarks/chains.py) on both routes of the step's linear algebra (dense, articulated: see
-sanlab/sim/articulated.py), each against MuJoCo's own C rollout loop (``mujoco.rollout``, one
-thread per core) on the same converted chain. The long chains' cold compiles take minutes.
+Compared calls alternate (``bench_kernels.best``), so that a change in the machine's load falls
+on both. Then the goals, each with its figure and whether this run met it, and one last line of
+``key=value`` pairs (nan where a part was skipped).
 
-    python benchmarks/engine.py [--batch 2048] [--steps 2000] [--mujoco-seconds 5]
-                                [--growth 2,4,8,16,32] [--dense-up-to 16]
+    python benchmarks/engine.py [--batch 2048] [--steps 2000] [--growth 2,4,8,16,32]
+                                [--no-xla] [--no-cli] [--no-build] [--seed N]
+                                [--repeats 5] [--mujoco-seconds 2] [--agreement] [--replay]
 
-Also the replay: one 6 s bounder replay at batch 1 recorded at 30 fps in a fresh process, cold
-and with warm caches (the issue-29 goal: under 1 s warm).
-
-The last line is ``ratio_vs_mujoco=<x> ratio_vs_mujoco_c_loop=<x> sanlab_steps_per_s=<y>
-compile_s=<z> replay_warm_s=<w>``.
+Needs MuJoCo (``pip install -e '.[bench]'``). About two minutes on 2 shared cores; ``--steps``,
+``--batch-steps``, ``--growth-steps`` and ``--repeats`` make it longer and steadier.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import secrets
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
+NAN = float("nan")
 
-START = """
-import time; t0 = time.perf_counter()
+FIRST_KERNEL = """
+import sys, time; t0 = time.perf_counter()
+sys.path.insert(0, {bench!r})
 import sanlab; sanlab.configure()
-import jax
-from sanlab import creature, sim
-from sanlab.engine_report import random_san_params
-spec = creature.load("bounder")
-m = sim.compile_creature(spec)
-san, p = random_san_params(spec, {batch}, 0)
-r = sim.rollout(m, san, p, steps=10)
-jax.block_until_ready(r.state.q)
-print(time.perf_counter() - t0)
+import bench_kernels as bk
+from chains import random_chain
+out = [time.perf_counter() - t0]
+for n, seed in ((9, {seed}), (16, {seed} + 1)):
+    for _ in range(2):
+        t = time.perf_counter()
+        bk.new_creature(random_chain(n, seed))
+        out.append(time.perf_counter() - t)
+print(*out)
 """
 
-
-def sanlab_route(batch: int, steps: int, repeats: int) -> tuple[float, float]:
-    """(creature-steps/s, cold compile seconds)."""
-    os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # this process measures the cold compile
-    import sanlab
-
-    sanlab.configure()
-    import jax
-
-    from sanlab import creature, sim
-    from sanlab.engine_report import random_san_params
-
-    spec = creature.load("bounder")
-    model = sim.compile_creature(spec)
-    san, params = random_san_params(spec, batch, seed=0)
-    t0 = time.perf_counter()
-    jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-    first = time.perf_counter() - t0
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-        best = min(best, time.perf_counter() - t0)
-    rate = batch * steps / best
-    compile_s = max(0.0, first - best)
-    print(f"sanlab: {rate / 1e6:.2f} M creature-steps/s  (batch {batch} x {steps} steps in {best:.3f} s "
-          f"on {len(jax.devices())} x {jax.devices()[0].platform}; cold compile {compile_s:.1f} s)")
-    return rate, compile_s
-
-
-def fresh_processes(code: str, n: int) -> list[float]:
-    """The last number printed by ``code`` in ``n`` fresh interpreters in turn, sharing one new
-    cache directory (so the first starts cold and the others warm)."""
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, SANLAB_CACHE=cache, PYTHONPATH=str(ROOT))
-        env.pop("SANLAB_NO_COMPILE_CACHE", None)
-        return [float(subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True,
-                                     text=True).stdout.split()[-1]) for _ in range(n)]
-
-
-def cached_start(batch: int) -> float:
-    """Seconds from a fresh interpreter to a first result, with a warm persistent cache."""
-    cold, warm = fresh_processes(START.format(batch=batch), 2)
-    print(f"start-up to first result: {cold:.1f} s with an empty cache, {warm:.1f} s with a warm one")
-    return warm
-
+FIRST_XLA = """
+import sys, time; t0 = time.perf_counter()
+sys.path.insert(0, {bench!r})
+import sanlab; sanlab.configure()
+import jax
+from sanlab import sim
+from sanlab.engine_report import random_san_params
+from chains import random_chain
+out = [time.perf_counter() - t0]
+for _ in range(2):
+    t = time.perf_counter()
+    spec = random_chain(9, {seed})
+    san, sp = random_san_params(spec, 8, 0)
+    m = sim.compile_creature(spec)
+    jax.block_until_ready(sim.rollout(m, san, sp, steps=1000).state.q)
+    out.append(time.perf_counter() - t)
+print(*out)
+"""
 
 REPLAY = """
 import sanlab; sanlab.configure()
@@ -106,7 +106,7 @@ import time
 from sanlab import creature, sim
 from sanlab.engine_report import random_san_params
 t0 = time.perf_counter()
-spec = creature.load("{name}")
+spec = creature.load("bounder")
 m = sim.compile_creature(spec)
 san, p = random_san_params(spec, 1, 0)
 r = sim.rollout(m, san, p, seconds=6.0, record_fps=30)
@@ -115,108 +115,305 @@ print(time.perf_counter() - t0)
 """
 
 
-def replay(name: str = "bounder") -> float:
-    """Seconds of one 6 s replay at batch 1 recorded at 30 fps (what render, the studio's playback
-    and check --simulate do), in a fresh process after JAX's import, with an empty cache and then a
-    warm one (the persistent XLA cache and the traced programs of sanlab.sim.executables)."""
-    cold, *warm_runs = fresh_processes(REPLAY.format(name=name), 3)
-    warm = min(warm_runs)
-    print(f"replay: {name}, 6 s at batch 1, 30 fps: {cold:.1f} s with an empty cache, {warm:.2f} s with a warm one "
-          "(compile_creature + rollout, after import)")
-    return warm
+def _env(**extra: str) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT), **extra)
+    if "SANLAB_NO_COMPILE_CACHE" not in extra:
+        env.pop("SANLAB_NO_COMPILE_CACHE", None)
+    return env
 
 
-def latency(batch: int = 32, steps: int = 2000, repeats: int = 3) -> float:
-    """Microseconds per step of a small batch of bounders (a tuning chain, the studio's live mode)."""
-    import jax
+def _python(code: str, env: dict) -> list[float]:
+    """The numbers the last line of ``code`` prints, run in a fresh interpreter."""
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+    return [float(x) for x in out.stdout.strip().splitlines()[-1].split()]
 
-    from sanlab import creature, sim
-    from sanlab.engine_report import random_san_params
 
-    spec = creature.load("bounder")
-    model = sim.compile_creature(spec)
-    san, params = random_san_params(spec, batch, seed=0)
-    jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-    best = float("inf")
-    for _ in range(repeats):
+def build() -> float:
+    """Seconds of the kernel's one-time build (``setup.py build_ext``, as an install runs it) into
+    a temporary folder; nan if it fails."""
+    with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-        best = min(best, time.perf_counter() - t0)
-    us = best / steps * 1e6
-    print(f"latency: batch {batch}: {us:.1f} us per step ({best / (batch * steps) * 1e9:.0f} ns per creature-step)")
-    return us
+        r = subprocess.run([sys.executable, "setup.py", "-q", "build_ext", "-b", f"{tmp}/lib", "-t", f"{tmp}/tmp"],
+                           cwd=ROOT, capture_output=True, text=True)
+        s = time.perf_counter() - t0
+    if r.returncode != 0:
+        print(f"build: failed ({r.stderr.strip().splitlines()[-1:]})")
+        return NAN
+    from sanlab.sim import kernel
+
+    print(f"build: the kernel's one-time compile {s:.1f} s (setup.py build_ext; {kernel.lanes()} float64 lanes a tile)")
+    return s
 
 
-def growth(links: list[int], batch: int, steps: int, dense_up_to: int) -> None:
-    """The growth table: N-link chains (benchmarks/chains.py) on both routes of the step's linear
-    algebra, against MuJoCo's C rollout loop on the same converted chains."""
-    import jax
+def first_calls(seed: int, xla: bool) -> dict:
+    """A fresh process's first calls of never-seen chains, on the kernel and (``xla``) the engine."""
+    r: dict = {}
+    bench = str(ROOT / "benchmarks")
+    imp, a1, a2, b1, b2 = _python(FIRST_KERNEL.format(bench=bench, seed=seed), _env())
+    r.update(first_s=a1, first_second_s=a2, first16_s=b1, first16_second_s=b2)
+    print(f"first call (chains of seed {seed}, never seen: file -> pack -> start -> 8 SANs x 1 s; fresh process, "
+          f"import {imp:.2f} s first):")
+    print(f"  kernel: 9-link chain {a1:.3f} s, again {a2:.3f} s (first/second {a1 / a2:.2f}); then a 16-link chain "
+          f"{b1:.3f} s, again {b2:.3f} s ({b1 / b2:.2f})")
+    if xla:
+        imp, e1, e2 = _python(FIRST_XLA.format(bench=bench, seed=seed), _env(SANLAB_NO_COMPILE_CACHE="1"))
+        r["first_xla_s"] = e1
+        print(f"  XLA engine, no compile cache: 9-link chain {e1:.2f} s ({e1 / a1:.0f} x the kernel's), again "
+              f"{e2:.3f} s (first/second {e1 / e2:.1f}; import {imp:.2f} s)")
+    return r
+
+
+def _cli(args: list[str], cwd: str, cache: str) -> float:
+    """Wall seconds of ``python -m sanlab ARGS`` in a fresh process; nan if it fails."""
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "sanlab", *args], cwd=cwd, env=_env(SANLAB_CACHE=cache),
+                       capture_output=True, text=True)
+    s = time.perf_counter() - t0
+    if p.returncode != 0:
+        tail = (p.stderr or p.stdout).strip().splitlines()[-1:]
+        print(f"  `sanlab {' '.join(args)}` failed (exit {p.returncode}): {tail}")
+        return NAN
+    return s
+
+
+def cli(seed: int) -> dict:
+    """The commands' wall times on never-seen 9-link chains, empty cache, first and second run."""
+    from chains import random_chain_toml
+
+    print("first call through the CLI (fresh processes, empty cache, then warm; as the commands are today):")
+    r: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for what, s, args in (("search", seed + 2, ["-n", "8", "--seconds", "1", "--db", "gaits.db"]),
+                              ("check", seed + 3, ["--simulate"])):
+            path = Path(tmp) / f"chain9_{s}.toml"
+            path.write_text(random_chain_toml(9, s))
+            cache = tempfile.mkdtemp(dir=tmp)
+            argv = [what, path.name, *args]
+            first, second = _cli(argv, tmp, cache), _cli(argv, tmp, cache)
+            r[f"{what}_first_s"], r[f"{what}_second_s"] = first, second
+            print(f"  `sanlab {' '.join(argv)}`: {first:.2f} s, again {second:.2f} s (first/second "
+                  f"{first / second:.2f})", flush=True)
+    return r
+
+
+def latency(spec, steps: int, repeats: int, xla: bool) -> dict:
+    """µs per bounder step at batch 1 and 32, against the engine and MuJoCo's C step."""
+    import bench_kernels as bk
+    from mujoco_route import mujoco_c_loop_steps_per_s
+
+    r: dict = {}
+    print(f"latency: bounder, µs per step ({steps} steps a call, best of {repeats}):")
+    for B in (1, 32):
+        calls = [bk.prepared(form, spec, B, steps, 0) for form in ("c++", "engine")[:1 + xla]]
+        k, *e = (t / steps * 1e6 for t in bk.best(calls, repeats))
+        r[f"b{B}_us"] = k
+        line = f"  batch {B}: kernel {k:.2f} µs"
+        if e:
+            r[f"b{B}_xla_us"] = e[0]
+            line += f", XLA engine {e[0]:.2f} µs (kernel {e[0] / k:.1f} x faster)"
+        print(line, flush=True)
+    mj = 1e6 / mujoco_c_loop_steps_per_s(spec, batch=1, steps=max(steps, 1000), repeats=repeats, threads=1)
+    r["b1_mujoco_us"] = mj
+    print(f"  batch 1: MuJoCo's C step {mj:.2f} µs on one thread, open loop (kernel {mj / r['b1_us']:.1f} x faster, "
+          "its SAN included)")
+    return r
+
+
+def throughput(spec, batch: int, steps: int, repeats: int, xla: bool, mujoco_seconds: float) -> dict:
+    """Creature-steps per second of the bounder at ``batch``, against the engine and MuJoCo."""
+    import bench_kernels as bk
+    from mujoco_route import mujoco_c_loop_steps_per_s, mujoco_steps_per_s
+
+    r: dict = {}
+    calls = [bk.prepared(form, spec, batch, steps, 0) for form in ("c++", "engine")[:1 + xla]]
+    k, *e = (batch * steps / t for t in bk.best(calls, repeats))
+    r["rate"] = k
+    print(f"throughput: bounder, batch {batch} x {steps} steps, best of {repeats}:")
+    print(f"  kernel (float64): {k / 1e6:.2f} M creature-steps/s ({1e9 / k:.0f} ns per creature-step)")
+    if e:
+        r["rate_xla"] = e[0]
+        print(f"  XLA engine (float32): {e[0] / 1e6:.2f} M/s (kernel {k / e[0]:.2f} x)", flush=True)
+    mjc = mujoco_c_loop_steps_per_s(spec, batch=batch, steps=100, repeats=repeats)
+    r["rate_mujoco_c"] = mjc
+    print(f"  MuJoCo's C rollout loop: {mjc / 1e6:.3f} M/s, open loop, one thread per core (kernel {k / mjc:.1f} x)")
+    if mujoco_seconds > 0:
+        mjn, info = mujoco_steps_per_s(seconds_budget=mujoco_seconds, details=True)
+        r["rate_mujoco_numpy"] = mjn
+        print(f"  MuJoCo with the SAN in NumPy: {mjn / 1e6:.3f} M/s, one process per core (kernel {k / mjn:.0f} x; "
+              f"MuJoCo reported {info['warnings']} instabilities, each resetting its creature)")
+    return r
+
+
+def growth(links: list[int], batch: int, steps: int, repeats: int) -> dict:
+    """ns per creature-step of N-link chains on the kernel and MuJoCo's C loop, same batch. The
+    kernel's calls are short, so they go round the sizes ``repeats`` times (a change in the
+    machine's load falls on every size) and each size keeps its best."""
+    import bench_kernels as bk
     from chains import chain_creature
     from mujoco_route import mujoco_c_loop_steps_per_s
 
-    from sanlab import sim
-    from sanlab.engine_report import random_san_params
-
-    print(f"growth: N-link chains, batch {batch} x {steps} steps; first call = compile + first rollout, "
-          "cold cache; cost = ns per creature-step")
-    print(f"{'links':>5}  {'route':<12}{'steps/s':>10}{'cost':>8}{'vs 2 links':>11}{'first call':>11}"
-          f"{'mujoco C':>10}{'ratio':>7}")
-    base: dict[str, float] = {}
+    calls = {n: bk.prepared("c++", chain_creature(n), batch, steps, 0) for n in links}
+    best = bk.best(list(calls.values()), repeats)
+    cost = {n: t / (batch * steps) * 1e9 for n, t in zip(links, best)}
+    print(f"growth: N-link chains, batch {batch} x {steps} steps, ns per creature-step (the kernel's best of {repeats} "
+          "rounds):")
+    print(f"  {'links':>5} {'kernel':>8} {'vs first':>9} {'MuJoCo C':>9} {'kernel ahead':>13}")
+    vs = {}
     for n in links:
-        spec = chain_creature(n)
-        mj = mujoco_c_loop_steps_per_s(spec, batch=64, steps=1000)
-        for route, art in (("dense", False), ("articulated", True)):
-            if not art and n > dense_up_to:
-                print(f"{n:>5}  {route:<12}{'(skipped: --dense-up-to)':>30}")
-                continue
-            model = sim.compile_creature(spec, articulated=art)
-            san, params = random_san_params(spec, batch, seed=0)
-            t0 = time.perf_counter()
-            jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-            first = time.perf_counter() - t0
-            best = float("inf")
-            for _ in range(2):
-                t0 = time.perf_counter()
-                jax.block_until_ready(sim.rollout(model, san, params, steps=steps).state.q)
-                best = min(best, time.perf_counter() - t0)
-            rate = batch * steps / best
-            cost = 1e9 / rate
-            base.setdefault(route, cost)
-            print(f"{n:>5}  {route:<12}{rate / 1e6:>9.3f}M{cost:>8.0f}{cost / base[route]:>10.1f}x{first:>10.1f}s"
-                  f"{mj / 1e6:>9.4f}M{rate / mj:>6.1f}x", flush=True)
+        mj = 1e9 / mujoco_c_loop_steps_per_s(chain_creature(n), batch=batch, steps=steps, repeats=repeats)
+        vs[n] = mj / cost[n]
+        print(f"  {n:>5} {cost[n]:>8.0f} {cost[n] / cost[links[0]]:>8.1f}x {mj:>9.0f} {vs[n]:>12.1f}x", flush=True)
+    lo, hi = links[0], links[-1]
+    print(f"  cost({hi})/cost({lo}) = {cost[hi] / cost[lo]:.1f} for {hi / lo:.0f} x the links")
+    return dict(growth_ratio=cost[hi] / cost[lo], growth_min_vs_mujoco=min(vs.values()), growth_lo=lo, growth_hi=hi)
+
+
+def jittered_rows(batch: int, seed: int = 0, names: list | None = None):
+    """For :func:`bench_kernels.prepared`'s ``rows``: every non-empty float table of
+    ``kernel.ROW_TABLES`` given per row, each number times 1 + U(-0.02, 0.02); their names are
+    appended to ``names``."""
+    from sanlab.sim import kernel
+
+    def rows(pk) -> dict:
+        rng = np.random.default_rng(seed)
+        out = {}
+        for name in kernel.ROW_TABLES:
+            x = np.asarray(getattr(pk, name), np.float64)
+            if x.size:
+                out[name] = x[None] * (1 + rng.uniform(-0.02, 0.02, (batch, *x.shape)))
+        if names is not None:
+            names[:] = list(out)
+        return out
+
+    return rows
+
+
+def mixed(spec, batch: int, steps: int, repeats: int) -> dict:
+    """The cost of a batch whose rows carry their own numbers against one with a shared table."""
+    import bench_kernels as bk
+
+    names: list = []
+    shared_f = bk.prepared("c++", spec, batch, steps, 0)
+    rows_f = bk.prepared("c++", spec, batch, steps, 0, rows=jittered_rows(batch, 0, names))
+    shared, per_row = bk.best([shared_f, rows_f], repeats)
+    ns = lambda t: 1e9 * t / (batch * steps)
+    print(f"mixed batch: bounder, batch {batch} x {steps} steps, rows with their own {', '.join(names)} (each number "
+          f"jittered 2 %): {per_row / shared:.2f} x the cost of one shared table ({ns(per_row):.0f} against "
+          f"{ns(shared):.0f} ns per creature-step, best of {repeats} alternated)")
+    return dict(mixed_ratio=per_row / shared)
+
+
+def agreement(spec) -> None:
+    import bench_kernels as bk
+
+    err = bk.agreement(spec, 64, 1000)
+    print(f"agreement with the XLA engine, float64, 64 SANs x 1000 steps: median {np.median(err):.2g}, worst "
+          f"{err.max():.2g} (relative to the state's size)")
+
+
+def replay() -> float:
+    """Seconds of one 6 s bounder replay at batch 1 recorded at 30 fps through ``sim.rollout``
+    (render, the studio's playback), fresh processes sharing a new cache: empty, then warm."""
+    with tempfile.TemporaryDirectory() as cache:
+        cold, *warm = (_python(REPLAY, _env(SANLAB_CACHE=cache))[0] for _ in range(3))
+    print(f"replay (sim.rollout, as it is today): bounder, 6 s at batch 1, 30 fps: {cold:.1f} s with an empty cache, "
+          f"{min(warm):.2f} s with a warm one (after import)")
+    return min(warm)
+
+
+def goals(r: dict) -> None:
+    """Issue 46's goals against this run's figures."""
+    g = lambda k: r.get(k, NAN)
+
+    def line(goal: str, figure: str, ok) -> None:
+        verdict = "unmeasured" if ok is None else ("met" if ok else "not met")
+        print(f"  {goal:<52} {figure:<44} {verdict}")
+
+    fine = lambda *xs: all(math.isfinite(x) for x in xs)
+    print("goals (issue 46):")
+    line("kernel build once per install <= 60 s", f"{g('build_s'):.1f} s", g("build_s") <= 60 if fine(g("build_s")) else None)
+    line("never-seen creature's first result <= 1 s", f"9-link {g('first_s'):.3f} s, 16-link {g('first16_s'):.3f} s",
+         max(g("first_s"), g("first16_s")) <= 1.0)
+    line("  ... within 1.5 x its second (no compile)", f"{g('first_s') / g('first_second_s'):.2f}, "
+         f"{g('first16_s') / g('first16_second_s'):.2f}", g("first16_s") <= 1.5 * g("first16_second_s"))
+    s1, s2 = g("search_first_s"), g("search_second_s")
+    line("`search -n 8 --seconds 1` new creature, 1.5 x 2nd", f"{s1:.2f} s, {s1 / s2:.2f} x its second",
+         s1 <= 1.5 * s2 if fine(s1, s2) else None)
+    c1 = g("check_first_s")
+    line("9-link `check --simulate` < 5 s", f"{c1:.2f} s", c1 < 5 if fine(c1) else None)
+    line("batch 32 <= 15 µs per bounder step", f"{g('b32_us'):.2f} µs", g("b32_us") <= 15)
+    line("batch 1 at least as fast as MuJoCo's C step", f"{g('b1_mujoco_us') / g('b1_us'):.2f} x",
+         g("b1_us") <= g("b1_mujoco_us"))
+    e = g("rate_xla")
+    line("batch 2048 no slower than the XLA engine", f"{g('rate') / e:.2f} x", g("rate") >= e if fine(e) else None)
+    line("batch 2048 >= 40 x MuJoCo's C rollout loop", f"{g('rate') / g('rate_mujoco_c'):.1f} x",
+         g("rate") >= 40 * g("rate_mujoco_c"))
+    if "growth_ratio" in r:
+        line(f"cost({r['growth_hi']})/cost({r['growth_lo']}) <= {r['growth_hi'] // r['growth_lo']} (linear)",
+             f"{g('growth_ratio'):.1f}", g("growth_ratio") <= r["growth_hi"] / r["growth_lo"])
+        line("ahead of MuJoCo's C loop at every size", f"at least {g('growth_min_vs_mujoco'):.1f} x",
+             g("growth_min_vs_mujoco") >= 1)
+    line("rows with their own numbers (a mixed batch)", f"{g('mixed_ratio'):.2f} x a shared table's cost", True)
+    line(">= 1 G bounder creature-steps/s on one GPU", "no GPU twin of the kernel yet", None)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    ap.add_argument("--batch", type=int, default=2048)
-    ap.add_argument("--steps", type=int, default=2000)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--mujoco-seconds", type=float, default=5.0)
-    ap.add_argument("--skip-start", action="store_true", help="skip the start-up measurement")
+    ap.add_argument("--batch", type=int, default=2048, help="the throughput and mixed batches")
+    ap.add_argument("--batch-steps", type=int, default=250, help="steps a call at --batch")
+    ap.add_argument("--steps", type=int, default=2000, help="steps a call at batch 1 and 32")
+    ap.add_argument("--repeats", type=int, default=5, help="timed calls of each (the best counts)")
     ap.add_argument("--growth", default="2,4,8,16,32", help="chain lengths of the growth table ('' skips it)")
+    ap.add_argument("--growth-batch", type=int, default=256)
     ap.add_argument("--growth-steps", type=int, default=200)
-    ap.add_argument("--dense-up-to", type=int, default=16, help="longest chain timed on the dense route")
+    ap.add_argument("--mujoco-seconds", type=float, default=2.0,
+                    help="seconds of the MuJoCo + NumPy route's workers (0 skips it)")
+    ap.add_argument("--seed", type=int, default=None, help="the never-seen chains' seed (default: a new one)")
+    ap.add_argument("--no-xla", action="store_true", help="leave out the XLA engine (sim.rollout) reference")
+    ap.add_argument("--no-cli", action="store_true", help="leave out the CLI's first calls")
+    ap.add_argument("--no-build", action="store_true", help="leave out the kernel's build")
+    ap.add_argument("--agreement", action="store_true", help="also the final states against the XLA engine's")
+    ap.add_argument("--replay", action="store_true", help="also a 6 s replay through sim.rollout, fresh processes")
     a = ap.parse_args()
-    os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # every first call below is a cold compile
+    t0 = time.perf_counter()
+    os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # the engine's reference: nothing of it from disk
+    xla = not a.no_xla
+    seed = secrets.randbelow(10**6) if a.seed is None else a.seed
 
-    from mujoco_route import mujoco_c_loop_steps_per_s, mujoco_steps_per_s
+    import sanlab
 
-    mj = mujoco_steps_per_s(seconds_budget=a.mujoco_seconds)
-    print(f"mujoco: {mj / 1e6:.3f} M creature-steps/s  (C stepping, SAN in NumPy, one process per core)")
-    mjc = mujoco_c_loop_steps_per_s()
-    print(f"mujoco C loop: {mjc / 1e6:.3f} M creature-steps/s  (mujoco.rollout, open-loop servo targets, "
-          f"one thread per core)")
-    rate, compile_s = sanlab_route(a.batch, a.steps, a.repeats)
-    if not a.skip_start:
-        cached_start(a.batch)
-        replay_s = replay()
-    else:
-        replay_s = float("nan")
-    latency()
+    sanlab.configure()
+    from sanlab import creature
+
+    spec = creature.load("bounder")
+    r: dict = {}
+    if not a.no_build:
+        r["build_s"] = build()
+    r.update(first_calls(seed, xla))
+    if not a.no_cli:
+        r.update(cli(seed))
+    r.update(latency(spec, a.steps, a.repeats, xla))
+    r.update(throughput(spec, a.batch, a.batch_steps, a.repeats, xla, a.mujoco_seconds))
     if a.growth:
-        growth([int(n) for n in a.growth.split(",")], a.batch, a.growth_steps, a.dense_up_to)
-    print(f"ratio_vs_mujoco={rate / mj:.1f} ratio_vs_mujoco_c_loop={rate / mjc:.1f} "
-          f"sanlab_steps_per_s={rate:.0f} compile_s={compile_s:.1f} replay_warm_s={replay_s:.2f}")
+        r.update(growth([int(n) for n in a.growth.split(",")], a.growth_batch, a.growth_steps, a.repeats))
+    r.update(mixed(spec, a.batch, a.batch_steps, a.repeats))
+    print("GPU: unmeasured (the kernel has no GPU twin yet; benchmarks/gpu.py times the XLA engine on one)")
+    if a.agreement and xla:
+        agreement(spec)
+    replay_s = replay() if a.replay else NAN
+    goals(r)
+    print(f"({time.perf_counter() - t0:.0f} s)")
+    g = lambda k: r.get(k, NAN)
+    summary = dict(
+        build_s=g("build_s"), first_s=g("first_s"), first_vs_second=g("first16_s") / g("first16_second_s"),
+        first_xla_vs_kernel=g("first_xla_s") / g("first_s"), search_first_s=g("search_first_s"),
+        search_first_vs_second=g("search_first_s") / g("search_second_s"), check_simulate_s=g("check_first_s"),
+        b32_us=g("b32_us"), b32_vs_xla=g("b32_xla_us") / g("b32_us"), b1_vs_mujoco=g("b1_mujoco_us") / g("b1_us"),
+        steps_per_s=g("rate"), vs_xla=g("rate") / g("rate_xla"), vs_mujoco_c_loop=g("rate") / g("rate_mujoco_c"),
+        vs_mujoco=g("rate") / g("rate_mujoco_numpy"), growth_ratio=g("growth_ratio"),
+        growth_vs_mujoco_min=g("growth_min_vs_mujoco"), mixed_ratio=g("mixed_ratio"), replay_warm_s=replay_s,
+    )
+    print(" ".join(f"{k}={v:.4g}" for k, v in summary.items()))
 
 
 if __name__ == "__main__":
