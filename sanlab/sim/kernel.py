@@ -207,12 +207,14 @@ def lanes() -> int:
 
 
 def _tile(x: np.ndarray, W: int) -> np.ndarray:
-    """[B, ...] -> [T, ..., W], the batch padded with copies of its last row."""
+    """[B, ...] -> [T, ..., W], the batch padded with copies of its last row; always a new array:
+    the kernel writes its state back in place, and a view (W = 1, or a 1-D array) would hand it
+    the caller's own memory."""
     B = x.shape[0]
     T = -(-B // W)
     if T * W != B:
         x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
-    return np.ascontiguousarray(np.moveaxis(x.reshape(T, W, *x.shape[1:]), 1, -1), np.float64)
+    return np.array(np.moveaxis(x.reshape(T, W, *x.shape[1:]), 1, -1), np.float64, order="C", copy=True)
 
 
 def _untile(x: np.ndarray, B: int) -> np.ndarray:
