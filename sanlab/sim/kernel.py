@@ -187,10 +187,9 @@ def _library():
             raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
-        for f in (lib.sanlab_rollout_san, lib.sanlab_rollout_san_scalar):
-            f.restype = None
-            f.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64, ctypes.c_int64,
-                          ctypes.c_int64, ctypes.c_int64]
+        i32, i64 = ctypes.c_int32, ctypes.c_int64
+        lib.sanlab_rollout.restype = None
+        lib.sanlab_rollout.argtypes = [i32, i32, P, P, P, P, P, P, P, i32, P, P, i32, P, P, P, i64, i64, i64, i64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         lib.sanlab_start.restype = None
         lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
@@ -273,10 +272,7 @@ def _dims(pk: Packed, N: int) -> np.ndarray:
 def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.ndarray]:
     """The kernel's tables for a call of B rows in tiles of W (``rows``: per-row ones, see
     :func:`run_san`), and the per-row flags."""
-    rows = rows or {}
-    unknown = sorted(set(rows) - set(ROW_TABLES))
-    if unknown:
-        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
+    rows = _check_rows(pk, B, rows)
     T = -(-B // W)
     tables = []
     for name in TABLES:
@@ -284,13 +280,27 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.nda
         if name not in rows:
             tables.append(shared)
             continue
-        x = np.asarray(rows[name], np.float64)
-        if x.shape != (B, *shared.shape):
-            raise ValueError(f"rows[{name!r}]: expected shape {(B, *shared.shape)}, got {x.shape}")
+        x = rows[name]
         if T * W != B:  # padded like the state: copies of the last row
             x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
         tables.append(np.ascontiguousarray(x))
     return tables, np.array([name in rows for name in ROW_TABLES], np.int32)
+
+
+def _check_rows(pk: Packed, B: int, rows: dict | None) -> dict:
+    """``rows`` (see :func:`run_san`) as float64 arrays, or a ValueError naming the one that is
+    not a table a row may carry, or not of its shape."""
+    rows = rows or {}
+    unknown = sorted(set(rows) - set(ROW_TABLES))
+    if unknown:
+        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
+    out = {}
+    for name, x in rows.items():
+        shape = (B, *getattr(pk, name).shape)
+        out[name] = np.asarray(x, np.float64)
+        if out[name].shape != shape:
+            raise ValueError(f"rows[{name!r}]: expected shape {shape}, got {out[name].shape}")
+    return out
 
 
 def _pointers(arrays: list):
@@ -318,11 +328,12 @@ def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarra
     return _untile(qt, B), _untile(anchor, B)
 
 
-def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
+def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: Any = 0.0,
             rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0,
             scalar: bool = False) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
-    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
+    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s), one
+    for every row or one per row [B] (a continued run: the previous call's ``t``).
     rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
     (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
     observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
@@ -335,18 +346,15 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     duty, the words and their times); with ``every`` the frames: ``frames_q``, ``frames_qd`` [B, F, D]
     (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
     (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
-    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
-    weights that are not integers in [-2, 2]."""
+    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape,
+    weights that are not integers in [-2, 2], or state arrays (q, p, anchor, istate, out, k1, k2) of
+    the wrong shape."""
 
     W = 1 if scalar else lanes()
-    B = q.shape[0]
-    N = istate.shape[1]
-    dims = _dims(pk, N)
+    B = np.shape(q)[0]
+    N = np.shape(istate)[1]
     T = -(-B // W)
-    tables, per_row = _tables(pk, B, rows, W)
-    st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.full(B, float(t0)),
-                                                        np.full(B, -np.inf))]
-    ctrl = [_tile(np.asarray(k1, np.float64), W), _tile(np.asarray(k2, np.float64), W)]
+    rows = _check_rows(pk, B, rows)  # first: a bad table is reported before bad weights, as it always was
     w = np.asarray(weights)
     if w.shape != (B, N, pk.si.shape[0] + N) or np.any(w != np.round(w)) or np.abs(w).max(initial=0) > 2:
         raise ValueError(f"weights: expected integers in [-2, 2] of shape {(B, N, pk.si.shape[0] + N)}, got {w.shape}")
@@ -356,26 +364,112 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     w16 = np.zeros((T * W, w.shape[2], NP), np.int16)  # per creature, one row of nodes per input
     w16[:B, :, :N] = np.swapaxes(w, 1, 2)
     w16[B:] = w16[B - 1] if B else 0
-    qd = np.zeros((T, pk.ndof, W))
+    par = np.concatenate([_shaped("k1", k1, (B, N)), _shaped("k2", k2, (B, N))], 1)
+    cst = np.concatenate([_shaped("istate", istate, (B, N)), _shaped("out", out, (B, N))], 1)
+    res = _rollout(pk, KINDS["san"], N, par, cst, w16, NP, q, p, anchor, steps, t0, rows, observe, acc, every, scalar)
+    res["istate"], res["out"] = np.split(res.pop("cstate"), [N], axis=1)
+    if "frames_cstate" in res:
+        res["frames_istate"], res["frames_out"] = np.split(res.pop("frames_cstate"), [N], axis=2)
+    return res
+
+
+KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3}  # the kernel's controllers (kernel.cpp)
+
+
+def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 0.0, rows: dict | None = None,
+             observe: Observe | None = None, acc=None, every: int = 0, scalar: bool = False) -> dict:
+    """``steps`` steps of B creatures under open-loop or reflex controllers on the kernel, one
+    ``kind`` per call (the controllers of ``sim.rollout``):
+
+    - ``"hold"``: params u [B, A], activations in [0, 1] held for every step of the call
+      (``sim.ConstantController``; external actions: a Gymnasium step, the studio);
+    - ``"sine"``: params [B, A + 1] = (phases (rad)..., f (Hz)): u_a = 0.5 + 0.5 sin(2 pi f t +
+      phase_a), t the row's time before the step (s, from ``t0``; ``sim.SineController`` from 0);
+    - ``"reflex"``: params (W [B, A, S], b [B, A]): u = clip(W bits + b, 0, 1) of the step's
+      sensor values (``sim.ReflexController``).
+
+    q, p [B, D], anchor [B, C, 2]; t0, rows, observe, acc, every and scalar as for
+    :func:`run_san`. Returns what :func:`run_san` returns but the SAN's state: q, p, anchor, t,
+    dmax, qd, with ``observe`` acc, with ``every`` frames_q, frames_qd [B, F, D], frames_bits
+    [B, F, S], frames_u [B, F, A]. Raises ValueError naming the argument for an unknown kind,
+    parameters of the wrong shape, not finite or (hold) outside [0, 1], state arrays of the
+    wrong shape, a negative ``steps`` or ``every``, or a per-row table of the wrong shape."""
+    if kind not in ("hold", "sine", "reflex"):
+        raise ValueError(f"kind: expected 'hold', 'sine' or 'reflex', got {kind!r}")
+    B = np.shape(q)[0]
+    A, S = pk.ai.shape[0], pk.si.shape[0]
+    if kind == "hold":
+        par = _shaped("params", params, (B, A))
+        if not np.all((par >= 0.0) & (par <= 1.0)):
+            raise ValueError("params: hold's activations must lie in [0, 1]")
+    elif kind == "sine":
+        par = _shaped("params", params, (B, A + 1))
+    else:
+        if not isinstance(params, (tuple, list)) or len(params) != 2:
+            raise ValueError("params: reflex takes (W [B, A, S], b [B, A])")
+        Wr, b = _shaped("params[0] (W)", params[0], (B, A, S)), _shaped("params[1] (b)", params[1], (B, A))
+        par = np.concatenate([Wr.reshape(B, A * S), b], 1)
+    if not np.all(np.isfinite(par)):
+        raise ValueError("params: expected finite numbers")
+    res = _rollout(pk, KINDS[kind], 0, par, np.zeros((B, 0)), None, 0, q, p, anchor, steps, t0, rows, observe, acc,
+                   every, scalar)
+    res.pop("cstate")
+    res.pop("frames_cstate", None)
+    return res
+
+
+def _shaped(name: str, x, shape: tuple) -> np.ndarray:
+    """x as float64 of ``shape``, or a ValueError naming it."""
+    a = np.asarray(x, np.float64)
+    if a.shape != tuple(shape):
+        raise ValueError(f"{name}: expected shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w16, NP: int, q, p, anchor, steps: int,
+             t0: Any, rows: dict | None, observe: Observe | None, acc, every: int, scalar: bool) -> dict:
+    """The kernel's rollout under controller ``kind`` (:data:`KINDS`) with N SAN nodes (0 for the
+    others): parameters par [B, n_param] and state cst [B, n_state] per row, a SAN's weights w16
+    (see :func:`run_san`). Returns q, p, anchor, t, dmax, qd, cstate [, acc] [, frames_*]."""
+    W = 1 if scalar else lanes()
+    B = np.shape(q)[0]
+    D, C, S, A = pk.ndof, pk.ci.shape[0], pk.si.shape[0], pk.ai.shape[0]
+    if int(steps) != steps or steps < 0:
+        raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
+    if int(every) != every or every < 0:
+        raise ValueError(f"every: expected a whole number >= 0, got {every}")
+    tables, per_row = _tables(pk, B, rows, W)
+    q, p = _shaped("q", q, (B, D)), _shaped("p", p, (B, D))
+    anchor = _shaped("anchor", anchor, (B, C, 2))
+    if observe is not None and acc is not None:
+        acc = _shaped("acc", acc, (B, observe.size))
+    dims = _dims(pk, N)
+    T = -(-B // W)
+    t0 = np.asarray(t0, np.float64)
+    if t0.shape not in ((), (B,)):
+        raise ValueError(f"t0: expected a number or shape {(B,)}, got {t0.shape}")
+    st = [_tile(a, W) for a in (q, p, anchor, np.broadcast_to(t0, (B,)), np.full(B, -np.inf))]
+    par_t, cst_t = _tile(par, W), _tile(cst, W)
+    qd = np.zeros((T, D, W))
     oi = of = acc_t = None
     if observe is not None:
         oi, of = observe.arrays()
-        acc_t = _tile(np.zeros((B, observe.size)) if acc is None else np.asarray(acc, np.float64), W)
+        acc_t = _tile(np.zeros((B, observe.size)) if acc is None else acc, W)
     addr = lambda a: None if a is None else a.ctypes.data
-    D, S, A = pk.ndof, pk.si.shape[0], pk.ai.shape[0]
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
-    frames = np.zeros((T, n_frames, 2 * D + S + A + 2 * N, W)) if every > 0 else None
-    call = _library().sanlab_rollout_san_scalar if scalar else _library().sanlab_rollout_san
-    call(dims.ctypes.data, _pointers(tables), per_row.ctypes.data, _pointers(st + ctrl), w16.ctypes.data, NP, addr(oi),
-         addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T, int(steps))
-    names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
-    res = {n: _untile(a, B) for n, a in zip(names, st)}
+    ns = cst.shape[1]
+    frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
+    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, _pointers(tables), per_row.ctypes.data,
+                              _pointers(st), par_t.ctypes.data, cst_t.ctypes.data, addr(w16), NP, addr(oi), addr(of),
+                              int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T,
+                              int(steps))
+    res = {n: _untile(a, B) for n, a in zip(("q", "p", "anchor", "t", "dmax"), st)}
+    res["cstate"] = _untile(cst_t, B)
     res["qd"] = _untile(qd, B)
     if acc_t is not None:
         res["acc"] = _untile(acc_t, B)
     if frames is not None:
         fr = _untile(frames, B)  # [B, F, values]
-        cuts = np.cumsum([D, D, S, A, N])
-        for name, part in zip(("q", "qd", "bits", "u", "istate", "out"), np.split(fr, cuts, axis=2)):
+        for name, part in zip(("q", "qd", "bits", "u", "cstate"), np.split(fr, np.cumsum([D, D, S, A]), axis=2)):
             res["frames_" + name] = part
     return res
