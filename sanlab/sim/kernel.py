@@ -190,6 +190,8 @@ def _library():
         i32, i64 = ctypes.c_int32, ctypes.c_int64
         lib.sanlab_rollout.restype = None
         lib.sanlab_rollout.argtypes = [i32, i32, P, P, P, P, P, P, P, i32, P, P, i32, P, P, P, i64, i64, i64, i64]
+        lib.sanlab_inspect.restype = None
+        lib.sanlab_inspect.argtypes = [i32, i32, P, P, P, P, P, i64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         lib.sanlab_start.restype = None
         lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
@@ -473,3 +475,114 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
         for name, part in zip(("q", "qd", "bits", "u", "cstate"), np.split(fr, np.cumsum([D, D, S, A]), axis=2)):
             res["frames_" + name] = part
     return res
+
+
+# ------------------------------------------------------------------ inspectors: single configurations
+
+
+INSPECT = ("poses", "energy", "momenta", "velocity", "sense", "follow_point", "centre_of_mass")  # kernel.cpp's order
+
+
+def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None, scalar: bool) -> np.ndarray:
+    """The kernel's inspector ``kind`` over rows x [B, n_in] -> [B, n_out]."""
+    W = 1 if scalar else lanes()
+    B = x.shape[0]
+    tables, per_row = _tables(pk, B, rows, W)
+    xt = _tile(x, W)
+    out = np.zeros((xt.shape[0], n_out, W))
+    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, _pointers(tables),
+                              per_row.ctypes.data, xt.ctypes.data, out.ctypes.data, xt.shape[0])
+    return _untile(out, B)
+
+
+def _rows_of(name: str, x, width: int) -> np.ndarray:
+    """x as float64 [B, width], or a ValueError naming it."""
+    a = np.asarray(x, np.float64)
+    if a.ndim != 2 or a.shape[1] != width:
+        raise ValueError(f"{name}: expected shape (B, {width}), got {a.shape}")
+    return a
+
+
+def _times(t, B: int) -> np.ndarray:
+    """t (s) as [B, 1]: one number for every row or one per row, or a ValueError naming it."""
+    a = np.asarray(t, np.float64)
+    if a.shape not in ((), (B,)):
+        raise ValueError(f"t: expected a number or shape {(B,)}, got {a.shape}")
+    return np.broadcast_to(a, (B,))[:, None]
+
+
+def poses(pk: Packed, q, rows: dict | None = None, scalar: bool = False) -> dict:
+    """World placement of configurations q [B, D] (``dynamics.poses``, for drawing and analysis):
+    ``links`` [B, L, 3] (origin x, y (m) and absolute angle (rad) of each link frame),
+    ``contacts`` [B, C, 2] (contact points, m), ``depth`` [B, C] (penetration, m, > 0 when
+    touching; horizontal plane: 1), ``com`` [B, 2] (the centre of mass of the links not welded to
+    the world, m). rows: per-row tables as for :func:`run_san`; scalar: the GPU's form (plain
+    double, one row per thread). Raises ValueError for q or a per-row table of the wrong shape."""
+    q = _rows_of("q", q, pk.ndof)
+    B, L, C = q.shape[0], pk.li.shape[0], pk.ci.shape[0]
+    out = _inspect(pk, "poses", q, 3 * L + 3 * C + 2, rows, scalar)
+    links, contacts, depth, com = np.split(out, np.cumsum([3 * L, 2 * C, C]), axis=1)
+    return {"links": links.reshape(B, L, 3), "contacts": contacts.reshape(B, C, 2), "depth": depth, "com": com}
+
+
+def energy(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> dict:
+    """Mechanical energy of states (q, p) [B, D] (J; ``dynamics.energy``): ``kinetic`` [B] (of the
+    velocity M(q)^-1 p), ``gravity`` [B] (m g y of each centre of mass; 0 in the horizontal
+    plane) and ``elastic`` [B] (passive joint and linear springs; actuators, joint stops and the
+    ground excluded). Links welded to the world do not count. rows, scalar as for :func:`poses`.
+    Raises ValueError for q, p or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    out = _inspect(pk, "energy", np.concatenate([q, p], 1), 3, rows, scalar)
+    return {"kinetic": out[:, 0], "gravity": out[:, 1], "elastic": out[:, 2]}
+
+
+def momenta(pk: Packed, q, qd, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The momenta p = M(q) qd [B, D] of configurations q [B, D] moving at velocities qd [B, D]
+    (state coordinates; what ``dynamics.make_state`` carries). rows, scalar as for :func:`poses`.
+    Raises ValueError for q, qd or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    qd = _shaped("qd", qd, q.shape)
+    return _inspect(pk, "momenta", np.concatenate([q, qd], 1), D, rows, scalar)
+
+
+def velocity(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The velocities qd = M(q)^-1 p [B, D] of states (q, p) [B, D] (``dynamics.velocity``; what a
+    rollout returns as ``qd``). rows, scalar as for :func:`poses`. Raises ValueError for q, p or
+    a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    return _inspect(pk, "velocity", np.concatenate([q, p], 1), D, rows, scalar)
+
+
+def sense(pk: Packed, q, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """Binary sensor values bits [B, S] (0.0 / 1.0; ``dynamics.sense``) of configurations q
+    [B, D] at time t (s: one number or [B]; the eyes see the follow point of that time). rows,
+    scalar as for :func:`poses`. Raises ValueError for q, t or a per-row table of the wrong
+    shape."""
+    q = _rows_of("q", q, pk.ndof)
+    return _inspect(pk, "sense", np.concatenate([q, _times(t, q.shape[0])], 1), pk.si.shape[0], rows, scalar)
+
+
+def follow_point(pk: Packed, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The follow point [B, 2] (m; ``dynamics.follow_point``) at times t [B] (s). rows, scalar as
+    for :func:`poses` (a row's own ``wf`` carries its own speed). Raises ValueError for t not 1-D
+    or a per-row table of the wrong shape."""
+    t = np.asarray(t, np.float64)
+    if t.ndim != 1:
+        raise ValueError(f"t: expected shape (B,), got {t.shape}")
+    return _inspect(pk, "follow_point", t[:, None], 2, rows, scalar)
+
+
+def centre_of_mass(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The centre of mass [B, 2] (m) of states (q, p) [B, D] and its velocity [B, 2] (m/s; the
+    links welded to the world do not count: ``dynamics.centre_of_mass``). rows, scalar as for
+    :func:`poses`. Raises ValueError for q, p or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    out = _inspect(pk, "centre_of_mass", np.concatenate([q, p], 1), 4, rows, scalar)
+    return out[:, :2], out[:, 2:]

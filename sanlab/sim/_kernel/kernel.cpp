@@ -2,7 +2,8 @@
 //
 // rollout runs `steps` steps of a batch of creatures under one kind of controller, tile by tile:
 // each tile of W creatures is one OpenMP task, its state copied into an aligned scratch, stepped,
-// and copied back.
+// and copied back. inspect computes what the host asks of single configurations (poses, energy,
+// momenta, velocities, sensor values) over the same tiles.
 #include <cstring>
 #include <cstdlib>
 #include <vector>
@@ -250,6 +251,63 @@ static void rollout_kind(int32_t kind, const int32_t *dims, const void *const *t
   else run(ReflexControl<V>{});
 }
 
+// ---------------------------------------------------------------- inspectors
+//
+// What the host asks of single configurations, per row: each reads in [n_in] and writes
+// out [n_out] (values of V, one per row of the tile; see inspect_sizes).
+enum { I_POSES, I_ENERGY, I_MOMENTA, I_VELOCITY, I_SENSE, I_FOLLOW, I_COM };
+
+static void inspect_sizes(const Model &m, int kind, size_t &n_in, size_t &n_out) {
+  const size_t D = m.D;
+  switch (kind) {
+    case I_POSES: n_in = D; n_out = 3 * (size_t)m.L + 3 * (size_t)m.C + 2; break;  // links, contacts, depth, com
+    case I_ENERGY: n_in = 2 * D; n_out = 3; break;                                  // q, p -> kinetic, gravity, elastic
+    case I_MOMENTA: n_in = 2 * D; n_out = D; break;                                 // q, qd -> p
+    case I_VELOCITY: n_in = 2 * D; n_out = D; break;                                // q, p -> qd
+    case I_SENSE: n_in = D + 1; n_out = m.S; break;                                 // q, t -> bits
+    case I_FOLLOW: n_in = 1; n_out = 2; break;                                      // t -> follow point
+    default: n_in = 2 * D; n_out = 4; break;                                        // q, p -> com, its velocity
+  }
+}
+
+template <class V> static void inspect(const Model &m, Tile<V> &t, int kind, const V *in, V *out) {
+  const V *q = in;
+  switch (kind) {
+    case I_POSES: {
+      positions(m, q, t);
+      V *o = out;
+      for (int i = 0; i < m.L; ++i) { *o++ = t.X[i][0]; *o++ = t.X[i][1]; *o++ = t.th[i]; }
+      for (int c = 0; c < m.C; ++c) { *o++ = t.cp[c][0]; *o++ = t.cp[c][1]; }
+      for (int c = 0; c < m.C; ++c) *o++ = t.depth[c];
+      centre_of_mass(m, t, o[0], o[1], (V *)nullptr, (V *)nullptr);
+      break;
+    }
+    case I_ENERGY:
+      prepare(m, q, in + m.D, t);
+      energy(m, t, out[0], out[1], out[2]);
+      break;
+    case I_MOMENTA:
+      positions(m, q, t);
+      momenta(m, t, in + m.D, out);
+      break;
+    case I_VELOCITY:
+      prepare(m, q, in + m.D, t);
+      for (int d = 0; d < m.D; ++d) out[d] = t.qd[d];
+      break;
+    case I_SENSE:
+      positions(m, q, t);
+      sense(m, t, in[m.D]);
+      for (int s = 0; s < m.S; ++s) out[s] = t.bits[s];
+      break;
+    case I_FOLLOW:
+      follow_point(m, t, in[0], out[0], out[1]);
+      break;
+    default:
+      prepare(m, q, in + m.D, t);
+      centre_of_mass(m, t, out[0], out[1], &out[2], &out[3]);
+  }
+}
+
 extern "C" {
 
 int sanlab_kernel_lanes() { return Lanes<vd>::W; }
@@ -279,6 +337,27 @@ void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const voi
   else
     rollout_kind<vd>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd, frames, every,
                      n_frames, T, steps);
+}
+
+// Inspects T tiles of W configurations (kernel.py: poses, energy, momenta, velocity, sense,
+// follow_point, centre_of_mass): in [T, n_in, W] -> out [T, n_out, W] (inspect_sizes); scalar = 1:
+// one configuration per thread in plain double (W = 1), as rollout's.
+void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
+                    const int32_t *per_row, const double *in, double *out, int64_t T) {
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
+  size_t n_in, n_out;
+  inspect_sizes(m, kind, n_in, n_out);
+  auto run = [&](auto lane) {
+    using V = decltype(lane);
+    over_tiles<V>(m, tables, per_row, T, n_in + n_out, [&](Tile<V> &tile, V *x, int64_t b) {
+      load(x, in, b, n_in);
+      inspect(m, tile, kind, x, x + n_in);
+      store(out, x + n_in, b, n_out);
+    });
+  };
+  if (scalar) run(0.0);
+  else run(vd{});
 }
 
 // Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
