@@ -17,9 +17,22 @@ is skipped.
 
 It covers every physical element of a creature file (both planes, every terrain, point masses,
 angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
-water drag, every sensor kind, the follow point) and the SAN, on the dense route of the linear
-algebra. Not yet: observers (metrics), recording, and the articulated O(n) route for long chains;
-it is not yet what ``sim.rollout`` runs (issue 46 ports the layers above onto it).
+water drag, every sensor kind, the follow point), both routes of the linear algebra (the dense
+L D L^T and the articulated O(n) recursion, see :func:`pack`), the observers (a metric's
+ingredients and the behaviour descriptors: :class:`Observe`) and recording (``every=``).
+
+Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``):
+
+- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes), one
+  loop for every kind of controller; :func:`start` for states at rest, seated on the ground;
+- inspectors of single configurations: :func:`poses`, :func:`energy`, :func:`momenta`,
+  :func:`velocity`, :func:`sense`, :func:`follow_point`, :func:`centre_of_mass` (what
+  ``sim.poses``, ``sim.energy``, ``sim.make_state``, ``sim.velocity``, ``sim.sense``,
+  ``sim.follow_point`` and ``sim.centre_of_mass`` compute with JAX).
+
+Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
+one row per thread), bit for bit as the SIMD tiles. Issue 46 ports the layers above (``sim.rollout``,
+the evaluator, the studio, the Gymnasium envs) onto these.
 
 Layout: see :class:`Packed`.
 """
