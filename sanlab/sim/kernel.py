@@ -362,8 +362,8 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
     (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
     before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape,
-    weights that are not integers in [-2, 2], or state arrays (q, p, anchor, istate, out, k1, k2) of
-    the wrong shape."""
+    weights that are not integers in [-2, 2], state arrays (q, p, anchor, istate, out, k1, k2, acc,
+    t0) of the wrong shape, or a negative ``steps`` or ``every``."""
 
     W = 1 if scalar else lanes()
     B = np.shape(q)[0]
