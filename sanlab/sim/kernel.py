@@ -17,9 +17,22 @@ is skipped.
 
 It covers every physical element of a creature file (both planes, every terrain, point masses,
 angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
-water drag, every sensor kind, the follow point) and the SAN, on the dense route of the linear
-algebra. Not yet: observers (metrics), recording, and the articulated O(n) route for long chains;
-it is not yet what ``sim.rollout`` runs (issue 46 ports the layers above onto it).
+water drag, every sensor kind, the follow point), both routes of the linear algebra (the dense
+L D L^T and the articulated O(n) recursion, see :func:`pack`), the observers (a metric's
+ingredients and the behaviour descriptors: :class:`Observe`) and recording (``every=``).
+
+Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``):
+
+- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes), one
+  loop for every kind of controller; :func:`start` for states at rest, seated on the ground;
+- inspectors of single configurations: :func:`poses`, :func:`energy`, :func:`momenta`,
+  :func:`velocity`, :func:`sense`, :func:`follow_point`, :func:`centre_of_mass` (what
+  ``sim.poses``, ``sim.energy``, ``sim.make_state``, ``sim.velocity``, ``sim.sense``,
+  ``sim.follow_point`` and ``sim.centre_of_mass`` compute with JAX).
+
+Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
+one row per thread), bit for bit as the SIMD tiles. Issue 46 ports the layers above (``sim.rollout``,
+the evaluator, the studio, the Gymnasium envs) onto these.
 
 Layout: see :class:`Packed`.
 """
@@ -200,10 +213,11 @@ def _library():
             raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
         lib = ctypes.CDLL(str(path))
         P = ctypes.c_void_p
-        for f in (lib.sanlab_rollout_san, lib.sanlab_rollout_san_scalar):
-            f.restype = None
-            f.argtypes = [P, P, P, P, P, ctypes.c_int32, P, P, ctypes.c_int32, P, P, P, ctypes.c_int64, ctypes.c_int64,
-                          ctypes.c_int64, ctypes.c_int64]
+        i32, i64 = ctypes.c_int32, ctypes.c_int64
+        lib.sanlab_rollout.restype = None
+        lib.sanlab_rollout.argtypes = [i32, i32, P, P, P, P, P, P, P, i32, P, P, i32, P, P, P, i64, i64, i64, i64]
+        lib.sanlab_inspect.restype = None
+        lib.sanlab_inspect.argtypes = [i32, i32, P, P, P, P, P, i64]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
         lib.sanlab_start.restype = None
         lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
@@ -220,12 +234,14 @@ def lanes() -> int:
 
 
 def _tile(x: np.ndarray, W: int) -> np.ndarray:
-    """[B, ...] -> [T, ..., W], the batch padded with copies of its last row."""
+    """[B, ...] -> [T, ..., W], the batch padded with copies of its last row; always a new array:
+    the kernel writes its state back in place, and a view (W = 1, or a 1-D array) would hand it
+    the caller's own memory."""
     B = x.shape[0]
     T = -(-B // W)
     if T * W != B:
         x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
-    return np.ascontiguousarray(np.moveaxis(x.reshape(T, W, *x.shape[1:]), 1, -1), np.float64)
+    return np.array(np.moveaxis(x.reshape(T, W, *x.shape[1:]), 1, -1), np.float64, order="C", copy=True)
 
 
 def _untile(x: np.ndarray, B: int) -> np.ndarray:
@@ -284,10 +300,7 @@ def _dims(pk: Packed, N: int) -> np.ndarray:
 def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.ndarray]:
     """The kernel's tables for a call of B rows in tiles of W (``rows``: per-row ones, see
     :func:`run_san`), and the per-row flags."""
-    rows = rows or {}
-    unknown = sorted(set(rows) - set(ROW_TABLES))
-    if unknown:
-        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
+    rows = _check_rows(pk, B, rows)
     T = -(-B // W)
     tables = []
     for name in TABLES:
@@ -295,13 +308,27 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.nda
         if name not in rows:
             tables.append(shared)
             continue
-        x = np.asarray(rows[name], np.float64)
-        if x.shape != (B, *shared.shape):
-            raise ValueError(f"rows[{name!r}]: expected shape {(B, *shared.shape)}, got {x.shape}")
+        x = rows[name]
         if T * W != B:  # padded like the state: copies of the last row
             x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
         tables.append(np.ascontiguousarray(x))
     return tables, np.array([name in rows for name in ROW_TABLES], np.int32)
+
+
+def _check_rows(pk: Packed, B: int, rows: dict | None) -> dict:
+    """``rows`` (see :func:`run_san`) as float64 arrays, or a ValueError naming the one that is
+    not a table a row may carry, or not of its shape."""
+    rows = rows or {}
+    unknown = sorted(set(rows) - set(ROW_TABLES))
+    if unknown:
+        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
+    out = {}
+    for name, x in rows.items():
+        shape = (B, *getattr(pk, name).shape)
+        out[name] = np.asarray(x, np.float64)
+        if out[name].shape != shape:
+            raise ValueError(f"rows[{name!r}]: expected shape {shape}, got {out[name].shape}")
+    return out
 
 
 def _pointers(arrays: list):
@@ -329,11 +356,12 @@ def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarra
     return _untile(qt, B), _untile(anchor, B)
 
 
-def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: float = 0.0,
+def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: Any = 0.0,
             rows: dict | None = None, observe: Observe | None = None, acc=None, every: int = 0,
             scalar: bool = False) -> dict:
     """``steps`` steps of B creatures under SANs on the kernel. weights [B, N, I], k1, k2 [B, N]
-    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s).
+    (1/s), q, p [B, D], anchor [B, C, 2], istate, out [B, N]; t0 the time at the start (s), one
+    for every row or one per row [B] (a continued run: the previous call's ``t``).
     rows: tables of :data:`ROW_TABLES` given per row ([B, *shape of pk's]) where rows differ
     (mixed batches: tuning, ensembles, designs); the others are ``pk``'s, shared.
     observe: what to accumulate along the way (None: nothing); acc [B, observe.size] the
@@ -346,18 +374,15 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     duty, the words and their times); with ``every`` the frames: ``frames_q``, ``frames_qd`` [B, F, D]
     (each the state before that step and its velocity), ``frames_bits`` [B, F, S], ``frames_u`` [B, F, A]
     (the activations that step took), ``frames_istate``, ``frames_out`` [B, F, N] (the SAN's state
-    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape, or
-    weights that are not integers in [-2, 2]."""
+    before that step), F = steps // every. Raises ValueError for a per-row table of the wrong shape,
+    weights that are not integers in [-2, 2], state arrays (q, p, anchor, istate, out, k1, k2, acc,
+    t0) of the wrong shape, or a negative ``steps`` or ``every``."""
 
     W = 1 if scalar else lanes()
-    B = q.shape[0]
-    N = istate.shape[1]
-    dims = _dims(pk, N)
+    B = np.shape(q)[0]
+    N = np.shape(istate)[1]
     T = -(-B // W)
-    tables, per_row = _tables(pk, B, rows, W)
-    st = [_tile(np.asarray(a, np.float64), W) for a in (q, p, anchor, istate, out, np.full(B, float(t0)),
-                                                        np.full(B, -np.inf))]
-    ctrl = [_tile(np.asarray(k1, np.float64), W), _tile(np.asarray(k2, np.float64), W)]
+    rows = _check_rows(pk, B, rows)  # first: a bad table is reported before bad weights, as it always was
     w = np.asarray(weights)
     if w.shape != (B, N, pk.si.shape[0] + N) or np.any(w != np.round(w)) or np.abs(w).max(initial=0) > 2:
         raise ValueError(f"weights: expected integers in [-2, 2] of shape {(B, N, pk.si.shape[0] + N)}, got {w.shape}")
@@ -367,26 +392,223 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     w16 = np.zeros((T * W, w.shape[2], NP), np.int16)  # per creature, one row of nodes per input
     w16[:B, :, :N] = np.swapaxes(w, 1, 2)
     w16[B:] = w16[B - 1] if B else 0
-    qd = np.zeros((T, pk.ndof, W))
+    par = np.concatenate([_shaped("k1", k1, (B, N)), _shaped("k2", k2, (B, N))], 1)
+    cst = np.concatenate([_shaped("istate", istate, (B, N)), _shaped("out", out, (B, N))], 1)
+    res = _rollout(pk, KINDS["san"], N, par, cst, w16, NP, q, p, anchor, steps, t0, rows, observe, acc, every, scalar)
+    res["istate"], res["out"] = np.split(res.pop("cstate"), [N], axis=1)
+    if "frames_cstate" in res:
+        res["frames_istate"], res["frames_out"] = np.split(res.pop("frames_cstate"), [N], axis=2)
+    return res
+
+
+KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3}  # the kernel's controllers (kernel.cpp)
+
+
+def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 0.0, rows: dict | None = None,
+             observe: Observe | None = None, acc=None, every: int = 0, scalar: bool = False) -> dict:
+    """``steps`` steps of B creatures under open-loop or reflex controllers on the kernel, one
+    ``kind`` per call (the controllers of ``sim.rollout``):
+
+    - ``"hold"``: params u [B, A], activations in [0, 1] held for every step of the call
+      (``sim.ConstantController``; external actions: a Gymnasium step, the studio);
+    - ``"sine"``: params [B, A + 1] = (phases (rad)..., f (Hz)): u_a = 0.5 + 0.5 sin(2 pi f t +
+      phase_a), t the row's time before the step (s, from ``t0``; ``sim.SineController`` from 0);
+    - ``"reflex"``: params (W [B, A, S], b [B, A]): u = clip(W bits + b, 0, 1) of the step's
+      sensor values (``sim.ReflexController``).
+
+    q, p [B, D], anchor [B, C, 2]; t0, rows, observe, acc, every and scalar as for
+    :func:`run_san`. Returns what :func:`run_san` returns but the SAN's state: q, p, anchor, t,
+    dmax, qd, with ``observe`` acc, with ``every`` frames_q, frames_qd [B, F, D], frames_bits
+    [B, F, S], frames_u [B, F, A]. Raises ValueError naming the argument for an unknown kind,
+    parameters of the wrong shape, not finite or (hold) outside [0, 1], state arrays of the
+    wrong shape, a negative ``steps`` or ``every``, or a per-row table of the wrong shape."""
+    if kind not in ("hold", "sine", "reflex"):
+        raise ValueError(f"kind: expected 'hold', 'sine' or 'reflex', got {kind!r}")
+    B = np.shape(q)[0]
+    A, S = pk.ai.shape[0], pk.si.shape[0]
+    if kind == "hold":
+        par = _shaped("params", params, (B, A))
+        if not np.all((par >= 0.0) & (par <= 1.0)):
+            raise ValueError("params: hold's activations must lie in [0, 1]")
+    elif kind == "sine":
+        par = _shaped("params", params, (B, A + 1))
+    else:
+        if not isinstance(params, (tuple, list)) or len(params) != 2:
+            raise ValueError("params: reflex takes (W [B, A, S], b [B, A])")
+        Wr, b = _shaped("params[0] (W)", params[0], (B, A, S)), _shaped("params[1] (b)", params[1], (B, A))
+        par = np.concatenate([Wr.reshape(B, A * S), b], 1)
+    if not np.all(np.isfinite(par)):
+        raise ValueError("params: expected finite numbers")
+    res = _rollout(pk, KINDS[kind], 0, par, np.zeros((B, 0)), None, 0, q, p, anchor, steps, t0, rows, observe, acc,
+                   every, scalar)
+    res.pop("cstate")
+    res.pop("frames_cstate", None)
+    return res
+
+
+def _shaped(name: str, x, shape: tuple) -> np.ndarray:
+    """x as float64 of ``shape``, or a ValueError naming it."""
+    a = np.asarray(x, np.float64)
+    if a.shape != tuple(shape):
+        raise ValueError(f"{name}: expected shape {tuple(shape)}, got {a.shape}")
+    return a
+
+
+def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w16, NP: int, q, p, anchor, steps: int,
+             t0: Any, rows: dict | None, observe: Observe | None, acc, every: int, scalar: bool) -> dict:
+    """The kernel's rollout under controller ``kind`` (:data:`KINDS`) with N SAN nodes (0 for the
+    others): parameters par [B, n_param] and state cst [B, n_state] per row, a SAN's weights w16
+    (see :func:`run_san`). Returns q, p, anchor, t, dmax, qd, cstate [, acc] [, frames_*]."""
+    W = 1 if scalar else lanes()
+    B = np.shape(q)[0]
+    D, C, S, A = pk.ndof, pk.ci.shape[0], pk.si.shape[0], pk.ai.shape[0]
+    if int(steps) != steps or steps < 0:
+        raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
+    if int(every) != every or every < 0:
+        raise ValueError(f"every: expected a whole number >= 0, got {every}")
+    tables, per_row = _tables(pk, B, rows, W)
+    q, p = _shaped("q", q, (B, D)), _shaped("p", p, (B, D))
+    anchor = _shaped("anchor", anchor, (B, C, 2))
+    if observe is not None and acc is not None:
+        acc = _shaped("acc", acc, (B, observe.size))
+    dims = _dims(pk, N)
+    T = -(-B // W)
+    t0 = np.asarray(t0, np.float64)
+    if t0.shape not in ((), (B,)):
+        raise ValueError(f"t0: expected a number or shape {(B,)}, got {t0.shape}")
+    st = [_tile(a, W) for a in (q, p, anchor, np.broadcast_to(t0, (B,)), np.full(B, -np.inf))]
+    par_t, cst_t = _tile(par, W), _tile(cst, W)
+    qd = np.zeros((T, D, W))
     oi = of = acc_t = None
     if observe is not None:
         oi, of = observe.arrays()
-        acc_t = _tile(np.zeros((B, observe.size)) if acc is None else np.asarray(acc, np.float64), W)
+        acc_t = _tile(np.zeros((B, observe.size)) if acc is None else acc, W)
     addr = lambda a: None if a is None else a.ctypes.data
-    D, S, A = pk.ndof, pk.si.shape[0], pk.ai.shape[0]
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
-    frames = np.zeros((T, n_frames, 2 * D + S + A + 2 * N, W)) if every > 0 else None
-    call = _library().sanlab_rollout_san_scalar if scalar else _library().sanlab_rollout_san
-    call(dims.ctypes.data, _pointers(tables), per_row.ctypes.data, _pointers(st + ctrl), w16.ctypes.data, NP, addr(oi),
-         addr(of), int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T, int(steps))
-    names = ("q", "p", "anchor", "istate", "out", "t", "dmax")
-    res = {n: _untile(a, B) for n, a in zip(names, st)}
+    ns = cst.shape[1]
+    frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
+    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, _pointers(tables), per_row.ctypes.data,
+                              _pointers(st), par_t.ctypes.data, cst_t.ctypes.data, addr(w16), NP, addr(oi), addr(of),
+                              int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T,
+                              int(steps))
+    res = {n: _untile(a, B) for n, a in zip(("q", "p", "anchor", "t", "dmax"), st)}
+    res["cstate"] = _untile(cst_t, B)
     res["qd"] = _untile(qd, B)
     if acc_t is not None:
         res["acc"] = _untile(acc_t, B)
     if frames is not None:
         fr = _untile(frames, B)  # [B, F, values]
-        cuts = np.cumsum([D, D, S, A, N])
-        for name, part in zip(("q", "qd", "bits", "u", "istate", "out"), np.split(fr, cuts, axis=2)):
+        for name, part in zip(("q", "qd", "bits", "u", "cstate"), np.split(fr, np.cumsum([D, D, S, A]), axis=2)):
             res["frames_" + name] = part
     return res
+
+
+# ------------------------------------------------------------------ inspectors: single configurations
+
+
+INSPECT = ("poses", "energy", "momenta", "velocity", "sense", "follow_point", "centre_of_mass")  # kernel.cpp's order
+
+
+def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None, scalar: bool) -> np.ndarray:
+    """The kernel's inspector ``kind`` over rows x [B, n_in] -> [B, n_out]."""
+    W = 1 if scalar else lanes()
+    B = x.shape[0]
+    tables, per_row = _tables(pk, B, rows, W)
+    xt = _tile(x, W)
+    out = np.zeros((xt.shape[0], n_out, W))
+    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, _pointers(tables),
+                              per_row.ctypes.data, xt.ctypes.data, out.ctypes.data, xt.shape[0])
+    return _untile(out, B)
+
+
+def _rows_of(name: str, x, width: int) -> np.ndarray:
+    """x as float64 [B, width], or a ValueError naming it."""
+    a = np.asarray(x, np.float64)
+    if a.ndim != 2 or a.shape[1] != width:
+        raise ValueError(f"{name}: expected shape (B, {width}), got {a.shape}")
+    return a
+
+
+def _times(t, B: int) -> np.ndarray:
+    """t (s) as [B, 1]: one number for every row or one per row, or a ValueError naming it."""
+    a = np.asarray(t, np.float64)
+    if a.shape not in ((), (B,)):
+        raise ValueError(f"t: expected a number or shape {(B,)}, got {a.shape}")
+    return np.broadcast_to(a, (B,))[:, None]
+
+
+def poses(pk: Packed, q, rows: dict | None = None, scalar: bool = False) -> dict:
+    """World placement of configurations q [B, D] (``dynamics.poses``, for drawing and analysis):
+    ``links`` [B, L, 3] (origin x, y (m) and absolute angle (rad) of each link frame),
+    ``contacts`` [B, C, 2] (contact points, m), ``depth`` [B, C] (penetration, m, > 0 when
+    touching; horizontal plane: 1), ``com`` [B, 2] (the centre of mass of the links not welded to
+    the world, m). rows: per-row tables as for :func:`run_san`; scalar: the GPU's form (plain
+    double, one row per thread). Raises ValueError for q or a per-row table of the wrong shape."""
+    q = _rows_of("q", q, pk.ndof)
+    B, L, C = q.shape[0], pk.li.shape[0], pk.ci.shape[0]
+    out = _inspect(pk, "poses", q, 3 * L + 3 * C + 2, rows, scalar)
+    links, contacts, depth, com = np.split(out, np.cumsum([3 * L, 2 * C, C]), axis=1)
+    return {"links": links.reshape(B, L, 3), "contacts": contacts.reshape(B, C, 2), "depth": depth, "com": com}
+
+
+def energy(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> dict:
+    """Mechanical energy of states (q, p) [B, D] (J; ``dynamics.energy``): ``kinetic`` [B] (of the
+    velocity M(q)^-1 p), ``gravity`` [B] (m g y of each centre of mass; 0 in the horizontal
+    plane) and ``elastic`` [B] (passive joint and linear springs; actuators, joint stops and the
+    ground excluded). Links welded to the world do not count. rows, scalar as for :func:`poses`.
+    Raises ValueError for q, p or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    out = _inspect(pk, "energy", np.concatenate([q, p], 1), 3, rows, scalar)
+    return {"kinetic": out[:, 0], "gravity": out[:, 1], "elastic": out[:, 2]}
+
+
+def momenta(pk: Packed, q, qd, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The momenta p = M(q) qd [B, D] of configurations q [B, D] moving at velocities qd [B, D]
+    (state coordinates; what ``dynamics.make_state`` carries). rows, scalar as for :func:`poses`.
+    Raises ValueError for q, qd or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    qd = _shaped("qd", qd, q.shape)
+    return _inspect(pk, "momenta", np.concatenate([q, qd], 1), D, rows, scalar)
+
+
+def velocity(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The velocities qd = M(q)^-1 p [B, D] of states (q, p) [B, D] (``dynamics.velocity``; what a
+    rollout returns as ``qd``). rows, scalar as for :func:`poses`. Raises ValueError for q, p or
+    a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    return _inspect(pk, "velocity", np.concatenate([q, p], 1), D, rows, scalar)
+
+
+def sense(pk: Packed, q, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """Binary sensor values bits [B, S] (0.0 / 1.0; ``dynamics.sense``) of configurations q
+    [B, D] at time t (s: one number or [B]; the eyes see the follow point of that time). rows,
+    scalar as for :func:`poses`. Raises ValueError for q, t or a per-row table of the wrong
+    shape."""
+    q = _rows_of("q", q, pk.ndof)
+    return _inspect(pk, "sense", np.concatenate([q, _times(t, q.shape[0])], 1), pk.si.shape[0], rows, scalar)
+
+
+def follow_point(pk: Packed, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
+    """The follow point [B, 2] (m; ``dynamics.follow_point``) at times t [B] (s). rows, scalar as
+    for :func:`poses` (a row's own ``wf`` carries its own speed). Raises ValueError for t not 1-D
+    or a per-row table of the wrong shape."""
+    t = np.asarray(t, np.float64)
+    if t.ndim != 1:
+        raise ValueError(f"t: expected shape (B,), got {t.shape}")
+    return _inspect(pk, "follow_point", t[:, None], 2, rows, scalar)
+
+
+def centre_of_mass(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The centre of mass [B, 2] (m) of states (q, p) [B, D] and its velocity [B, 2] (m/s; the
+    links welded to the world do not count: ``dynamics.centre_of_mass``). rows, scalar as for
+    :func:`poses`. Raises ValueError for q, p or a per-row table of the wrong shape."""
+    D = pk.ndof
+    q = _rows_of("q", q, D)
+    p = _shaped("p", p, q.shape)
+    out = _inspect(pk, "centre_of_mass", np.concatenate([q, p], 1), 4, rows, scalar)
+    return out[:, :2], out[:, 2:]

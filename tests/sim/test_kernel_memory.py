@@ -3,9 +3,11 @@
 Two memory errors reached the kernel's first drafts (a tile's scratch counted apart from its
 layout, and aligned vector loads from a caller's array) and only their symptoms caught them. Here
 the kernel is built again with ``-fsanitize=address`` and driven, in a process without JAX (its
-runtime does not load under the sanitizer), through ``run_san`` (SIMD tiles and the scalar form,
-observers, frames, per-row tables, a continued run) and ``start``; any out-of-bounds access ends
-that process with the sanitizer's report.
+runtime does not load under the sanitizer), through ``run_san`` and ``run_open`` (every controller
+kind; SIMD tiles and the scalar form, observers, frames, per-row tables, a continued run), every
+inspector (``poses``, ``energy``, ``momenta``, ``velocity``, ``sense``, ``follow_point``,
+``centre_of_mass``, both forms) and ``start``; any out-of-bounds access ends that process with the
+sanitizer's report.
 """
 
 from __future__ import annotations
@@ -45,6 +47,19 @@ for c in Load(open(sys.argv[2], "rb")).load():
                       every=7, rows=c["rows"], scalar=scalar)
         K.run_san(c["pk"], c["w"], c["k1"], c["k2"], r["q"], r["p"], r["anchor"], r["istate"], r["out"], 30,
                   acc=r["acc"], observe=c["ob"], scalar=scalar)
+        for kind, par in c["open"].items():
+            r = K.run_open(c["pk"], kind, par, c["q"], c["p"], c["a"], 90, observe=c["ob"], every=11, rows=c["rows"],
+                           scalar=scalar)
+            K.run_open(c["pk"], kind, par, r["q"], r["p"], r["anchor"], 20, t0=r["t"], acc=r["acc"], observe=c["ob"],
+                       scalar=scalar)
+        t = np.linspace(0.0, 5.0, B)
+        K.poses(c["pk"], c["q"], rows=c["rows"], scalar=scalar)
+        K.energy(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+        K.momenta(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+        K.velocity(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+        K.sense(c["pk"], c["q"], t, rows=c["rows"], scalar=scalar)
+        K.follow_point(c["pk"], t, rows=c["rows"], scalar=scalar)
+        K.centre_of_mass(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
     K.start(c["pk"], c["q"], seat=True)
 print("clean")
 """
@@ -81,9 +96,14 @@ def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
         s0 = dynamics.make_state(m)
         pk = kernel.pack(m, san.n_hidden)
         rep = lambda x: np.repeat(np.asarray(x)[None], 13, 0)
+        A, S = len(m.structure.actuators), m.structure.n_sensors
+        rng = np.random.default_rng(0)
+        open_params = {"hold": rng.uniform(0, 1, (13, A)), "sine": rng.uniform(0, 2, (13, A + 1)),
+                       "reflex": (rng.uniform(-1, 1, (13, A, S)), rng.uniform(0, 1, (13, A)))}
         cases.append(dict(pk=pk, w=np.asarray(sp.weights), k1=np.asarray(sp.k1), k2=np.asarray(sp.k2), q=rep(s0.q),
                           p=rep(s0.p), a=rep(s0.anchor), N=san.n_nodes, B=13, rows={"lf": rep(pk.lf)},
-                          ob=observe_of(Metric.for_creature(spec), descriptors.Descriptors.for_creature(m))))
+                          ob=observe_of(Metric.for_creature(spec), descriptors.Descriptors.for_creature(m)),
+                          open=open_params))
     with open(tmp_path / "cases.pkl", "wb") as f:
         pickle.dump(cases, f)
     env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0")

@@ -1,19 +1,86 @@
 // sanlab's simulator kernel: C entry points over step.h, called through ctypes (sanlab/sim/kernel.py).
 //
-// rollout_san runs `steps` steps of a batch of creatures under SANs, tile by tile: each tile of W
-// creatures is one OpenMP task, its state copied into an aligned scratch, stepped, and copied back.
+// rollout runs `steps` steps of a batch of creatures under one kind of controller, tile by tile:
+// each tile of W creatures is one OpenMP task, its state copied into an aligned scratch, stepped,
+// and copied back. inspect computes what the host asks of single configurations (poses, energy,
+// momenta, velocities, sensor values) over the same tiles.
 #include <cstring>
 #include <cstdlib>
 #include <vector>
+// No SLP vectorisation of the scalar code: GCC 12 recognises step.h's rotations (c x - s y,
+// s x + c y) as complex multiplications and emits a fused vfmaddsub despite -ffp-contract=off,
+// so the plain-double form (the GPU's reference) parted from the tiles in the last bit wherever a
+// point sits off a link's axis (the kitchen sink's head). The tiles are explicit vectors already:
+// measured no slower without it (bounder, 135 ns per creature-step either way).
+#pragma GCC optimize("no-tree-slp-vectorize")
 #include "step.h"
 
 using namespace sanlab;
 
-// A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], istate,
-// out [N], t, dmax, then the SAN's WT [I][N], k1, k2 [N]
-// A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], istate,
-// out [N], t, dmax, then the SAN's k1, k2 [N]
-template <class V> static size_t state_values(const Model &m) { return 2 * m.D + 2 * m.C + 2 * m.N + 2 + 2 * m.N; }
+// ---------------------------------------------------------------- controllers
+//
+// What a rollout asks of its controller, one tile at a time: at(b) the controller of tile b (a
+// SAN's weights are the creatures' own), and act(m, t, par, st, time): the activations t.act in
+// [0, 1] from the tile's sensor values t.bits at time `time` (s), its parameters `par` [n_param]
+// and its state `st` [n_state] (updated in place), both values of V in the tile's scratch.
+// One rollout template serves them all, so every kind steps, observes and records alike.
+enum { K_SAN, K_HOLD, K_SINE, K_REFLEX };
+
+// the SAN (step.h: san): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
+template <class V> struct SanControl {
+  const short *weights;
+  int NP;
+  size_t per_tile;
+  static size_t n_param(const Model &m) { return 2 * (size_t)m.N; }
+  static size_t n_state(const Model &m) { return 2 * (size_t)m.N; }
+  SanControl at(int64_t b) const { return {weights + (size_t)b * per_tile, NP, per_tile}; }
+  void act(const Model &m, Tile<V> &t, const V *par, V *st, V) const {
+    san(m, t, weights, NP, par, par + m.N, st, st + m.N);
+  }
+};
+
+// external activations u [A], held for every step of the call (sim.ConstantController)
+template <class V> struct HoldControl {
+  static size_t n_param(const Model &m) { return m.A; }
+  static size_t n_state(const Model &) { return 0; }
+  HoldControl at(int64_t) const { return *this; }
+  void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
+    for (int a = 0; a < m.A; ++a) t.act[a] = par[a];
+  }
+};
+
+// u_a = 0.5 + 0.5 sin(2 pi f t + phase_a): phases [A] (rad), then f (Hz) (sim.SineController,
+// whose clock is the rollout's time here)
+template <class V> struct SineControl {
+  static size_t n_param(const Model &m) { return m.A + 1; }
+  static size_t n_state(const Model &) { return 0; }
+  SineControl at(int64_t) const { return *this; }
+  void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
+    const V w = (2 * M_PI) * par[m.A] * time;  // the engine's order: ((2 pi) f) t
+    for (int a = 0; a < m.A; ++a) {
+      V s, c;
+      sincos(w + par[a], s, c);
+      t.act[a] = 0.5 + 0.5 * s;
+    }
+  }
+};
+
+// u = clip(W bits + b, 0, 1): W [A][S], then b [A] (sim.ReflexController)
+template <class V> struct ReflexControl {
+  static size_t n_param(const Model &m) { return (size_t)m.A * m.S + m.A; }
+  static size_t n_state(const Model &) { return 0; }
+  ReflexControl at(int64_t) const { return *this; }
+  void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
+    using Ls = Lanes<V>;
+    for (int a = 0; a < m.A; ++a) {
+      V x{};
+      for (int s = 0; s < m.S; ++s) x = x + par[a * m.S + s] * t.bits[s];
+      t.act[a] = Ls::min(Ls::max(x + par[m.A * m.S + a], V{}), V{} + 1.0);
+    }
+  }
+};
+
+// ---------------------------------------------------------------- rollouts
 
 // The observers' config (see step.h, "observers"), or none
 struct Observe {
@@ -23,19 +90,20 @@ struct Observe {
 };
 
 // Frames to record: every `every` steps from the first, the first `n` of them; each frame holds
-// q, qd [D] (the velocity of that state), bits [S], u [A], istate, out [N] (the SAN's state
-// before that step), FV values of V in all
+// q, qd [D] (the velocity of that state), bits [S], u [A], then the controller's state before
+// that step [n_state] (a SAN's istate, out), `values` values of V in all
 struct Record {
-  int64_t every, n;
+  int64_t every, n, values;
 };
 
-inline int64_t frame_values(const Model &m) { return 2 * m.D + m.S + m.A + 2 * m.N; }
+// A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], t, dmax
+inline size_t state_values(const Model &m) { return 2 * (size_t)m.D + 2 * (size_t)m.C + 2; }
 
-template <class V>
-static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int NP, int64_t steps, const Observe &o,
-                     V *acc, V *qd_out, const Record &rec, V *frames) {
-  V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *istate = (V *)(anchor + m.C), *out = istate + m.N;
-  V *time = out + m.N, *dmax = time + 1, *k1 = dmax + 1, *k2 = k1 + m.N;
+template <class V, class Ctl>
+static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *s, const V *par, V *cst, int64_t steps,
+                     const Observe &o, V *acc, V *qd_out, const Record &rec, V *frames) {
+  V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *time = (V *)(anchor + m.C), *dmax = time + 1;
+  const int ns = (int)Ctl::n_state(m), at_u = 2 * m.D + m.S, at_state = at_u + m.A;
   if (o.oi && o.init) {
     positions(m, q, t);
     observe_init(m, t, o.oi, acc);
@@ -44,17 +112,17 @@ static void run_tile(const Model &m, Tile<V> &t, V *s, const short *weights, int
     prepare(m, q, p, t);
     sense(m, t, *time);
     const bool keep = frames && n % rec.every == 0 && n / rec.every < rec.n;
-    V *f = keep ? frames + (n / rec.every) * frame_values(m) : nullptr;
+    V *f = keep ? frames + (n / rec.every) * rec.values : nullptr;
     // the caller's frame buffer need not be aligned for V: stored value by value, unaligned
     auto put = [&](int at, const V &v) { std::memcpy((void *)(f + at), &v, sizeof(V)); };
-    if (keep) {  // the state before this step, and the SAN's state before its update
+    if (keep) {  // the state before this step, and the controller's state before its update
       for (int d = 0; d < m.D; ++d) { put(d, q[d]); put(m.D + d, t.qd[d]); }
       for (int k = 0; k < m.S; ++k) put(2 * m.D + k, t.bits[k]);
-      for (int k = 0; k < m.N; ++k) { put(2 * m.D + m.S + m.A + k, istate[k]); put(2 * m.D + m.S + m.A + m.N + k, out[k]); }
+      for (int k = 0; k < ns; ++k) put(at_state + k, cst[k]);
     }
-    san(m, t, weights, NP, k1, k2, istate, out);
+    ctl.act(m, t, par, cst, *time);
     if (keep)
-      for (int k = 0; k < m.A; ++k) put(2 * m.D + m.S + k, t.act[k]);
+      for (int k = 0; k < m.A; ++k) put(at_u + k, t.act[k]);
     if (o.oi) observe(m, t, o.oi, o.of, *time, acc);
     advance(m, t, q, p, anchor, *dmax);
     *time = *time + t.wf[W_DT];
@@ -109,43 +177,134 @@ static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *table
   }
 }
 
-template <class V>
-static void rollout(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
-                    const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init, double *acc,
-                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps) {
-  Tables tb(dims, tables);
-  const Model &m = tb.m;
-  const int W = Lanes<V>::W;
-  const Observe o{oi, of, init};
-  const size_t na = oi ? (size_t)obs_values(oi) : 0;
-  const size_t nt = tile_values<V>(m), ns = state_values<V>(m) + na + m.D;
-  // the scratch and the state in blocks of their own: a scratch that overran its layout would
-  // corrupt the state silently (it did once), and a sanitizer sees only writes past a block
-  auto block = [](size_t n) { return (V *)std::aligned_alloc(64, (n * sizeof(V) + 63) / 64 * 64); };
-  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), (size_t)m.N, (size_t)m.N, 1, 1,
-                          (size_t)m.N, (size_t)m.N};
-  const int n_out = 7;  // the state parts, copied back; the SAN's parts are inputs only
+// f(tile, x, b) for each of T tiles, spread over the threads: each thread's tile scratch and an
+// aligned block x of `extra` values of V, the tile's numbers filled in. The two are blocks of
+// their own: a scratch that overran its layout would corrupt the state silently (it did once),
+// and a sanitizer sees only writes past a block.
+template <class V, class F>
+static void over_tiles(const Model &m, const void *const *tables, const int32_t *per_row, int64_t T, size_t extra,
+                       F f) {
+  // at least one value: aligned_alloc of nothing may return null
+  auto block = [](size_t n) { return (V *)std::aligned_alloc(64, ((n ? n : 1) * sizeof(V) + 63) / 64 * 64); };
+  const size_t nt = tile_values<V>(m);
 #pragma omp parallel
   {
-    V *mem = block(nt), *s = block(ns);
+    V *mem = block(nt), *x = block(extra);
     Tile<V> tile = tile_at<V>(m, mem);
 #pragma omp for schedule(dynamic, 1)
     for (int64_t b = 0; b < T; ++b) {
       fill_numbers(m, tile, tables, per_row, b);
-      V *at = s;
-      for (int k = 0; k < 9; ++k) { std::memcpy(at, state[k] + b * sizes[k] * W, sizes[k] * sizeof(V)); at += sizes[k]; }
-      V *a = s + state_values<V>(m), *v = a + na;
-      if (na && !init) std::memcpy(a, acc + b * na * W, na * sizeof(V));
-      const Record rec{every > 0 ? every : 1, n_frames};
-      V *fr = frames ? (V *)frames + (size_t)b * n_frames * frame_values(m) : nullptr;
-      run_tile(m, tile, s, (const short *)weights + (size_t)b * W * m.I * NP, NP, steps, o, a, v, rec, fr);
-      at = s;
-      for (int k = 0; k < n_out; ++k) { std::memcpy(state[k] + b * sizes[k] * W, at, sizes[k] * sizeof(V)); at += sizes[k]; }
-      if (na) std::memcpy(acc + b * na * W, a, na * sizeof(V));
-      std::memcpy(qd + b * m.D * W, v, m.D * sizeof(V));
+      f(tile, x, b);
     }
     std::free(mem);
-    std::free(s);
+    std::free(x);
+  }
+}
+
+// copies n values of V between a caller's [T, n, W] array (tile b) and a scratch
+template <class V> static inline void load(V *dst, const double *src, int64_t b, size_t n) {
+  std::memcpy(dst, src + (size_t)b * n * Lanes<V>::W, n * sizeof(V));
+}
+template <class V> static inline void store(double *dst, const V *src, int64_t b, size_t n) {
+  std::memcpy(dst + (size_t)b * n * Lanes<V>::W, src, n * sizeof(V));
+}
+
+template <class V, class Ctl>
+static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tables, const int32_t *per_row,
+                    double *const *state, const double *par, double *cst, const int32_t *oi, const double *of,
+                    int32_t init, double *acc, double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T,
+                    int64_t steps) {
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
+  const Observe o{oi, of, init};
+  const size_t na = oi ? (size_t)obs_values(oi) : 0, npar = Ctl::n_param(m), nst = Ctl::n_state(m);
+  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), 1, 1};
+  const Record rec{every > 0 ? every : 1, n_frames, 2 * m.D + m.S + m.A + (int64_t)nst};
+  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.D, [&](Tile<V> &tile, V *s, int64_t b) {
+    V *at = s;
+    for (int k = 0; k < 5; ++k) { load(at, state[k], b, sizes[k]); at += sizes[k]; }
+    V *p = at, *c = p + npar, *a = c + nst, *v = a + na;
+    load(p, par, b, npar);
+    load(c, cst, b, nst);
+    if (na && !init) load(a, acc, b, na);
+    V *fr = frames ? (V *)frames + (size_t)b * n_frames * rec.values : nullptr;
+    run_tile(m, tile, ctl.at(b), s, p, c, steps, o, a, v, rec, fr);
+    at = s;
+    for (int k = 0; k < 5; ++k) { store(state[k], at, b, sizes[k]); at += sizes[k]; }
+    store(cst, c, b, nst);
+    if (na) store(acc, a, b, na);
+    store(qd, v, b, m.D);
+  });
+}
+
+template <class V>
+static void rollout_kind(int32_t kind, const int32_t *dims, const void *const *tables, const int32_t *per_row,
+                         double *const *state, const double *par, double *cst, const int16_t *weights, int32_t NP,
+                         const int32_t *oi, const double *of, int32_t init, double *acc, double *qd, double *frames,
+                         int64_t every, int64_t n_frames, int64_t T, int64_t steps) {
+  auto run = [&](const auto &ctl) {
+    rollout<V>(ctl, dims, tables, per_row, state, par, cst, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
+  };
+  if (kind == K_SAN) run(SanControl<V>{(const short *)weights, NP, (size_t)Lanes<V>::W * dims[9] * NP});
+  else if (kind == K_HOLD) run(HoldControl<V>{});
+  else if (kind == K_SINE) run(SineControl<V>{});
+  else run(ReflexControl<V>{});
+}
+
+// ---------------------------------------------------------------- inspectors
+//
+// What the host asks of single configurations, per row: each reads in [n_in] and writes
+// out [n_out] (values of V, one per row of the tile; see inspect_sizes).
+enum { I_POSES, I_ENERGY, I_MOMENTA, I_VELOCITY, I_SENSE, I_FOLLOW, I_COM };
+
+static void inspect_sizes(const Model &m, int kind, size_t &n_in, size_t &n_out) {
+  const size_t D = m.D;
+  switch (kind) {
+    case I_POSES: n_in = D; n_out = 3 * (size_t)m.L + 3 * (size_t)m.C + 2; break;  // links, contacts, depth, com
+    case I_ENERGY: n_in = 2 * D; n_out = 3; break;                                  // q, p -> kinetic, gravity, elastic
+    case I_MOMENTA: n_in = 2 * D; n_out = D; break;                                 // q, qd -> p
+    case I_VELOCITY: n_in = 2 * D; n_out = D; break;                                // q, p -> qd
+    case I_SENSE: n_in = D + 1; n_out = m.S; break;                                 // q, t -> bits
+    case I_FOLLOW: n_in = 1; n_out = 2; break;                                      // t -> follow point
+    default: n_in = 2 * D; n_out = 4; break;                                        // q, p -> com, its velocity
+  }
+}
+
+template <class V> static void inspect(const Model &m, Tile<V> &t, int kind, const V *in, V *out) {
+  const V *q = in;
+  switch (kind) {
+    case I_POSES: {
+      positions(m, q, t);
+      V *o = out;
+      for (int i = 0; i < m.L; ++i) { *o++ = t.X[i][0]; *o++ = t.X[i][1]; *o++ = t.th[i]; }
+      for (int c = 0; c < m.C; ++c) { *o++ = t.cp[c][0]; *o++ = t.cp[c][1]; }
+      for (int c = 0; c < m.C; ++c) *o++ = t.depth[c];
+      centre_of_mass(m, t, o[0], o[1], (V *)nullptr, (V *)nullptr);
+      break;
+    }
+    case I_ENERGY:
+      prepare(m, q, in + m.D, t);
+      energy(m, t, out[0], out[1], out[2]);
+      break;
+    case I_MOMENTA:
+      positions(m, q, t);
+      momenta(m, t, in + m.D, out);
+      break;
+    case I_VELOCITY:
+      prepare(m, q, in + m.D, t);
+      for (int d = 0; d < m.D; ++d) out[d] = t.qd[d];
+      break;
+    case I_SENSE:
+      positions(m, q, t);
+      sense(m, t, in[m.D]);
+      for (int s = 0; s < m.S; ++s) out[s] = t.bits[s];
+      break;
+    case I_FOLLOW:
+      follow_point(m, t, in[0], out[0], out[1]);
+      break;
+    default:
+      prepare(m, q, in + m.D, t);
+      centre_of_mass(m, t, out[0], out[1], &out[2], &out[3]);
   }
 }
 
@@ -153,31 +312,52 @@ extern "C" {
 
 int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 
-// Runs `steps` steps of T tiles of W creatures under SANs (kernel.py: run_san).
-// dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py); tables: the creature's tables in the
-// order of kernel.TABLES; per_row: for each float table but the follow path (lf, cf, sf, af, pf,
-// ef, wf, rough), 1 where it holds one copy per row ([T * W, ...]: mixed batches), 0 where one
-// copy serves every row; state: q, p [T, D, W], anchor [T, C, 2, W], istate, out [T, N, W], t,
-// dmax [T, W] (updated in place), then the SAN's k1, k2 [T, N, W]; float64; weights: the SAN's
-// int16 [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node
-// count rounded up to a multiple of 32 (zeros past N).
+// Runs `steps` steps of T tiles of W creatures under one kind of controller (kernel.py: run_san,
+// run_open); scalar = 1: one creature per thread in plain double (W = 1), the form a GPU thread
+// runs, here for the tests that it steps every creature bit for bit as the vector form does.
+// kind: 0 SAN, 1 hold, 2 sine, 3 reflex (see the controllers above for their parameters).
+// dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py; N = 0 and I = S but for a SAN);
+// tables: the creature's tables in the order of kernel.TABLES; per_row: for each float table but
+// the follow path (lf, cf, sf, af, pf, ef, wf, rough), 1 where it holds one copy per row
+// ([T * W, ...]: mixed batches), 0 where one copy serves every row; state: q, p [T, D, W], anchor
+// [T, C, 2, W], t, dmax [T, W] (updated in place); par [T, n_param, W] the controller's
+// parameters, cst [T, n_state, W] its state (updated in place); float64. weights: a SAN's int16
+// [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node count
+// rounded up to a multiple of 32 (zeros past N); null for the others.
 // oi, of: the observers' config (step.h, "observers"), or null for none; acc [T, obs_values, W]
 // their accumulators (started here when init is 1); qd [T, D, W] receives the final velocity.
-// frames: null, or [T, n_frames, frame_values, W] for a frame every `every` steps.
-void sanlab_rollout_san(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *const *state,
-                        const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init,
-                        double *acc, double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T,
-                        int64_t steps) {
-  rollout<vd>(dims, tables, per_row, state, weights, NP, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
+// frames: null, or [T, n_frames, 2 D + S + A + n_state, W] for a frame every `every` steps.
+void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
+                    const int32_t *per_row, double *const *state, const double *par, double *cst,
+                    const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init, double *acc,
+                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps) {
+  if (scalar)
+    rollout_kind<double>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd, frames,
+                         every, n_frames, T, steps);
+  else
+    rollout_kind<vd>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd, frames, every,
+                     n_frames, T, steps);
 }
 
-// The same with one creature per thread in plain double (W = 1): the form a GPU thread runs, here
-// for the tests that it steps every creature bit for bit as the vector form does.
-void sanlab_rollout_san_scalar(const int32_t *dims, const void *const *tables, const int32_t *per_row,
-                               double *const *state, const int16_t *weights, int32_t NP, const int32_t *oi,
-                               const double *of, int32_t init, double *acc, double *qd, double *frames, int64_t every,
-                               int64_t n_frames, int64_t T, int64_t steps) {
-  rollout<double>(dims, tables, per_row, state, weights, NP, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
+// Inspects T tiles of W configurations (kernel.py: poses, energy, momenta, velocity, sense,
+// follow_point, centre_of_mass): in [T, n_in, W] -> out [T, n_out, W] (inspect_sizes); scalar = 1:
+// one configuration per thread in plain double (W = 1), as rollout's.
+void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
+                    const int32_t *per_row, const double *in, double *out, int64_t T) {
+  Tables tb(dims, tables);
+  const Model &m = tb.m;
+  size_t n_in, n_out;
+  inspect_sizes(m, kind, n_in, n_out);
+  auto run = [&](auto lane) {
+    using V = decltype(lane);
+    over_tiles<V>(m, tables, per_row, T, n_in + n_out, [&](Tile<V> &tile, V *x, int64_t b) {
+      load(x, in, b, n_in);
+      inspect(m, tile, kind, x, x + n_in);
+      store(out, x + n_in, b, n_out);
+    });
+  };
+  if (scalar) run(0.0);
+  else run(vd{});
 }
 
 // Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
@@ -187,28 +367,18 @@ void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t 
                   double *anchor, int64_t T) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
-  const int W = Lanes<vd>::W;
-  const size_t nt = tile_values<vd>(m);
-#pragma omp parallel
-  {
-    vd *mem = (vd *)std::aligned_alloc(64, nt * sizeof(vd)), *qt = (vd *)std::aligned_alloc(64, (2 * m.D + 1) * sizeof(vd));
-    Tile<vd> tile = tile_at<vd>(m, mem);
-    vd *seated = qt + m.D, *on = seated + m.D;
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t b = 0; b < T; ++b) {
-      fill_numbers(m, tile, tables, per_row, b);
-      std::memcpy(qt, q + b * m.D * W, m.D * sizeof(vd));
-      std::memcpy(seated, qt, m.D * sizeof(vd));
-      std::memcpy(on, seat_rows + b * W, sizeof(vd));
-      seat(m, tile, seated);
-      for (int d = 0; d < m.D; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
-      positions(m, qt, tile);
-      std::memcpy(q + b * m.D * W, qt, m.D * sizeof(vd));
-      for (int c = 0; c < m.C; ++c)
-        for (int a = 0; a < 2; ++a) std::memcpy(anchor + ((b * m.C + c) * 2 + a) * W, &tile.cp[c][a], sizeof(vd));
-    }
-    std::free(mem);
-    std::free(qt);
-  }
+  over_tiles<vd>(m, tables, per_row, T, 2 * m.D + 1 + 2 * m.C, [&](Tile<vd> &tile, vd *qt, int64_t b) {
+    vd *seated = qt + m.D, *on = seated + m.D, *cp = on + 1;
+    load(qt, q, b, m.D);
+    std::memcpy(seated, qt, m.D * sizeof(vd));
+    load(on, seat_rows, b, 1);
+    seat(m, tile, seated);
+    for (int d = 0; d < m.D; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
+    positions(m, qt, tile);
+    store(q, qt, b, m.D);
+    for (int c = 0; c < m.C; ++c)
+      for (int a = 0; a < 2; ++a) cp[2 * c + a] = tile.cp[c][a];
+    store(anchor, cp, b, 2 * m.C);
+  });
 }
 }

@@ -1142,6 +1142,62 @@ template <class V> static inline void centre_of_mass(const Model &m, const Tile<
   }
 }
 
+// Mechanical energy of a prepared tile (J; dynamics.energy): kinetic (of the velocity M^-1 p),
+// gravitational (m g y of each centre of mass, vertical plane) and elastic (passive joint and
+// linear springs; actuators, stops and the ground excluded). Links welded to the world do not count.
+template <class V> static inline void energy(const Model &m, const Tile<V> &t, V &kin, V &grav, V &elastic) {
+  kin = V{};
+  grav = V{};
+  elastic = V{};
+  const bool vertical = m.wi[W_PLANE] == 0;
+  for (int i = 0; i < m.L; ++i) {
+    if (m.li[i * LI + L_WELDED]) continue;
+    const V *f = t.lf + i * LF;
+    V vx, vy;
+    point_vel(t, i, t.com[i][0], t.com[i][1], vx, vy);
+    // the engine's association, term by term: (0.5 m) |v|^2 and ((0.5 I) w) w
+    kin = kin + (0.5 * f[F_MASS]) * (vx * vx + vy * vy) + ((0.5 * f[F_INERTIA]) * t.w[i]) * t.w[i];
+    if (vertical) grav = grav + (f[F_MASS] * t.wf[W_GRAVITY]) * t.com[i][1];
+  }
+  for (int i = 0; i < m.L; ++i) {
+    const int32_t *l = m.li + i * LI;
+    if (!l[L_SPRING]) continue;
+    const V *f = t.lf + i * LF;
+    V d = (t.th[i] - t.th[l[L_PARENT]]) - f[F_JSPRING + 2];
+    elastic = elastic + (0.5 * f[F_JSPRING]) * (d * d);
+  }
+  for (int n = 0; n < m.P; ++n) {
+    const V *f = t.pf + n * 7;
+    V pax, pay, pbx, pby;
+    point_at(t, m.pi[n * 2], f[0], f[1], pax, pay);
+    point_at(t, m.pi[n * 2 + 1], f[2], f[3], pbx, pby);
+    V dx = pbx - pax, dy = pby - pay;
+    V d = Lanes<V>::sqrt(dx * dx + dy * dy) - f[6];
+    elastic = elastic + (0.5 * f[4]) * (d * d);
+  }
+}
+
+// The momenta p = M(q) qd (dynamics.make_state) of a tile whose positions are computed, for
+// velocities qd in state coordinates: turned into tree coordinates, multiplied by the mass matrix
+// (formed, or composite bodies on the articulated route), turned back as a force.
+template <class V> static inline void momenta(const Model &m, Tile<V> &t, const V *qd, V *p) {
+  const int D = m.D;
+  for (int d = 0; d < D; ++d) t.x[d] = qd[d];
+  turn(m, t, t.x, 1, 0);
+  if (m.wi[W_ARTICULATED]) {
+    bodies(m, t);
+    art_matvec(m, t, t.x, p);
+  } else {
+    mass_matrix(m, t);
+    for (int a = 0; a < D; ++a) {
+      V acc{};
+      for (int b = 0; b < D; ++b) acc += t.M[a * D + b] * t.x[b];
+      p[a] = acc;
+    }
+  }
+  turn(m, t, p, 1, 1);
+}
+
 template <class V> static inline V ground_height(const Model &m, const Tile<V> &t, V x) {
   using Ls = Lanes<V>;
   const int kind = m.wi[W_TERRAIN];
