@@ -357,13 +357,10 @@ def static(spec: Creature) -> list[Finding]:
 # -- simulating ------------------------------------------------------------------------------------
 
 
-def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -> list[Finding]:
+def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float64") -> list[Finding]:
     """Every finding of the module docstring, in its order (one compile and one batched rollout
     of the drop and the sweeps)."""
-    import jax
-
     from sanlab import sim
-    from sanlab.sim.dynamics import terrain_height
 
     model = sim.compile_creature(spec, dtype)
     A = len(spec.actuators)
@@ -377,14 +374,13 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float32") -
     assert r.frames is not None
     q = np.asarray(r.frames.q, float)  # [B, F, D]
     bits = np.asarray(r.frames.bits) > 0.5  # [B, F, S]
-    poses = jax.jit(jax.vmap(jax.vmap(lambda qq: sim.poses(model, qq))))(q.astype(dtype))
-    P = {k: np.asarray(v, float) for k, v in poses.items()}
+    P = sim.poses(model, q)
     finite = bool(np.all(np.isfinite(q[0])))
 
     def ground(x: np.ndarray) -> np.ndarray:
         if spec.world.plane != "vertical":
             return np.full(np.shape(x), -np.inf)
-        h, _ = terrain_height(model.structure, model.params, np.asarray(x, float))
+        h, _ = sim.terrain_height(model, np.asarray(x, float))
         return np.broadcast_to(np.asarray(h, float), np.shape(x))
 
     out = [_start(spec, ground)]
@@ -638,6 +634,6 @@ def _at_rest(spec: Creature, bits: np.ndarray) -> Finding:
                    f"every SAN does while its sensors are off; {NO_BIAS}; {FIX}", {"on": []})
 
 
-def warnings(spec: Creature, dtype: str = "float32") -> list[str]:
+def warnings(spec: Creature, dtype: str = "float64") -> list[str]:
     """The warnings of :func:`simulate`, one line each (for ``search`` to print once)."""
     return [f.message for f in simulate(spec, dtype=dtype) if f.warning]

@@ -31,9 +31,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -50,20 +49,20 @@ UNITS = {"vx_cm_s": "cm/s", "height_m": "m", "height_sd_m": "m", "turns_per_s": 
 class DescriptorAcc(NamedTuple):
     """What :class:`Descriptors` accumulates along one rollout (a batch axis first once batched)."""
 
-    steps: jax.Array  # steps seen
-    height: jax.Array  # sum of COM heights above the ground (m)
-    height2: jax.Array  # sum of their squares (m^2)
-    turn: jax.Array  # net root rotation so far (rad)
-    angle: jax.Array  # the root's absolute angle at the last step seen (rad)
-    airborne: jax.Array  # steps with no contact touching
-    duty: jax.Array  # [n_touch] steps each touch sensor was on
-    joint_speed: jax.Array  # sum over steps of the mean |joint rate| (rad/s)
-    word: jax.Array  # int32: the sensor word in force (-1 before the first has lasted DEBOUNCE_S)
-    candidate: jax.Array  # int32: the word the sensors show now
-    since: jax.Array  # s: when they began to show it
-    words: jax.Array  # [EVENTS] int32: ring of the last words in force
-    times: jax.Array  # [EVENTS] s: when each of them began
-    changes: jax.Array  # int32: words that came into force (the first counts as one)
+    steps: Any  # steps seen
+    height: Any  # sum of COM heights above the ground (m)
+    height2: Any  # sum of their squares (m^2)
+    turn: Any  # net root rotation so far (rad)
+    angle: Any  # the root's absolute angle at the last step seen (rad)
+    airborne: Any  # steps with no contact touching
+    duty: Any  # [n_touch] steps each touch sensor was on
+    joint_speed: Any  # sum over steps of the mean |joint rate| (rad/s)
+    word: Any  # int32: the sensor word in force (-1 before the first has lasted DEBOUNCE_S)
+    candidate: Any  # int32: the word the sensors show now
+    since: Any  # s: when they began to show it
+    words: Any  # [EVENTS] int32: ring of the last words in force
+    times: Any  # [EVENTS] s: when each of them began
+    changes: Any  # int32: words that came into force (the first counts as one)
 
 
 @dataclass(frozen=True)
@@ -84,6 +83,20 @@ class Descriptors:
         joints = tuple(ls.dof_rot for ls in st.links if ls.parent >= 0 and ls.dof_rot >= 0)
         touch = tuple(i for i, s in enumerate(st.sensors) if s[0] == "touch")
         return cls(root, joints, touch, st.n_sensors)
+
+    def observe(self):
+        """What the kernel accumulates for the descriptors (``sanlab.sim.rollout``'s observers)."""
+        from sanlab.sim.kernel import Observe
+
+        return Observe(root=self.root, sensors=self.n_sensors if 0 < self.n_sensors <= MAX_SENSORS else 0,
+                       joints=self.joints, touch=self.touch)
+
+    def collect(self, c: dict) -> DescriptorAcc:
+        """The accumulator from the kernel's columns (``sanlab.sim.rollout.columns``)."""
+        i = lambda x: np.asarray(x).astype(np.int32)
+        return DescriptorAcc(c["steps"], c["height"], c["height2"], c["turn"], c["angle"], c["airborne"], c["duty"],
+                             c["joint_speed"], i(c["word"]), i(c["candidate"]), c["since"], i(c["words"]), c["times"],
+                             i(c["changes"]))
 
     def init(self, model, state):
         z = jnp.zeros((), state.q.dtype)

@@ -17,7 +17,7 @@ from sanlab.evaluate.ensemble import Ensemble, search_key
 from sanlab.evaluate.evaluator import Evaluator, describe_devices
 
 
-def random_san_params(spec: Creature, n: int, seed: int, dtype="float32"):
+def random_san_params(spec: Creature, n: int, seed: int, dtype="float64"):
     """n random networks for ``spec`` (controllers 0..n-1 of a search seeded ``seed``), with the
     creature's node delays: (San, SanParams with a leading batch axis)."""
     from sanlab.san import San
@@ -27,7 +27,7 @@ def random_san_params(spec: Creature, n: int, seed: int, dtype="float32"):
     return san, san.params(weights, spec.san.delay_on, spec.san.delay_off, dtype)
 
 
-def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: str = "float32",
+def simulate_random(spec: Creature, n: int, seconds: float, seed: int, dtype: str = "float64",
                     ensemble: Ensemble | None = None, metric: str | None = None) -> dict:
     """Score controllers 0..n-1 of a search seeded ``seed`` for ``seconds`` (see the module
     docstring); the report's ``top`` lists every controller, best score first."""

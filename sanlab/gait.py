@@ -148,27 +148,23 @@ class Gait:
         return cls(e.gait_id, spec, san.decode(e.encoding), e.gait_params, seconds, metric, s.ensemble,
                    e.score, e.speed_cm_s, run.creature_text, s.source)
 
-    def san_params(self, dtype: str = "float32") -> SanParams:
+    def san_params(self, dtype: str = "float64") -> SanParams:
         """The controller's parameters with a leading batch axis of 1."""
-        import jax.numpy as jnp
-
         k1, k2 = self.params.rates(self.san.n_nodes, self.spec.san.delay_on, self.spec.san.delay_off)
         w = np.asarray(self.weights)[None]
-        return SanParams(*(jnp.asarray(x, dtype) for x in (w, k1[None], k2[None])))
+        return SanParams(*(np.asarray(x, dtype) for x in (w, k1[None], k2[None])))
 
-    def model(self, dtype: str = "float32"):
+    def model(self, dtype: str = "float64"):
         """The compiled creature with this gait's parameter overrides applied."""
-        import jax.numpy as jnp
-
         from sanlab import sim
 
         m = sim.compile_creature(self.spec, dtype)
         over = self.params.model
         if over:
-            m = m.with_params(**{k: jnp.asarray(np.asarray(v), m.dtype) for k, v in over.items()})
+            m = m.with_params(**{k: np.asarray(v, m.dtype) for k, v in over.items()})
         return m
 
-    def replay(self, seconds: float | None = None, fps: float = 30.0, dtype: str = "float32", model=None):
+    def replay(self, seconds: float | None = None, fps: float = 30.0, dtype: str = "float64", model=None):
         """Roll the gait out, recording ``fps`` frames per second; returns sim.Result (batch 1)."""
         from sanlab import sim
 

@@ -30,9 +30,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -45,13 +44,13 @@ class MetricAcc(NamedTuple):
     """What :class:`Metric` accumulates along one rollout (a leading batch axis on every array
     once batched)."""
 
-    p0: tuple[jax.Array, jax.Array]  # COM (x, y) at the start (m)
-    y0: jax.Array  # COM height at the start (m)
-    hop: jax.Array  # ∫ max(0, y - y0)^2 dt (m^2 s)
-    pursuit: jax.Array  # ∫ v . F dt (m)
-    fell: jax.Array  # bool: the fell link passed its limit at some step
-    p: tuple[jax.Array, jax.Array]  # COM (x, y) at the end (m), set by finish
-    deepest: jax.Array  # the deepest any contact point went into the ground (m; vertical plane)
+    p0: tuple[Any, Any]  # COM (x, y) at the start (m)
+    y0: Any  # COM height at the start (m)
+    hop: Any  # ∫ max(0, y - y0)^2 dt (m^2 s)
+    pursuit: Any  # ∫ v . F dt (m)
+    fell: Any  # bool: the fell link passed its limit at some step
+    p: tuple[Any, Any]  # COM (x, y) at the end (m), set by finish
+    deepest: Any  # the deepest any contact point went into the ground (m; vertical plane)
 
 
 @dataclass(frozen=True)
@@ -89,6 +88,19 @@ class Metric:
         fell = tuple(names.index(n) for n in ev.fell_links)
         return cls(kind, fell, float(ev.fell_angle), ev.fell_com_height, ev.fell_link_height, float(ev.hop_k),
                    ev.direction, max_depth(spec))
+
+    def observe(self):
+        """What the kernel accumulates for this metric (``sanlab.sim.rollout``'s observers)."""
+        from sanlab.sim.kernel import Observe
+
+        return Observe(kind=self.kind, fell_links=self.fell_links, fell_angle=self.fell_angle,
+                       fell_com_height=self.fell_com_height, fell_link_height=self.fell_link_height,
+                       depth=self.max_depth is not None)
+
+    def collect(self, c: dict) -> MetricAcc:
+        """The accumulator from the kernel's columns (``sanlab.sim.rollout.columns``)."""
+        return MetricAcc((c["p0x"], c["p0y"]), c["y0"], c["hop"], c["pursuit"], c["fell"] > 0, (c["px"], c["py"]),
+                         np.maximum(c["deepest"], 0.0))
 
     def init(self, model, state):
         p = _com(model, state)

@@ -102,8 +102,6 @@ def useful_fraction(lib, run_id: str, spec, seconds: float) -> float:
 
 def tracking(lib, run_id: str, tuned_gait: str) -> dict:
     """Mean distance to the follow point and pursuit score: best (tuned) vs the median random SAN."""
-    import jax
-
     from sanlab import sim
     from sanlab.gait import Gait
 
@@ -115,8 +113,8 @@ def tracking(lib, run_id: str, tuned_gait: str) -> dict:
         model = g.model()
         frames = g.replay(fps=10, model=model).frames
         assert frames is not None  # recorded at 10 fps
-        com = jax.vmap(lambda q, m=model: sim.poses(m, q)["com"])(frames.q[0])
-        target = jax.vmap(lambda t, m=model: jax.numpy.stack(sim.follow_point(m, t)))(jax.numpy.asarray(frames.t, model.dtype))
+        com = sim.poses(model, frames.q[0])["com"]
+        target = sim.follow_point(model, np.asarray(frames.t, np.float64))
         dist = np.linalg.norm(np.asarray(com) - np.asarray(target), axis=1)
         out[label] = {"gait": gid, "mean_distance_m": float(dist.mean()), "pursuit": float(lib.gait(gid).score)}
     return out
@@ -174,7 +172,7 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
         return (isinstance(s, SearchSettings) and s.imported_from is None and s.controllers == controllers
                 and s.seconds == seconds and s.batch in (SEARCH_BATCH, min(SEARCH_BATCH, controllers))
                 and s.ensemble == ens
-                and (run.dtype or "float32") == "float32")
+                and run.dtype == "float64")
 
     run = _earlier(lib, "search", text, seed, wanted)
     if run is not None and run.status == "done":
@@ -198,7 +196,7 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
             return (isinstance(s, TuneSettings) and run.parent_gait == parents[i] and s.method == "sa"
                     and s.trials == trials and s.seed == seed and s.chain == i and not s.morphology
                     and s.terrain == "flat" and s.batch == TUNE_BATCH and s.ensemble == ens
-                    and (run.dtype or "float32") == "float32")
+                    and run.dtype == "float64")
         return ok
 
     found = [_earlier(lib, "tune", text, seed, wanted(i)) for i in range(len(parents))]
@@ -433,9 +431,9 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     if spec.evaluation.metric == "pursuit":
         shown = robust["gait"] if robust and robust["gait"] else tuned.gait_id
         row.tracking = tracking(lib, run_id, shown)
-    import jax
+    from sanlab.evaluate.evaluator import describe_devices
 
-    row.device = f"{len(jax.devices())} x {jax.devices()[0].platform}"
+    row.device = describe_devices()
     row.wall = time.perf_counter() - t0
     return row
 
@@ -596,12 +594,12 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
     """The report: for several seeds the table over seeds first, then each seed's table, the
     tracking (§6) and the bounder's robustness (§6.2) sections. ``total``: this call's wall
     time (s); rows taken from a ledger add the wall times they were made in."""
-    import jax
 
     from sanlab import __version__
 
     seeds = [seeds] if isinstance(seeds, int) else list(seeds)
-    dev = jax.devices()
+    from sanlab.evaluate.evaluator import describe_devices
+
     which = f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {', '.join(map(str, seeds))}"
     phase2 = (f"then {trials} simulated-annealing trials on the best" if top == 1 else
               f"then {trials} simulated-annealing trials spread over the best {top} ({trials // top} each, "
@@ -614,7 +612,7 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         f"sanlab {__version__}, {which}, {controllers} random SANs per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + (f"{len(dev)} x {dev[0].platform}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else
+        + (f"{describe_devices()}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else
            f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in rows}))}: their wall times sum "
            f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",

@@ -20,6 +20,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from sanlab.sim.state import SanState
+
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
 MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
 # ASCII digits only (``\d`` matches other scripts' digits too), at most 9 each: sizes, not numbers
@@ -34,17 +36,12 @@ class SanParams(NamedTuple):
     k2: Any  # [N] 1/s, off-rate, negative (T_off = -1 / k2)
 
 
-class SanState(NamedTuple):
-    istate: Any  # [N] integrator state in [0, 1]
-    out: Any  # [N] binary outputs
-    planes: Any  # [3, N] int32 bit planes of (weights + 2), one bit per input (constant); None
-    # when there are too many inputs to pack, and the sum is a float dot product instead
-
-
 @dataclass(frozen=True)
 class San:
-    """The SAN as a simulator controller (see ``sanlab.sim.rollout``)."""
+    """The SAN as a simulator controller (see ``sanlab.sim.rollout``): the kernel runs it (kind
+    "san"); ``init`` and ``apply`` are its JAX form, for the XLA reference engine (``sim.xla``)."""
 
+    kind = "san"
     n_sensors: int
     n_hidden: int
     n_actuators: int
@@ -72,7 +69,7 @@ class San:
         rng = np.random.default_rng([seed, index])
         return rng.integers(WEIGHT_MIN, WEIGHT_MAX + 1, (self.n_nodes, self.n_inputs), dtype=np.int8)
 
-    def params(self, weights, delay_on, delay_off, dtype="float32") -> SanParams:
+    def params(self, weights, delay_on, delay_off, dtype="float64") -> SanParams:
         """SanParams for weights [..., N, I] with delays T_on, T_off (s): scalars or [..., N]."""
         w = np.asarray(weights)
         batch = w.shape[:-2]

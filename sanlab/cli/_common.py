@@ -34,7 +34,8 @@ CreatureArg = Annotated[
 ]
 DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead (machine-readable).")]
-DtypeOpt = Annotated[str, typer.Option(help="float32 or float64.")]
+DtypeOpt = Annotated[str, typer.Option(help="The creature's numbers as float64 (default) or rounded to float32; "
+                                                  "the simulator computes in float64 either way.")]
 METRIC_HELP = " | ".join(METRICS)
 EnsembleOpt = Annotated[int, typer.Option(
     "--ensemble", help="Score each controller as the median over K perturbed copies (start pose jittered by "

@@ -36,7 +36,7 @@ def check(
     creature: CreatureArg,
     simulate: Annotated[bool, typer.Option("--simulate", help="Also drop it for two seconds (servos at mid targets, then "
                                            "sweeping) and warn about what only a simulation shows.")] = False,
-    dtype: DtypeOpt = "float32",
+    dtype: DtypeOpt = "float64",
     strict: Annotated[bool, typer.Option("--strict", help=(
         "Exit 1 when there is any warning (for scripts and CI); the report is printed as usual."))] = False,
     as_json: JsonOpt = False,

@@ -67,7 +67,7 @@ def search(
     backend: BackendOpt = "local",
     address: AddressOpt = None,
     workers: WorkersOpt = None,
-    dtype: DtypeOpt = "float32",
+    dtype: DtypeOpt = "float64",
     db: DbOpt = "sanlab.db",
     resume: Annotated[str | None, typer.Option(help="Continue an interrupted run.")] = None,
     top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,

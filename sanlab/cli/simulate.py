@@ -50,7 +50,7 @@ def simulate(
     ensemble: EnsembleOpt = 8,
     dt_factors: DtFactorsOpt = None,
     dt_jitter: DtJitterOpt = 0.0,
-    dtype: DtypeOpt = "float32",
+    dtype: DtypeOpt = "float64",
     top: Annotated[int, typer.Option(min=0, help="Best controllers shown (rows of the table, entries of --json's top).")] = 10,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead.")] = False,
 ) -> None:

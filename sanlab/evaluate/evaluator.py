@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
@@ -31,6 +30,7 @@ from sanlab.evaluate.records import ScoreBatch
 from sanlab.evaluate.resolution import Servos
 from sanlab.metrics import Metric, scores
 from sanlab.san import San, SanParams
+from sanlab.sim import kernel
 from sanlab.sim.model import Model
 
 # Named terrain sets (§6.2), scored as the mean over their grounds: rough = three rough grounds
@@ -70,11 +70,10 @@ class Request:
 
 
 def describe_devices() -> str:
-    """What a local evaluation runs on, e.g. "2 x cpu (cpu)": stored with every run."""
-    import jax
+    """What a local evaluation runs on, e.g. "2 x cpu (kernel, 8 lanes)": stored with every run."""
+    from sanlab.sim import devices, kernel
 
-    devs = jax.devices()
-    return f"{len(devs)} x {devs[0].platform} ({devs[0].device_kind})"
+    return f"{len(devices())} x cpu (kernel, {kernel.lanes()} lanes)"
 
 
 class Evaluator:
@@ -90,7 +89,7 @@ class Evaluator:
     """
 
     def __init__(self, spec: Creature, *, metric: str | None = None, seconds: float | None = None,
-                 dtype: str = "float32", batch: int = 256, terrain: str | Sequence[Terrain] = "flat",
+                 dtype: str = "float64", batch: int = 256, terrain: str | Sequence[Terrain] = "flat",
                  ensemble: Ensemble | None = None, space: ParamSpace | None = None):
         if isinstance(terrain, str):
             if terrain not in TERRAINS:
@@ -184,9 +183,8 @@ class Evaluator:
         from sanlab import sim
 
         model, variants = self._compile()
-        n, P = len(W), self.batch
-        pad = lambda x: np.concatenate([x, np.repeat(x[-1:], P - n, axis=0)]) if P > n else x
-        W, keys = pad(W), keys + [keys[-1]] * (P - n)
+        n = P = len(W)  # the kernel runs a batch of any size: no padding
+        pad = lambda x: x
         T, K = max(1, len(variants)), self.ensemble.members
         reps = T * K
         R = P * reps  # rows: controller-major, then terrain, then member
@@ -228,7 +226,7 @@ class Evaluator:
         factors = self.ensemble.dt_factors
         if len(factors) == 1:
             r = sim.rollout(m, self.san, cp, self.seconds, observer=self.observer, state0=state0,
-                            params_batched=need, pad_to=R)
+                            params_batched=need)
             s, d, sig = self._scores(r)
         else:
             s, d, sig = self._groups(m, cp, state0, need, R, K)
@@ -262,8 +260,6 @@ class Evaluator:
         per step factor over its members' rows (each simulating ``seconds``, so a member at dt/2
         runs twice the steps); when the factors divide the members evenly the rollouts are of one
         size and share one compiled program."""
-        import jax
-
         from sanlab import sim
 
         member = np.arange(R) % K
@@ -276,9 +272,9 @@ class Evaluator:
             take = lambda x, rows=rows: x[rows]
             mj = _tree(lambda x, rows=rows: np.asarray(x)[rows], m) if need else m
             mj = mj.with_params(dt=(np.asarray(mj.params.dt, float) * f).astype(self.model.dtype))
-            s0 = None if state0 is None else jax.tree_util.tree_map(take, state0)
-            r = sim.rollout(mj, self.san, jax.tree_util.tree_map(take, cp), steps=int(round(self.seconds / (dt0 * f))),
-                            observer=self.observer, state0=s0, params_batched=need, pad_to=len(rows))
+            s0 = None if state0 is None else type(state0)(*(take(np.asarray(x)) for x in state0))
+            r = sim.rollout(mj, self.san, SanParams(*(take(np.asarray(x)) for x in cp)), steps=int(round(self.seconds / (dt0 * f))),
+                            observer=self.observer, state0=s0, params_batched=need)
             sj, dj, gj = self._scores(r)
             for into, part in ((out, sj), (desc, dj)):
                 for name, v in part.items():
@@ -364,6 +360,15 @@ class Observers:
     metric: Metric
     descriptors: descriptors.Descriptors
 
+    def observe(self) -> kernel.Observe:
+        import dataclasses as dc
+
+        d = self.descriptors.observe()
+        return dc.replace(self.metric.observe(), root=d.root, sensors=d.sensors, joints=d.joints, touch=d.touch)
+
+    def collect(self, c: dict) -> tuple:
+        return self.metric.collect(c), self.descriptors.collect(c)
+
     def init(self, model, state):
         return self.metric.init(model, state), self.descriptors.init(model, state)
 
@@ -376,40 +381,14 @@ class Observers:
 
 
 def _tree(fn, model: Model) -> Model:
-    import jax
-
-    return jax.tree_util.tree_map(fn, model)
-
-
-def _start_fn():
-    import jax
-    import jax.numpy as jnp
-
-    from sanlab.sim.dynamics import make_state, seat_on_ground
-
-    @partial(jax.jit, static_argnames=("batched",))
-    def start(model, q, member0, batched):
-        st = model.structure
-        seat = st.plane == "vertical" and bool(st.contacts)
-        axes = jax.tree_util.tree_map(lambda _: 0 if batched else None, model)
-
-        def one(m, qq, keep):
-            if seat:
-                qq = jnp.where(keep, qq, seat_on_ground(m, qq))
-            return make_state(m, qq)
-
-        return jax.vmap(one, in_axes=(axes, 0, 0))(model, q, member0)
-
-    return start
-
-
-_START_FN: Any = None
+    """``model`` with ``fn`` applied to every parameter array."""
+    p = model.params
+    return model.with_params(**{f.name: fn(getattr(p, f.name)) for f in dataclasses.fields(p)})
 
 
 def _start(model: Model, q: np.ndarray, member0: np.ndarray, batched: bool):
     """Rows' start states: coordinates q [R, D] re-seated on the ground (vertical plane) except
     where ``member0`` (the unperturbed start, left exactly as compiled), at rest."""
-    global _START_FN
-    if _START_FN is None:
-        _START_FN = _start_fn()
-    return _START_FN(model, q, member0, batched)
+    from sanlab.sim.state import start_states
+
+    return start_states(model, q, ~np.asarray(member0, bool), params_batched=batched)

@@ -1,29 +1,19 @@
-"""What both environments share: one creature compiled once, a batch of rows stepped by the
-simulator's own functions inside one compiled program, and the metric scored on the host by
+"""What both environments share: one creature's tables, a batch of rows stepped by the simulator's
+kernel (``sanlab.sim.kernel``, the rollouts' own), and the metric scored on the host by
 ``sanlab.metrics.scores``, the function an evaluation is scored with.
 
-A row is one copy of the creature. The program for a step is the body of a rollout's loop
-(``sanlab.sim.rollout._batched``: ``prepare``, ``sense``, the metric's ``update``, ``advance``)
-applied ``frame_skip`` times, then the metric's ``finish`` and the observation of the new
-state; the row's state and the metric's accumulator stay on the devices between calls, and one
-packed array per call comes back to the host. Three things make its arithmetic bit for bit the
-arithmetic of a rollout (checked by ``tests/gym``):
-
-- the model is an argument of the program, never a constant folded into it;
-- each device holds at least two rows (XLA compiles a batch of one as scalar code, whose
-  rounding differs in the last bit, and the simulated creature is chaotic);
-- on CPUs the steps are fenced with the same runtime-true flag as a rollout's
-  (``sanlab.sim.dynamics._barrier``).
-
-So a controller driven through an environment reproduces its evaluation's unperturbed member
-(``sanlab.evaluate.ensemble``: member 0) exactly.
+A row is one copy of the creature. An environment step is one call of the kernel: ``frame_skip``
+steps of every row with its activations held, the metric's accumulators carried along, then the
+sensors of the new state. The kernel steps a row bit for bit the same alone or in any batch, and
+continuing a run over several calls is the run in one call, so a controller driven through an
+environment reproduces its evaluation's unperturbed member (``sanlab.evaluate.ensemble``: member
+0) exactly (checked by ``tests/gym``).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -121,8 +111,8 @@ class Settings:
 
 
 class Core:
-    """``rows`` copies of ``spec`` on ``devices`` (``len(devices)`` divides ``rows``, each holds
-    at least two), scored by ``metric`` (default: the creature file's) over ``seconds``
+    """``rows`` copies of ``spec`` stepped together by the kernel (``devices``: accepted for the
+    XLA engine's callers, without effect), scored by ``metric`` (default: the creature file's) over ``seconds``
     (default: the file's evaluation time).
 
     overrides: {``sanlab.sim.Params`` field: array}, e.g. a tuned gait's ``params.model``
@@ -130,12 +120,10 @@ class Core:
     override (``sanlab.gait.check_params``), a creature without sensors or actuators, a
     duration shorter than one environment step."""
 
-    def __init__(self, spec: Creature, settings: Settings, rows: int, devices: tuple, *, metric: str | None = None,
-                 seconds: float | None = None, dtype: str = "float32", overrides: dict | None = None):
-        import jax
-        import jax.numpy as jnp
-
+    def __init__(self, spec: Creature, settings: Settings, rows: int, devices: tuple = (), *, metric: str | None = None,
+                 seconds: float | None = None, dtype: str = "float64", overrides: dict | None = None):
         from sanlab import sim
+        from sanlab.sim.state import packed
 
         if dtype not in ("float32", "float64"):
             raise ValueError(f"dtype: expected float32 or float64, got {dtype!r}")
@@ -155,9 +143,9 @@ class Core:
         model = sim.compile_creature(spec, dtype)
         if overrides:
             # as Gait.model applies a stored gait's overrides
-            model = model.with_params(**{k: jnp.asarray(np.asarray(v), model.dtype) for k, v in overrides.items()})
+            model = model.with_params(**{k: np.asarray(v, model.dtype) for k, v in overrides.items()})
         self.model: Model = model
-        self.dtype = np.dtype(model.dtype)
+        self.dtype = np.dtype(np.float64)  # the kernel's arithmetic, whatever the model's numbers
         self.dt = float(model.structure.dt)  # s, the simulator's step
         self.sim_steps = int(round(self.seconds / self.dt))  # what a rollout of this duration runs (sanlab.sim.rollout)
         self.max_steps = self.sim_steps // settings.frame_skip
@@ -171,20 +159,20 @@ class Core:
         self.act_names = [a.name for a in spec.actuators]
         self.act_units = ["m" if isinstance(a, LinearActuator) else "rad" for a in spec.actuators]
         self.unresolved = bool(Servos.of(spec).unresolved(np.asarray(model.params.act_ks), np.asarray(model.params.act_kd), self.dt))
-        self.q0 = np.asarray(model.params.q0)
+        self.q0 = np.asarray(model.params.q0, np.float64)
         self.rows = int(rows)
+        if self.rows < 1:
+            raise ValueError(f"rows: expected >= 1, got {rows}")
         self.devices = tuple(devices)
-        if self.rows % len(self.devices) or self.rows < 2 * len(self.devices):
-            raise ValueError(f"rows: {rows} rows cannot be spread over {len(self.devices)} devices two or more each")
-        fence = self.devices[0].platform == "cpu"  # as a rollout decides it (sanlab.sim.rollout)
         self._seat = st.plane == "vertical" and bool(st.contacts)
-        self._mesh, self._step, self._restart = _programs(self.metric, settings.frame_skip, fence, self._seat, self.devices)
-        shard = jax.sharding.NamedSharding(self._mesh, jax.sharding.PartitionSpec("b"))
-        whole = jax.sharding.NamedSharding(self._mesh, jax.sharding.PartitionSpec())
-        self._model_dev = jax.device_put(model, whole)
-        self._one = jax.device_put(np.ones((), self.dtype), whole)
-        blank = jax.eval_shape(lambda m: _blank(m, self.metric), model)
-        self._carry = jax.device_put(jax.tree_util.tree_map(lambda x: np.zeros((self.rows, *x.shape), x.dtype), blank), shard)
+        self._pk = packed(model)
+        self._observe = self.metric.observe()
+        D, C = self.ndof, len(st.contacts)
+        # each row's state and the metric's accumulators, carried between calls
+        self._q, self._p = np.zeros((self.rows, D)), np.zeros((self.rows, D))
+        self._anchor, self._t = np.zeros((self.rows, C, 2)), np.zeros(self.rows)
+        self._acc = np.zeros((self.rows, self._observe.size))
+        self._qd = np.zeros((self.rows, D))
 
     # ---- spaces' numbers, and actions -----------------------------------------------------
 
@@ -242,22 +230,47 @@ class Core:
         dq, _ = Ensemble(members=2, pose=1e-3 * s, angle=0.5 * s).draws(self.model.structure, key, len(self.spec.links))
         return (self.q0.astype(np.float64) + dq[1]).astype(self.dtype), self._seat
 
-    # ---- the programs ---------------------------------------------------------------------
+    # ---- the kernel's calls ----------------------------------------------------------------
 
     def restart(self, mask: np.ndarray, q: np.ndarray, seat: np.ndarray) -> np.ndarray:
         """Start the rows where ``mask`` [rows] from coordinates q [rows, D] (re-seated on the
         ground where ``seat``), at rest, their metric restarted; every row's packed
         observation [rows, K] comes back."""
-        args = (np.asarray(mask, bool), np.asarray(q, self.dtype), np.asarray(seat, bool))
-        self._carry, out = self._restart(self._model_dev, self._carry, *args, self._one)
-        return np.asarray(out)
+        from sanlab.sim import kernel
+
+        m = np.flatnonzero(np.asarray(mask, bool))
+        if len(m):
+            seat = np.asarray(seat, bool)[m] & self._seat
+            qs, anchor = kernel.start(self._pk, np.asarray(q, np.float64)[m], seat=seat)
+            # zero steps from the start: the metric's accumulators as a run starts them
+            r = kernel.run_open(self._pk, "hold", np.zeros((len(m), self.n_actuators)), qs, np.zeros_like(qs), anchor, 0,
+                                observe=self._observe)
+            self._q[m], self._p[m], self._anchor[m], self._t[m] = qs, 0.0, anchor, 0.0
+            self._acc[m], self._qd[m] = r["acc"], r["qd"]
+        return self._pack()
 
     def step(self, u: np.ndarray) -> np.ndarray:
         """Every row ``frame_skip`` simulator steps on with activations u [rows, A]; their packed
         observations [rows, K] come back."""
-        # a NumPy argument: the program places it (an explicit device_put costs ~0.1 ms a call)
-        self._carry, out = self._step(self._model_dev, self._carry, u, self._one)
-        return np.asarray(out)
+        from sanlab.sim import kernel
+
+        r = kernel.run_open(self._pk, "hold", np.asarray(u, np.float64), self._q, self._p, self._anchor,
+                            self.settings.frame_skip, t0=self._t, observe=self._observe, acc=self._acc)
+        self._q, self._p, self._anchor, self._t = r["q"], r["p"], r["anchor"], r["t"]
+        self._acc, self._qd = r["acc"], r["qd"]
+        return self._pack()
+
+    def _pack(self) -> np.ndarray:
+        """Every row's packed observation: bits [S], q [D], qd [D] (M^-1 p of this state), then
+        the metric's numbers and whether the state is finite (as a rollout's end judges it)."""
+        from sanlab.sim import kernel
+
+        bits = kernel.sense(self._pk, self._q, self._t)
+        finite = (np.isfinite(self._q).all(1) & (np.abs(self._qd) < VELOCITY_LIMIT).all(1) & np.isfinite(self._p).all(1))
+        a = dict(zip(kernel.ACC, self._acc.T, strict=False))
+        tail = np.stack([a["p0x"], a["p0y"], a["y0"], a["hop"], a["pursuit"], a["fell"], a["px"], a["py"],
+                         np.maximum(a["deepest"], 0.0), finite.astype(np.float64)], 1)
+        return np.concatenate([bits, self._q, self._qd, tail], 1)
 
     # ---- unpacking on the host ------------------------------------------------------------
 
@@ -281,81 +294,3 @@ class Core:
         a = out[:, self.n_sensors + 2 * self.ndof :]
         acc = MetricAcc._make([(a[:, 0], a[:, 1]), a[:, 2], a[:, 3], a[:, 4], a[:, 5] > 0, (a[:, 6], a[:, 7]), a[:, 8]])
         return scores(self.metric, acc, a[:, 9] > 0, self.seconds, self.spec.world.plane)
-
-
-def _blank(model, metric: Metric):
-    """One row's (state, accumulator), for its shapes."""
-    from sanlab.sim.dynamics import make_state
-
-    s = make_state(model)
-    return s, metric.init(model, s)
-
-
-def _observe(model, s, acc, gate):
-    """A row's packed observation: bits [S], q [D], qd [D] (M^-1 p of this state), then the
-    accumulator's numbers and whether the state is finite (as a rollout's end judges it)."""
-    import jax.numpy as jnp
-
-    from sanlab.sim.dynamics import prepare, sense
-
-    fr = prepare(model, s, gate)
-    bits = sense(model, fr, s.t)
-    dtype = s.q.dtype
-    qd = jnp.stack([x + jnp.zeros((), dtype) for x in fr.qd]) if fr.qd else s.qd
-    finite = jnp.all(jnp.isfinite(s.q)) & jnp.all(jnp.abs(qd) < VELOCITY_LIMIT) & jnp.all(jnp.isfinite(s.p))
-    nums = [acc.p0[0], acc.p0[1], acc.y0, acc.hop, acc.pursuit, acc.fell, acc.p[0], acc.p[1], acc.deepest, finite]
-    tail = jnp.stack([jnp.asarray(x).astype(dtype) for x in nums])
-    return jnp.concatenate([bits.astype(dtype), s.q, qd, tail])
-
-
-@lru_cache(maxsize=32)
-def _programs(metric: Metric, frame_skip: int, fence: bool, seat: bool, devices: tuple):
-    """(mesh, step, restart): the compiled programs over ``devices``, each device stepping its
-    own contiguous share of the rows with nothing crossing devices (as ``sanlab.sim.rollout``
-    does it, and for the same reason: no collective can wait on a slow device)."""
-    import jax
-    import jax.numpy as jnp
-    from jax.sharding import PartitionSpec as P
-
-    from sanlab.sim.dynamics import advance, make_state, prepare, seat_on_ground, sense
-
-    mesh = jax.sharding.Mesh(np.array(devices), ("b",))
-    B, R = P("b"), P()
-
-    def step_local(model, carry, u, one):
-        gate = (one > 0) if fence else None
-
-        def row(s, acc, uu):
-            def sub(_, c):
-                s, acc = c
-                fr = prepare(model, s, gate)
-                bits = sense(model, fr, s.t)
-                acc = metric.update(model, acc, s, fr, bits, uu)
-                s, _depth = advance(model, fr, s, uu)
-                return s, acc
-
-            c = sub(0, (s, acc)) if frame_skip == 1 else jax.lax.fori_loop(0, frame_skip, sub, (s, acc))
-            s, acc = c
-            acc = metric.finish(model, acc, s)
-            return (s, acc), _observe(model, s, acc, gate)
-
-        state, acc = carry
-        return jax.vmap(row)(state, acc, u)
-
-    def restart_local(model, carry, mask, q, seat_mask, one):
-        gate = (one > 0) if fence else None
-
-        def row(s, acc, m, qq, seat_row):
-            if seat:
-                qq = jnp.where(seat_row, seat_on_ground(model, qq), qq)
-            s0 = make_state(model, qq)
-            acc0 = metric.init(model, s0)
-            s, acc = jax.tree_util.tree_map(lambda a, b: jnp.where(m, a, b), (s0, acc0), (s, acc))
-            return (s, acc), _observe(model, s, acc, gate)
-
-        state, acc = carry
-        return jax.vmap(row)(state, acc, mask, q, seat_mask)
-
-    step = jax.jit(jax.shard_map(step_local, mesh=mesh, in_specs=(R, B, B, R), out_specs=B, check_vma=False))
-    restart = jax.jit(jax.shard_map(restart_local, mesh=mesh, in_specs=(R, B, B, B, B, R), out_specs=B, check_vma=False))
-    return mesh, step, restart

@@ -117,21 +117,14 @@ class SanlabEnv(gym.Env):
 
     def __init__(self, creature: str | Creature | None = None, *, path: str | None = None, metric: str | None = None,
                  seconds: float | None = None, observation: str = "bits", action: str = "target", frame_skip: int = 1,
-                 terminate_on_fall: bool = True, reset_noise_scale: float = 0.0, dtype: str = "float32",
+                 terminate_on_fall: bool = True, reset_noise_scale: float = 0.0, dtype: str = "float64",
                  overrides: dict | None = None, render_mode: str | None = None, width: int = 640):
-        import jax
-
-        from sanlab import configure
-
-        configure()
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: expected None or one of {self.metadata['render_modes']}, got {render_mode!r}")
         width = check_width(width)
         spec = resolve(creature, path)
         settings = Settings(observation, action, frame_skip, bool(terminate_on_fall), reset_noise_scale)
-        # two rows on one device: a batch of one compiles as scalar code, rounded differently
-        # from the rollouts' batches (see sanlab.gym._core); the second row is a copy
-        self.core = Core(spec, settings, 2, (jax.devices()[0],), metric=metric, seconds=seconds, dtype=dtype, overrides=overrides)
+        self.core = Core(spec, settings, 1, metric=metric, seconds=seconds, dtype=dtype, overrides=overrides)
         if self.core.unresolved:
             warnings.warn(f"creature {spec.name!r}: a servo is faster than dt = {self.core.dt:g} s resolves; "
                           "an evaluation scores it 0 (sanlab.evaluate.resolution)", stacklevel=2)

@@ -12,14 +12,13 @@ targets out, through the project's own SAN (``sanlab.san.San``, paper §4 and Fi
     # ret == the gait's unperturbed evaluation (its ensemble's member 0), float for float
 
 One call is one SAN step of the environment's step time (``env.unwrapped.dt``): with
-``frame_skip=1`` exactly what a rollout does every simulator step, in the same float32
-arithmetic (at least two networks are computed at once, as in a rollout's batch; see
-``sanlab.gym._core``).
+``frame_skip=1`` exactly what a rollout does every simulator step, in the kernel's float64
+arithmetic (``sanlab/sim/_kernel/step.h``, ``san``: the integer sums are exact, and the
+integrator's update is the same two roundings), so bit for bit.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -55,8 +54,6 @@ class SanPolicy:
     [N, H + A] in 1/s). Raises ValueError when the topology is not the creature's."""
 
     def __init__(self, env: Any, san: San, params: SanParams):
-        import jax
-
         core = _core_of(env)
         mine = San.for_creature(core.spec)
         if (san.n_sensors, san.n_hidden, san.n_actuators) != (mine.n_sensors, mine.n_hidden, mine.n_actuators):
@@ -66,15 +63,12 @@ class SanPolicy:
         if w.ndim != 3:
             raise ValueError(f"params: expected weights [N, {san.n_nodes}, {san.n_inputs}], got shape {w.shape}")
         self.core, self.san, self.n = core, san, int(w.shape[0])
-        self.rows = max(2, self.n)
-        pad = lambda x: np.concatenate([np.asarray(x), np.repeat(np.asarray(x)[-1:], self.rows - self.n, 0)])
-        dtype = core.dtype
-        self._params = jax.device_put(SanParams(*(pad(x).astype(dtype) for x in params)))
-        # the environment step's time, in the dtype and from the number a rollout passes
-        self._dt = jax.device_put(np.asarray(np.asarray(core.model.params.dt) * core.settings.frame_skip, dtype)
-                                  if core.settings.frame_skip > 1 else np.asarray(core.model.params.dt))
-        self._init, self._apply = _programs(san)
-        self._state = self._init(self._params)
+        self._w = w.astype(np.float64)
+        self._k1, self._k2 = (np.asarray(x, np.float64) for x in (params.k1, params.k2))
+        # the environment step's time: the simulator's step times frame_skip
+        self._dt = float(np.asarray(core.model.params.dt, np.float64)) * core.settings.frame_skip
+        self._istate = np.zeros((self.n, san.n_nodes))
+        self._out = np.zeros((self.n, san.n_nodes))
 
     @classmethod
     def from_gaits(cls, env: Any, gaits: list) -> SanPolicy:
@@ -88,50 +82,36 @@ class SanPolicy:
             if body(g.spec) != body(core.spec):
                 raise ValueError(f"gait {g.gait_id}: its creature {g.spec.name!r} is not the one this environment simulates "
                                  f"({core.spec.name!r}); make the environment with gait_env_kwargs(gait)")
-        ps = [g.san_params(str(core.dtype)) for g in gaits]
+        ps = [g.san_params() for g in gaits]
         params = SanParams(*(np.concatenate([np.asarray(getattr(p, f)) for p in ps]) for f in SanParams._fields))
         return cls(env, gaits[0].san, params)
 
     def reset(self, mask: Any = None) -> None:
         """Start the networks over (all, or those where ``mask`` [N] is true): istate and outputs
         0, as at the start of a rollout. Call it with the environment's reset."""
-        import jax.numpy as jnp
-
-        fresh = self._init(self._params)
-        if mask is None:
-            self._state = fresh
-            return
-        m = np.concatenate([np.asarray(mask, bool).reshape(self.n), np.zeros(self.rows - self.n, bool)])
-        pick = lambda a, b: jnp.where(m.reshape(-1, *([1] * (a.ndim - 1))), a, b)
-        self._state = type(fresh)(pick(fresh.istate, self._state.istate), pick(fresh.out, self._state.out), self._state.planes)
+        m = np.ones(self.n, bool) if mask is None else np.asarray(mask, bool).reshape(self.n)
+        self._istate[m] = 0.0
+        self._out[m] = 0.0
 
     @property
     def outputs(self) -> np.ndarray:
         """The nodes' binary outputs [N, H + A] (hidden nodes first) after the last call."""
-        return np.asarray(self._state.out)[: self.n]
+        return self._out.copy()
 
     def activations(self, obs: Any) -> np.ndarray:
         """One SAN step on the observation(s) ``obs`` (bits [S] or [N, S], or the ``state``
         observation's dict): activations u [N, A] in [0, 1]."""
         bits = obs["bits"] if isinstance(obs, dict) else obs
-        b = np.asarray(bits).reshape(self.n, self.san.n_sensors).astype(self.core.dtype)
-        if self.rows > self.n:
-            b = np.concatenate([b, np.repeat(b[-1:], self.rows - self.n, 0)])
-        self._state, u = self._apply(self._params, self._state, b, self._dt)
-        return np.asarray(u)[: self.n]
+        b = np.asarray(bits).reshape(self.n, self.san.n_sensors).astype(np.float64)
+        x = np.concatenate([b, self._out], 1)
+        total = np.einsum("bni,bi->bn", self._w, x)  # sums of integers: exact in any order
+        istate = np.clip(self._istate + np.where(total > 0, self._k1, self._k2) * self._dt, 0.0, 1.0)
+        out = np.where((self._out == 1.0) & (istate == 0.0), 0.0, self._out)
+        self._out = np.where((out == 0.0) & (istate == 1.0), 1.0, out)
+        self._istate = istate
+        return (np.clip(total[:, self.san.n_hidden:], -2.0, 2.0) + 2.0) * 0.25
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Actions for ``obs`` in the environment's action space: [A] for one network, else [N, A]."""
         a = self.core.targets(self.activations(obs))
         return a[0] if self.n == 1 and np.ndim(obs["bits"] if isinstance(obs, dict) else obs) == 1 else a
-
-
-@lru_cache(maxsize=16)
-def _programs(san: San):
-    """(init, apply) of a batch of networks, compiled once per topology; the parameters are
-    arguments, never constants folded into the program."""
-    import jax
-
-    init = jax.jit(jax.vmap(lambda p: san.init(p, None)))
-    apply = jax.jit(jax.vmap(lambda p, s, b, dt: san.apply(p, s, b, dt), in_axes=(0, 0, 0, None)))
-    return init, apply

@@ -9,10 +9,9 @@ Gymnasium 1.x API), backed by the batched simulator.
 Every sub-environment is exactly the single environment (``sanlab.gym.env``: the same spaces,
 reward, termination and episode length; the same numbers bit for bit, sub-environment i
 seeded ``seed + i`` as Gymnasium's ``SyncVectorEnv`` seeds it), but all of them advance in one
-compiled program per step: from a few dozen sub-environments per device on, the rows are
-split over every XLA device (one per CPU core, or the GPU) as a rollout splits its batch
-(``sanlab.sim.rollout``); the states stay on the devices, and one array comes back per step. A
-sub-environment's numbers depend neither on the others, nor on ``num_envs``, nor on the devices.
+call of the simulator's kernel per step, in tiles of SIMD lanes spread over the cores (as a
+rollout runs its batch, ``sanlab.sim.rollout``). A sub-environment's numbers depend neither on
+the others, nor on ``num_envs``, nor on the number of threads.
 
 Autoreset (``autoreset_mode``, https://farama.org/Vector-Autoreset-Mode): ``NEXT_STEP`` (the
 default, Gymnasium's): the step after a sub-environment's episode ended resets it instead of
@@ -40,8 +39,6 @@ from sanlab.creature import Creature
 from sanlab.gym._core import Core, Settings, check_width, resolve
 from sanlab.gym.env import action_space, observation_space, observations
 
-ROWS_TO_SPREAD = 32  # sub-environments per device from which the default spreads them over every device
-
 
 class SanlabVectorEnv(VectorEnv):
     """``num_envs`` copies of a sanlab creature (see the module docstring; every other keyword
@@ -49,9 +46,8 @@ class SanlabVectorEnv(VectorEnv):
 
     max_episode_steps: truncate after this many environment steps (default, and at most: the
     creature's evaluation time). autoreset_mode: an ``AutoresetMode`` or its value ("NextStep",
-    "SameStep", "Disabled"). devices: the JAX devices to split the rows over (default: every
-    device from :data:`ROWS_TO_SPREAD` sub-environments a device on, else the first; the
-    numbers are the same either way).
+    "SameStep", "Disabled"). devices: accepted for the XLA engine's callers, without effect (the
+    kernel spreads the rows over the cores).
 
     Observations are batched as Gymnasium batches the single space (``batch_space``): [N, S]
     int8 bits, or a dict of [N, D] arrays; actions [N, A]. Raises ValueError as the single
@@ -63,14 +59,9 @@ class SanlabVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, creature: str | Creature | None = None, *, path: str | None = None,
                  metric: str | None = None, seconds: float | None = None, observation: str = "bits",
                  action: str = "target", frame_skip: int = 1, terminate_on_fall: bool = True,
-                 reset_noise_scale: float = 0.0, dtype: str = "float32", overrides: dict | None = None,
+                 reset_noise_scale: float = 0.0, dtype: str = "float64", overrides: dict | None = None,
                  max_episode_steps: int | None = None, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
                  render_mode: str | None = None, width: int = 640, devices: Any = None):
-        import jax
-
-        from sanlab import configure
-
-        configure()
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: expected an integer >= 1, got {num_envs!r}")
         try:
@@ -83,15 +74,8 @@ class SanlabVectorEnv(VectorEnv):
         spec = resolve(creature, path)
         settings = Settings(observation, action, frame_skip, bool(terminate_on_fall), reset_noise_scale)
         n = int(num_envs)
-        if devices is None:
-            # one device's dispatch is cheaper than several's: spreading pays from a few dozen
-            # rows a device (measured on 2 CPU cores: 16 envs 2.8 x faster on one, 128 1.6 x on two)
-            devices = jax.devices() if n >= ROWS_TO_SPREAD * len(jax.devices()) else jax.devices()[:1]
-        devs = tuple(devices)
-        if not devs:
-            raise ValueError("devices: expected at least one JAX device")
-        rows = len(devs) * max(2, -(-n // len(devs)))  # at least two rows a device (see sanlab.gym._core)
-        self.core = Core(spec, settings, rows, devs, metric=metric, seconds=seconds, dtype=dtype, overrides=overrides)
+        del devices  # the kernel spreads the rows over the cores itself
+        self.core = Core(spec, settings, n, metric=metric, seconds=seconds, dtype=dtype, overrides=overrides)
         if self.core.unresolved:
             warnings.warn(f"creature {spec.name!r}: a servo is faster than dt = {self.core.dt:g} s resolves; "
                           "an evaluation scores it 0 (sanlab.evaluate.resolution)", stacklevel=2)

@@ -52,7 +52,7 @@ def header(gait: Any) -> str:
     spec = gait.spec
     san = gait.san
     k1, k2 = gait.params.rates(san.n_nodes, spec.san.delay_on, spec.san.delay_off)
-    p = gait.model("float32").params
+    p = gait.model("float64").params
     sensors = [(s.name, s.kind) for s in spec.sensors]
     actuators = [(a.name, a.kind) for a in spec.actuators]
     return header_from_arrays(

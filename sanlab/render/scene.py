@@ -8,7 +8,7 @@ what is drawn is exactly what was simulated.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -172,46 +172,24 @@ class Scene:
 
     def terrain(self, x: np.ndarray) -> np.ndarray:
         """Ground height at ``x`` (vertical plane)."""
-        from sanlab.sim.dynamics import terrain_height
+        from sanlab.sim import terrain_height
 
-        h, _ = terrain_height(self.model.structure, self.model.params, np.asarray(x, np.float64))
+        h, _ = terrain_height(self.model, np.asarray(x, np.float64))
         return np.broadcast_to(np.asarray(h, float), np.shape(x)).copy()
 
 
-def _poses_fn():
-    import jax
-
+def poses(model, q):
+    """``sim.poses`` of frames q [F, D] -> dict of numpy arrays (the kernel; nothing compiled)."""
     from sanlab import sim
 
-    @jax.jit
-    def poses(model, q):
-        return jax.vmap(lambda qq: sim.poses(model, qq))(q)
-
-    return poses
-
-
-_POSES = None
-
-
-def poses(model, q):
-    """``sim.poses`` over frames [F, D] -> dict of numpy arrays (compiled once per structure)."""
-    global _POSES
-    import jax
-
-    if _POSES is None:
-        _POSES = _poses_fn()
-    return jax.tree_util.tree_map(np.asarray, _POSES(model, q))
+    return sim.poses(model, np.asarray(q, np.float64))
 
 
 def follow_samples(model, t: np.ndarray) -> np.ndarray:
     """The follow point at times ``t`` [F] -> [F, 2]."""
-    import jax
-    import jax.numpy as jnp
-
     from sanlab import sim
 
-    fx, fy = jax.vmap(lambda tt: sim.follow_point(model, tt))(jnp.asarray(t, model.dtype))
-    return np.stack([np.asarray(fx, float), np.asarray(fy, float)], 1)
+    return sim.follow_point(model, np.asarray(t, np.float64).reshape(-1))
 
 
 def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
@@ -265,11 +243,12 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
 
 def cut_frames(fr, n: int):
     """Frames (batch 1) cut to the first ``n``."""
-    cut = lambda x: np.asarray(x)[:, :n]
-    import jax
+    cut = lambda x: x if x is None or np.ndim(x) < 2 else np.asarray(x)[:, :n]
+    from sanlab.sim import SanState
 
-    return fr._replace(t=np.asarray(fr.t)[:n], q=cut(fr.q), qd=cut(fr.qd), bits=cut(fr.bits), u=cut(fr.u),
-                       cstate=jax.tree_util.tree_map(lambda x: cut(x) if np.ndim(x) >= 2 else x, fr.cstate))
+    cs: Any = fr.cstate
+    cs = SanState(cut(cs.istate), cut(cs.out)) if isinstance(cs, SanState) else cut(cs)
+    return fr._replace(t=np.asarray(fr.t)[:n], q=cut(fr.q), qd=cut(fr.qd), bits=cut(fr.bits), u=cut(fr.u), cstate=cs)
 
 
 def gait_title(gait, rank: int | None = None) -> str:

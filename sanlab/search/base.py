@@ -99,7 +99,7 @@ class Problem:
     space: Space | None = None
     start: Start | None = None
     gait_params: GaitParams = field(default_factory=GaitParams)
-    dtype: str = "float32"
+    dtype: str = "float64"
     grid: Grid | None = None
     generation: int = 64
 

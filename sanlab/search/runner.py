@@ -27,7 +27,7 @@ def run_search(
     seed: int = 0,
     metric: str | None = None,
     batch: int = 256,
-    dtype: str = "float32",
+    dtype: str = "float64",
     ensemble: int | Ensemble = 8,
     reporter: driver.Reporter | None = None,
     resume: str | None = None,

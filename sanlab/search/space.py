@@ -270,40 +270,36 @@ class Space:
     def batch(self, thetas: np.ndarray, model):
         """Controller rates and a model whose parameters carry a leading batch axis, one row per
         vector: (k1 [B, N], k2 [B, N], model)."""
-        import jax
-        import jax.numpy as jnp
+        import dataclasses
 
         rows = [self._arrays(t) for t in thetas]
         k1 = np.stack([r[0] for r in rows])
         k2 = np.stack([r[1] for r in rows])
         B = len(rows)
-        base = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (B,) + x.shape), model)
-        over = {k: jnp.asarray(np.stack([r[2][k] for r in rows]), model.dtype) for k in rows[0][2]}
+        p = model.params
+        base = model.with_params(**{f.name: np.broadcast_to(np.asarray(getattr(p, f.name)), (B, *np.shape(getattr(p, f.name))))
+                                    for f in dataclasses.fields(p)})
+        over = {k: np.asarray(np.stack([r[2][k] for r in rows]), model.dtype) for k in rows[0][2]}
         m = base.with_params(**over)
         if self.morphology and self.spec.world.plane == "vertical" and model.structure.contacts:
             m = m.with_params(q0=_rest_on_ground(m, model))
         return k1, k2, m
 
 
-def _lowest_contact(model):
-    from sanlab.sim import poses
-
-    return poses(model, model.params.q0)["contacts"][:, 1].min()
-
-
 def _rest_on_ground(batched, nominal):
     """q0 [B, D] with the roots shifted vertically so that the lowest contact starts where it did
     nominally (a longer leg must not start inside the ground)."""
-    import jax
-    import jax.numpy as jnp
+    from sanlab.sim import kernel, poses
+    from sanlab.sim.state import first_row, packed, row_tables
 
-    low = jax.jit(jax.vmap(_lowest_contact, in_axes=(jax.tree_util.tree_map(lambda _: 0, batched),)))
-    shift = _lowest_contact(nominal) - low(batched)
-    q0 = batched.params.q0
+    B = np.shape(batched.params.q0)[0]
+    q0 = np.array(batched.params.q0, np.float64)
+    low = kernel.poses(packed(first_row(batched)), q0, rows=row_tables(batched, B))["contacts"][:, :, 1].min(1)
+    shift = poses(nominal, nominal.params.q0)["contacts"][:, 1].min() - low
     for ls in batched.structure.links:
         if ls.parent < 0 and ls.dof_y >= 0:
-            q0 = q0.at[:, ls.dof_y].add(shift)
-    return jnp.asarray(q0)
+            q0[:, ls.dof_y] += shift
+    return q0
 
 
 def body_numbers(spec: Creature) -> list[int]:

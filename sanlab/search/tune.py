@@ -52,9 +52,7 @@ def default_batch(chains: int, platform: str | None = None) -> int:
     if chains < 1:
         raise ValueError(f"chains: expected >= 1, got {chains}")
     if platform is None:
-        import jax
-
-        platform = jax.default_backend()
+        platform = "cpu"  # the kernel runs on the CPU's cores
     if platform != "cpu":
         return ACCELERATOR_BATCH
     return min(MAX_DEFAULT_BATCH, max(CPU_BATCH, chains))
@@ -83,7 +81,7 @@ def tune(
     morphology: bool = False,
     terrain: str = "flat",
     batch: int | None = None,
-    dtype: str = "float32",
+    dtype: str = "float64",
     ensemble: int | Ensemble = 8,
     reporter: driver.Reporter | None = None,
     resume: Sequence[str] = (),

@@ -1,30 +1,15 @@
-"""The batched planar simulator: compile a creature, step it, roll controllers out.
+"""The batched planar simulator: compile a creature, roll controllers out, read its state.
 
-    model = compile_creature(spec)              # structure static, numbers as arrays
-    state = step(model, state, u)               # one creature, pure
+    model = compile_creature(spec)              # the creature's tables (structure, numbers)
     result = rollout(model, controller, cparams, seconds=6.0)   # a batch, closed loop
+    state = make_state(model); frame = poses(model, state.q)
 
-Importing it changes no global JAX setting: :func:`sanlab.configure` does (``compile_creature``
-calls it on first use).
+Every step runs in one compiled kernel that reads the creature as data (:mod:`sanlab.sim.kernel`):
+no creature is ever compiled. ``sanlab.sim.xla`` keeps the XLA engine the kernel replaced, as the
+reference the kernel is tested against; no command runs it.
 """
 
 from sanlab.sim.compiler import compile_creature
-from sanlab.sim.dynamics import (
-    State,
-    advance,
-    centre_of_mass,
-    energy,
-    follow_point,
-    from_root_coordinates,
-    initial_state,
-    make_state,
-    poses,
-    prepare,
-    root_coordinates,
-    sense,
-    step,
-    velocity,
-)
 from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.rollout import (
     ConstantController,
@@ -37,10 +22,27 @@ from sanlab.sim.rollout import (
     frame_capacity,
     rollout,
 )
+from sanlab.sim.state import (
+    SanState,
+    State,
+    centre_of_mass,
+    energy,
+    follow_point,
+    from_root_coordinates,
+    initial_state,
+    make_state,
+    poses,
+    root_coordinates,
+    sense,
+    step,
+    terrain_height,
+    velocity,
+    wrap_angle,
+)
 
 __all__ = [
-    "State", "advance", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "make_state", "prepare", "sense", "step", "velocity",
-    "root_coordinates", "from_root_coordinates",
+    "State", "SanState", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "make_state", "sense",
+    "step", "terrain_height", "velocity", "wrap_angle", "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
     "batch_quantum", "devices", "frame_capacity", "rollout",

@@ -55,18 +55,7 @@ Vec = tuple[Any, Any]
 Row = Any
 
 
-class State(NamedTuple):
-    """Simulation state of one creature (add a leading batch axis for many).
-
-    ``p`` is what the integrator carries; ``qd`` is the velocity M(q)^-1 p of this state (inside a
-    rollout's loop, the velocity of the last step). Build states with :func:`make_state`.
-    """
-
-    q: Any  # [D] generalised coordinates (m, rad)
-    qd: Any  # [D] generalised velocities (m/s, rad/s)
-    t: Any  # [] time (s)
-    p: Any  # [D] generalised momenta (kg m/s, kg m^2/s)
-    anchor: Any  # [C, 2] m, world: where each contact's friction holds it (the contact itself when free)
+from sanlab.sim.state import State  # noqa: E402  (one State for the kernel and this reference)
 
 
 class Frame(NamedTuple):

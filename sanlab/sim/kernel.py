@@ -337,7 +337,7 @@ def _pointers(arrays: list):
     return (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
 
 
-def start(pk: Packed, q, seat=True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
     clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
     [B, C, 2] at the contact points). The momenta of a state at rest are zero. As

@@ -37,12 +37,10 @@ PLAYBACK_FPS = 30.0
 # Live mode streams this many frames per simulated second; with dt = 1 ms a frame is every
 # round(1000 / 60) = 17 steps (58.8 frames per simulated second).
 LIVE_FPS = 60.0
-# Frames simulated per call in live mode (one call of the compiled continuation, see
-# :func:`_continuation`): 12 frames of 1/60 s, 204 steps of 1 ms. A fixed size means one
-# compilation. A drag takes effect after about one chunk plus the page's buffer (0.4 s).
+# Frames simulated per call in live mode (one call of the kernel): 12 frames of 1/60 s, 204 steps
+# of 1 ms. A drag takes effect after about one chunk plus the page's buffer (0.4 s).
 LIVE_CHUNK = 12
-# Terrains live mode offers (vertical plane). Each kind compiles once per creature (the
-# terrain's kind is static in the compiled step; its numbers are parameters).
+# Terrains live mode offers (vertical plane).
 LIVE_TERRAINS = ("flat", "slope", "hill", "rough")
 # Work requested from the page is bounded so that a stray click cannot occupy the machine for days.
 LIMITS = {"controllers": (1, 100_000), "seconds": (0.05, 120.0), "trials": (1, 100_000),
@@ -463,11 +461,11 @@ def _terrain(kind: str):
 
 
 class LiveSession:
-    """A gait running in real time, chunk by chunk, through the compiled step.
+    """A gait running in real time, chunk by chunk, on the simulator's kernel.
 
     Each :meth:`step` continues the run exactly where the last one ended, for LIVE_CHUNK frames
-    of 1/LIVE_FPS s, through :func:`_continuation` (``sim.rollout``'s loop compiled once per
-    creature, without its per-call batching). For a creature with a follow point the point is
+    of 1/LIVE_FPS s, through ``sim.rollout(..., state0=, cstate0=)``: a chunk is one call of the
+    kernel, so the live run is the replay's run, bit for bit. For a creature with a follow point the point is
     held still where the user put it (:meth:`set_follow`), by overriding the model's follow table
     through its parameters (no recompilation); it starts at the start of the creature's follow
     path. :meth:`set_terrain` changes the ground (vertical plane) and starts the creature again
@@ -475,15 +473,13 @@ class LiveSession:
     """
 
     def __init__(self, service: Service, gait, row: dict, terrain: str | None):
-        import jax
-
         from sanlab import sim
 
         self.service, self.gait, self.row = service, gait, row
         self.spec = gait.spec
         self.vertical = self.spec.world.plane == "vertical"
         self.terrain = None
-        self.params = jax.tree_util.tree_map(lambda x: x[0], gait.san_params())  # one controller
+        self.params = gait.san_params()  # one controller: a batch of one
         base = service._model(gait, None)
         self.has_follow = bool(base.structure.follow)
         self.dt = float(base.structure.dt)
@@ -515,10 +511,9 @@ class LiveSession:
 
     def reset(self) -> None:
         """Back to the creature's start pose, at rest, with the controller's initial state."""
-        from sanlab import sim
 
-        self.state = sim.make_state(self.model)
-        self.cstate = self.gait.san.init(self.params, self.model)
+        self.state = None  # the creature's start at rest (sim.rollout's default)
+        self.cstate = None
         self.t = 0.0
 
     def set_follow(self, x: Any, y: Any) -> None:
@@ -532,34 +527,34 @@ class LiveSession:
     def _stepped_model(self):
         if not self.has_follow:
             return self.model
-        import jax.numpy as jnp
-
         m = self.model
-        table = jnp.broadcast_to(jnp.asarray(self.follow, m.dtype), m.params.follow.shape)
-        return m.with_params(follow=table, follow_speed=jnp.zeros((), m.dtype))
+        table = np.broadcast_to(np.asarray(self.follow, m.dtype), np.shape(m.params.follow))
+        return m.with_params(follow=table, follow_speed=np.zeros((), m.dtype))
 
     def step(self) -> dict:
         """Simulate the next LIVE_CHUNK frames. Returns {t [K] s, links [K, L, 3], contacts,
         touching, com, bits, nodes, follow [2] or None, finite, compute_s (wall time of this
         call)}; a run that went non-finite starts again from rest."""
-        import jax
+        from sanlab import sim
 
         t0 = time.perf_counter()
         follow = self.follow
-        state, cstate, finite, out = _continuation()(self._stepped_model(), self.gait.san, self.params, self.state,
-                                                     self.cstate, _gate(), self.every, LIVE_CHUNK)
-        out = jax.tree_util.tree_map(np.asarray, out)
-        finite = bool(finite) and bool(np.all(np.isfinite(out["q"])))
-        t = self.t + np.arange(out["q"].shape[0]) * self.frame_dt
+        model = self._stepped_model()
+        r = sim.rollout(model, self.gait.san, self.params, steps=self.steps, record_fps=LIVE_FPS, state0=self.state,
+                        cstate0=self.cstate)
+        assert r.frames is not None
+        q = r.frames.q[0]
+        finite = bool(r.finite[0]) and bool(np.all(np.isfinite(q)))
+        t = self.t + np.arange(q.shape[0]) * self.frame_dt
         if not finite:
             self.reset()
             return {"t": _arr(t), "finite": False, "compute_s": time.perf_counter() - t0}
-        self.state, self.cstate, self.t = state, cstate, float(state.t)
-        P = out["poses"]
+        self.state, self.cstate, self.t = r.state, r.cstate, float(r.state.t[0])
+        P = sim.poses(model, q)
         return {
             "t": _arr(t), "links": _arr(P["links"]), "contacts": _arr(P["contacts"]),
             "touching": _bits(P["depth"] > 0), "com": _arr(P["com"]),
-            "bits": _bits(out["bits"]), "nodes": _bits(out["nodes"]),
+            "bits": _bits(r.frames.bits[0]), "nodes": _bits(r.frames.cstate.out[0]),
             "follow": None if follow is None else [follow[0], follow[1]], "finite": True,
             "compute_s": time.perf_counter() - t0,
         }
@@ -570,73 +565,6 @@ class LiveSession:
                 "terrain": terrain_profile(self.model, -12.0, 12.0), "frame_dt": self.frame_dt,
                 "chunk": LIVE_CHUNK, "follow": None if self.follow is None else list(self.follow),
                 "vertical": self.vertical}
-
-
-_CONTINUATION: Any = None
-_GATE: Any = None
-
-
-def _gate():
-    """A boolean that is true at run time but unknown to the compiler (see ``sim.prepare``)."""
-    global _GATE
-    if _GATE is None:
-        import jax.numpy as jnp
-
-        _GATE = jnp.ones((), bool)
-    return _GATE
-
-
-def _continuation():
-    """``run(model, controller, cparams, state, cstate, gate, every, frames)``: one controller
-    (unbatched ``cparams`` and ``cstate``) continued from ``state`` for ``frames * every``
-    steps, recording a frame every ``every`` steps -> (state, cstate, finite, {q [F, D],
-    bits [F, S], nodes [F, N], poses: ``sim.poses`` of each frame}).
-
-    The loop of ``sim.rollout`` (sense, controller, step, in one loop; frames recorded
-    before their step; the final state's velocity M^-1 p), written with the simulator's public
-    functions and compiled once per creature structure, controller and chunk size. Live mode
-    calls it every 204 ms of simulated time: ``sim.rollout`` itself pads a batch of one to every
-    core's lanes, shards it and cuts every leaf on each call (about 40-80 ms on two busy cores,
-    with the physics of 16 creatures), where this runs one creature in one call. It continues
-    a run as ``sim.rollout(..., state0=, cstate0=)`` does, to float rounding (the two programs
-    are compiled apart; tests/studio/test_studio_live.py compares them).
-    """
-    global _CONTINUATION
-    if _CONTINUATION is None:
-        from functools import partial
-
-        import jax
-        import jax.numpy as jnp
-
-        from sanlab import sim
-        from sanlab.sim.rollout import write_frame
-
-        @partial(jax.jit, static_argnames=("controller", "every", "frames"))
-        def run(model, controller, cparams, state, cstate, gate, every, frames):
-            def body(carry):
-                state, cs = carry
-                fr = sim.prepare(model, state, gate)
-                bits = sim.sense(model, fr, state.t)
-                cs2, u = controller.apply(cparams, cs, bits, model.params.dt)
-                nxt, _ = sim.advance(model, fr, state, u)
-                return (nxt, cs2), (state.q, bits, cs.out)
-
-            def one(i, c):  # the step once in the program, a frame kept every ``every`` steps (as sim.rollout)
-                carry, buf = c
-                carry, rec = body(carry)
-                return carry, write_frame(buf, rec, i, every)
-
-            dtype = state.q.dtype
-            buf = (jnp.zeros((frames, *state.q.shape), dtype), jnp.zeros((frames, model.structure.n_sensors), dtype),
-                   jnp.zeros((frames, *cstate.out.shape), cstate.out.dtype))
-            (state, cs), (q, bits, nodes) = jax.lax.fori_loop(0, frames * every, one, ((state, cstate), buf))
-            state = state._replace(qd=sim.velocity(model, state, gate))
-            finite = jnp.all(jnp.isfinite(state.q)) & jnp.all(jnp.abs(state.qd) < 1e4) & jnp.all(jnp.isfinite(state.p))
-            poses = jax.vmap(lambda x: sim.poses(model, x))(q)
-            return state, cs, finite, {"q": q, "bits": bits, "nodes": nodes, "poses": poses}
-
-        _CONTINUATION = run
-    return _CONTINUATION
 
 
 # -- drawing data ----------------------------------------------------------------------------
@@ -697,7 +625,7 @@ def geometry(gait, model) -> dict:
 def terrain_profile(model, x0: float, x1: float) -> dict:
     """The ground under [x0, x1] (m): {kind, x0, dx, h [n] (m)} sampled every 2 cm, or
     {kind: "none"} in the horizontal plane."""
-    from sanlab.sim.dynamics import terrain_height
+    from sanlab.sim import terrain_height
 
     st = model.structure
     if st.plane != "vertical":
@@ -706,7 +634,7 @@ def terrain_profile(model, x0: float, x1: float) -> dict:
         return {"kind": "flat"}
     n = int(min(4000, max(2, (x1 - x0) / 0.02)))
     xs = np.linspace(x0, x1, n)
-    h, _ = terrain_height(st, model.params, xs)
+    h, _ = terrain_height(model, xs)
     h = np.broadcast_to(np.asarray(h, float), xs.shape)
     return {"kind": st.terrain, "x0": float(x0), "dx": float(xs[1] - xs[0]), "h": _arr(h, 4)}
 

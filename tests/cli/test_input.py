@@ -13,6 +13,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import time
 
 import pytest
 import typer
@@ -309,43 +310,23 @@ def _python(code: str) -> subprocess.CompletedProcess:
 
 
 def test_sigterm_ends_a_command_like_ctrl_c(tmp_path):
-    """A command that takes a while (check --simulate of a creature not yet compiled) is stopped
-    by SIGTERM as Ctrl-C stops it: no traceback, a short message."""
-    code = ("import os, signal, sys, threading; from sanlab.cli import app; "
-            "threading.Timer(3.0, lambda: os.kill(os.getpid(), signal.SIGTERM)).start(); "
-            "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; app()")
-    r = _python(code)
-    assert r.returncode in (1, 130) and "Traceback" not in r.stderr, r.stderr
-    assert r.returncode != -signal.SIGTERM
-
-
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
-def test_sigterm_during_a_compile_ends_the_command_without_a_crash():
-    """XLA compiles on a worker thread while the main thread waits in JAX's compiler: an
-    interrupt raised in that wait ended Python under the running compile (SIGSEGV, exit 139; one
-    SIGTERM in three landed there), and waiting for the compile kept a user waiting for minutes.
-    Here SIGTERM is sent once the main thread is seen inside the compiler compiling the rollout
-    (the long compile), so that it lands there every time: the process ends at once, exit 130."""
+    """A command that takes a while (a search of a million controllers) is stopped by SIGTERM as
+    Ctrl-C stops it, promptly: no traceback, a short message, exit 130, the search resumable."""
+    db = tmp_path / "lib.db"
     code = ("import os, signal, sys, threading, time; from sanlab.cli import app\n"
-            "main = threading.main_thread().ident\n"
-            "def inside():\n"
-            "    f, files = sys._current_frames().get(main), set()\n"
-            "    while f is not None:\n"
-            "        files.add(os.path.join(*f.f_code.co_filename.split(os.sep)[-3:]))\n"
-            "        f = f.f_back\n"
-            "    return {os.path.join('jax', '_src', 'compiler.py'), os.path.join('sanlab', 'sim', 'rollout.py')} <= files\n"
-            "def watch():\n"
-            "    while not inside():\n"
-            "        time.sleep(0.005)\n"
-            "    print('sent', file=sys.stderr, flush=True)\n"
+            "def later():\n"
+            "    time.sleep(3.0)\n"
+            "    print('sent', time.monotonic(), file=sys.stderr, flush=True)\n"
             "    os.kill(os.getpid(), signal.SIGTERM)\n"
-            "threading.Thread(target=watch, daemon=True).start()\n"
-            "sys.argv = ['sanlab', 'check', 'walker', '--simulate']; app()\n")
+            "threading.Thread(target=later, daemon=True).start()\n"
+            f"sys.argv = ['sanlab', 'search', 'walker', '-n', '1000000', '--db', {str(db)!r}]; app()\n")
+    t0 = time.monotonic()
     r = _python(code)
-    assert r.stderr.startswith("sent"), r.stderr
     assert r.returncode == 130 and "Traceback" not in r.stderr, (r.returncode, r.stderr)
-    # ended from inside the compile (not after it: then a KeyboardInterrupt would have said so)
-    assert r.stderr.splitlines()[-1].startswith("sanlab: interrupted while compiling"), r.stderr
+    assert "sent" in r.stderr
+    # the kernel is called a batch at a time: the signal is handled within about a batch
+    assert time.monotonic() - t0 < 60
+    assert "resume" in r.stderr.lower() or "again" in r.stderr.lower(), r.stderr
 
 
 def test_an_interrupt_in_jaxs_compiler_ends_the_process_at_once(monkeypatch):

@@ -1,5 +1,5 @@
 """The kernel that reads the creature as data (sanlab/sim/kernel.py, sanlab/sim/_kernel) against
-today's engine (sanlab.sim.dynamics through sim.rollout), and its contracts.
+the XLA engine it replaced (sanlab.sim.dynamics through sanlab.sim.xla.rollout), and its contracts.
 
 Agreement (issue 46): in float64 the final states of 64 random SANs after 1000 steps agree with the
 engine to round-off. The two order some sums differently and compute sin, cos and 1/sqrt their own
@@ -29,7 +29,7 @@ import pytest
 from sanlab import creature, sim
 from sanlab.creature.spec import Terrain
 from sanlab.engine_report import random_san_params
-from sanlab.sim import dynamics, kernel
+from sanlab.sim import dynamics, kernel, xla
 
 VERTICAL = ("cart", "bounder", "twolink", "threelink", "fourlink", "star", "luxo", "walker")
 HORIZONTAL = ("fish", "crawler")  # water, point masses, linear springs, eyes, anisotropic friction
@@ -88,7 +88,7 @@ def run_both(spec, B: int, steps: int, lift: float = 0.0, seed: int = 0):
     m = sim.compile_creature(spec, dtype="float64")
     san, sp = random_san_params(spec, B, seed, dtype="float64")
     s0 = _start(m, lift)
-    r = sim.rollout(m, san, sp, steps=steps, state0=s0)
+    r = xla.rollout(m, san, sp, steps=steps, state0=s0)
     return np.asarray(r.state.q), run_kernel(m, san, sp, s0, steps)["q"]
 
 
@@ -254,7 +254,7 @@ def test_the_kernels_observers_accumulate_what_the_engines_do(name, kind):
     metric, desc = Metric.for_creature(spec, kind), descriptors.Descriptors.for_creature(m)
     san, sp = random_san_params(spec, 16, 4, dtype="float64")
     s0 = dynamics.make_state(m)
-    r = sim.rollout(m, san, sp, steps=200, observer=Observers(metric, desc))
+    r = xla.rollout(m, san, sp, steps=200, observer=Observers(metric, desc))
     B, N = 16, san.n_nodes
     tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
     ob = observe_of(metric, desc)
@@ -283,7 +283,7 @@ def test_the_kernel_records_the_frames_the_engine_records():
     m = sim.compile_creature(spec, dtype="float64")
     san, sp = random_san_params(spec, 16, 6, dtype="float64")
     s0 = dynamics.make_state(m)
-    r = sim.rollout(m, san, sp, steps=305, record_fps=100)  # a frame every 10 steps: 30 whole frames
+    r = xla.rollout(m, san, sp, steps=305, record_fps=100)  # a frame every 10 steps: 30 whole frames
     B, N = 16, san.n_nodes
     tile = lambda x: np.tile(np.asarray(x), (B,) + (1,) * np.ndim(x))
     k = kernel.run_san(kernel.pack(m, san.n_hidden), sp.weights, sp.k1, sp.k2, tile(s0.q), tile(s0.p),
@@ -303,8 +303,8 @@ def test_the_kernel_seats_a_creature_and_anchors_it_as_the_engine_does(terrain):
     from sanlab.sim.model import assemble
 
     spec = _on(creature.load("bounder"), terrain)
-    seated = sim.compile_creature(spec, dtype="float64")  # the engine's seat_on_ground
     raw = assemble(spec, "float64")  # where the file puts it
+    seated = raw.with_params(q0=np.asarray(dynamics.seat_on_ground(raw, raw.params.q0)))  # the engine's
     q0 = np.asarray(raw.params.q0)[None].repeat(3, 0)
     q0[1, 1] -= 0.05  # started inside the ground
     q, anchor = kernel.start(kernel.pack(raw, 8), q0, seat=np.array([True, True, False]))
@@ -340,10 +340,10 @@ def engine_scores(spec, B: int, seed: int) -> np.ndarray:
     """As :func:`kernel_scores` on the XLA engine in float32, as searches ran until now."""
     from sanlab.metrics import Metric, scores
 
-    m = sim.compile_creature(spec)
+    m = sim.compile_creature(spec, dtype="float32")
     metric = Metric.for_creature(spec)
-    san, sp = random_san_params(spec, B, seed)
-    r = sim.rollout(m, san, sp, spec.evaluation.seconds, observer=metric)
+    san, sp = random_san_params(spec, B, seed, dtype="float32")
+    r = xla.rollout(m, san, sp, spec.evaluation.seconds, observer=metric)
     return scores(metric, r.acc, r.finite, spec.evaluation.seconds, spec.world.plane)["score"]
 
 

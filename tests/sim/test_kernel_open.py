@@ -1,5 +1,5 @@
 """The kernel's open-loop and reflex controllers (``kernel.run_open``) against the engine's
-(``sim.ConstantController``, ``SineController``, ``ReflexController`` through ``sim.rollout``), and
+(``sim.ConstantController``, ``SineController``, ``ReflexController`` through the XLA engine's ``sim.xla.rollout``), and
 its host inspectors (``kernel.poses``, ``energy``, ``momenta``, ``velocity``, ``sense``,
 ``follow_point``, ``centre_of_mass``) against ``sanlab.sim.dynamics``, all in float64. The
 inspectors agree to 1e-12 on every creature and both routes of the linear algebra (the velocity,
@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 
 from sanlab import creature, sim
-from sanlab.sim import dynamics, kernel
+from sanlab.sim import dynamics, kernel, xla
 from tests.sim.test_kernel import DATA, chain, relative_error
 
 B = 16  # rows
 STEPS = 1000
 EVERY = 10
-CONTROLLERS = {"hold": sim.ConstantController(), "sine": sim.SineController(), "reflex": sim.ReflexController()}
+CONTROLLERS = {"hold": xla.ConstantController(), "sine": xla.SineController(), "reflex": xla.ReflexController()}
 
 
 def load(name: str):
@@ -42,7 +42,12 @@ def load(name: str):
 
 
 def model(name: str):
-    return sim.compile_creature(load(name), dtype="float64")
+    """The compiled creature, its numbers as JAX arrays: the engine's functions index them with
+    traced values, which NumPy arrays refuse."""
+    import jax
+    import jax.numpy as jnp
+
+    return jax.tree_util.tree_map(jnp.asarray, sim.compile_creature(load(name), dtype="float64"))
 
 
 def random_params(kind: str, m, rows: int = B, seed: int = 1) -> Any:
@@ -69,7 +74,7 @@ def at_rest(m, rows: int = B) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def test_each_controller_kind_agrees_with_the_engines_to_round_off(name, kind):
     m = model(name)
     par = random_params(kind, m)
-    r = sim.rollout(m, CONTROLLERS[kind], par, steps=STEPS, record_fps=1 / (EVERY * float(m.structure.dt)))
+    r = xla.rollout(m, CONTROLLERS[kind], par, steps=STEPS, record_fps=1 / (EVERY * float(m.structure.dt)))
     k = kernel.run_open(kernel.pack(m, 0), kind, par, *at_rest(m), STEPS, every=EVERY)
     err = relative_error(np.asarray(r.state.q), k["q"])
     fr = r.frames
@@ -234,10 +239,13 @@ INSPECTED = [("bounder", False), ("bounder", True), ("kitchen_sink", False), ("f
 
 
 def inspected(source: str):
+    import jax
+    import jax.numpy as jnp
+
     from tests.sim.test_kernel import _on
 
     name, _, terrain = source.partition("@")
-    return sim.compile_creature(_on(load(name), terrain or "flat"), dtype="float64")
+    return jax.tree_util.tree_map(jnp.asarray, sim.compile_creature(_on(load(name), terrain or "flat"), dtype="float64"))
 
 
 @pytest.mark.parametrize("source, articulated", INSPECTED)

@@ -20,15 +20,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-import jax  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 
 from sanlab import sim  # noqa: E402
 from sanlab.creature.spec import Creature, Ground, JointSpring, Link, Shape, World  # noqa: E402
@@ -147,14 +144,14 @@ def sanlab_frames(spec: Creature, seconds: float, record_fps: float, qd0=None, d
     state0 = None
     if qd0 is not None:
         q_root = sim.root_coordinates(model, model.params.q0)
-        q0, qd = sim.from_root_coordinates(model, q_root, jnp.asarray(qd0, model.dtype))
+        q0, qd = sim.from_root_coordinates(model, q_root, np.asarray(qd0, np.float64))
         state0 = sim.make_state(model, q0, qd)
     res = sim.rollout(
-        model, sim.ConstantController(), jnp.zeros((1, 0), model.dtype), seconds=seconds,
+        model, sim.ConstantController(), np.zeros((1, 0)), seconds=seconds,
         record_fps=record_fps, state0=state0,
     )  # fmt: skip
     assert bool(res.finite[0])
-    return np.asarray(jax.vmap(lambda q: sim.root_coordinates(model, q))(res.frames.q[0]))
+    return np.stack([sim.root_coordinates(model, q) for q in res.frames.q[0]])
 
 
 def mujoco_frames(spec: Creature, n_frames: int, every: int, qd0=None, **kw) -> np.ndarray:
@@ -170,23 +167,6 @@ def mujoco_frames(spec: Creature, n_frames: int, every: int, qd0=None, **kw) -> 
             mujoco.mj_step(m, d)
     return out
 
-
-@dataclass(frozen=True)
-class _PoseObserver:
-    """Records sanlab's own forward kinematics (link origin x, y and absolute angle) of the last
-    prepared frame, through the rollout's observer hook."""
-
-    n_links: int
-
-    def init(self, model, state):
-        return jnp.zeros((self.n_links, 3), state.q.dtype)
-
-    def update(self, model, acc, state, frame, bits, u):
-        rows = [
-            jnp.stack([jnp.asarray(v) for v in (frame.X[i][0], frame.X[i][1], frame.th[i])])
-            for i in range(self.n_links)
-        ]
-        return jnp.stack(rows).astype(acc.dtype)
 
 
 # ------------------------------------------------------------------------------------ tests
@@ -218,14 +198,9 @@ def test_angle_convention_and_kinematics():
     mujoco.mj_kinematics(m, d)
     np.testing.assert_allclose(d.xmat[m.body("body").id].reshape(3, 3)[:, 0], (0, 0, 1), atol=1e-12)
 
-    # sanlab's own kinematics (inside a rollout, via the observer hook)
+    # sanlab's own kinematics (the kernel's, which the step uses)
     model = sim.compile_creature(spec, "float64")
-    state0 = sim.make_state(model, sim.from_root_coordinates(model, jnp.asarray(q)))
-    res = sim.rollout(
-        model, sim.ConstantController(), jnp.zeros((1, 0)), steps=1, state0=state0,
-        observer=_PoseObserver(len(spec.links)),
-    )  # fmt: skip
-    poses = np.asarray(res.acc[0])
+    poses = sim.poses(model, sim.from_root_coordinates(model, q))["links"]
     np.testing.assert_allclose(poses[:, :2], X, atol=1e-12)
     np.testing.assert_allclose(np.angle(np.exp(1j * (poses[:, 2] - th))), 0.0, atol=1e-12)
 
@@ -305,11 +280,11 @@ def test_servoed_bounder_falls_and_rests_like_mujoco():
     seconds, u = 3.0, 0.5
     model = sim.compile_creature(spec, "float64")
     res = sim.rollout(
-        model, sim.ConstantController(), jnp.full((1, len(spec.actuators)), u, model.dtype),
+        model, sim.ConstantController(), np.full((1, len(spec.actuators)), u),
         seconds=seconds, record_fps=10,
     )  # fmt: skip
     assert bool(res.finite[0])
-    ours = np.asarray(jax.vmap(lambda q: sim.root_coordinates(model, q))(res.frames.q[0]))
+    ours = np.stack([sim.root_coordinates(model, q) for q in res.frames.q[0]])
 
     m, d = mm.load(spec, ground=True, motors=True, integrator="Euler")
     idx = mm.qpos_index(spec, m)

@@ -11,8 +11,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -87,7 +85,7 @@ def test_tuned_parameters_cannot_buy_motion_on_ice():
     thetas = np.stack(thetas)
     k1, k2, mb = space.batch(thetas, model)
     san, p = random_sans(spec, 48, seed=2)
-    p = p._replace(k1=jnp.asarray(k1, jnp.float32), k2=jnp.asarray(k2, jnp.float32))
+    p = p._replace(k1=np.asarray(k1, np.float32), k2=np.asarray(k2, np.float32))
     metric = Metric.for_creature(spec, "distance")
     r = sim.rollout(mb, san, p, 6.0, observer=metric, params_batched=True)
     dx = np.asarray(r.acc.p[0]) - np.asarray(r.acc.p0[0])
@@ -106,7 +104,7 @@ def test_linear_and_angular_momentum_are_kept_in_flight():
     q[1] += 2.0  # far above the ground: no contact for the whole run
     qd = np.zeros_like(q)
     qd[:3] = [0.7, -0.2, 3.0]
-    s0 = sim.make_state(m, jnp.asarray(q), jnp.asarray(qd))
+    s0 = sim.make_state(m, np.asarray(q), np.asarray(qd))
     san, p = random_sans(spec, 4, seed=3, dtype="float64")
     r = sim.rollout(m, san, p, 2.0, state0=s0, record_fps=50)
     p0 = np.asarray(s0.p)
@@ -141,8 +139,8 @@ def test_a_box_on_a_slope_inside_the_friction_cone_holds_for_30_s():
     # drift over 30 s after settling (the old regularised friction crept 2.9 mm/s: 8.7 cm).
     # Measured: 0 (the contacts stick to their anchors).
     m = sim.compile_creature(slope_box(0.6), "float64")
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), 31.0, record_fps=10)
-    com = np.asarray(jax.vmap(lambda q: sim.poses(m, q)["com"])(r.frames.q[0]))
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), 31.0, record_fps=10)
+    com = sim.poses(m, r.frames.q[0])["com"]
     i0 = np.searchsorted(r.frames.t, 1.0)
     drift = np.linalg.norm(com[-1] - com[i0])
     assert r.frames.t[-1] - r.frames.t[i0] >= 29.9
@@ -162,10 +160,10 @@ def test_the_bounder_holding_its_start_pose_stands_for_30_s():
         u.append((start - a.min) / (a.max - a.min))
     u = np.clip(np.array(u), 0, 1)[None]
     metric = Metric.for_creature(spec)
-    r = sim.rollout(m, sim.ConstantController(), jnp.asarray(u), 35.0, record_fps=10, observer=metric)
+    r = sim.rollout(m, sim.ConstantController(), np.asarray(u), 35.0, record_fps=10, observer=metric)
     out = scores(metric, r.acc, r.finite, 35.0, "vertical")
     assert not bool(out["fell"][0]) and not bool(out["nonfinite"][0])
-    com = np.asarray(jax.vmap(lambda q: sim.poses(m, q)["com"])(r.frames.q[0]))
+    com = sim.poses(m, r.frames.q[0])["com"]
     i0 = np.searchsorted(r.frames.t, 5.0)
     assert np.max(np.linalg.norm(com[i0:] - com[i0], axis=1)) < 1e-3
 
@@ -173,7 +171,7 @@ def test_the_bounder_holding_its_start_pose_stands_for_30_s():
 def test_above_the_friction_cone_the_box_slides_at_g_sin_minus_mu_cos():
     # tan(25 deg) = 0.47 > mu = 0.3: it slides with a = g (sin a - mu cos a) = 1.48 m/s^2.
     m = sim.compile_creature(slope_box(0.3, 25.0), "float64")
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), 1.5, record_fps=1000)
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), 1.5, record_fps=1000)
     e = np.array([math.cos(25 * DEG), math.sin(25 * DEG)])
     v = np.asarray(r.frames.qd[0, :, :2]) @ e
     t = r.frames.t
@@ -200,33 +198,17 @@ def chain(n: int, length: float = 0.1, mass: float = 0.1, angles=None, dt: float
     return Creature(f"chain{n}", tuple(links), dt=dt)
 
 
-@dataclasses.dataclass(frozen=True)
-class _EnergyWatch:
-    """An observer: the mechanical energy (kinetic + gravitational) and the centre of mass's
-    height at the first step, and their extremes over every step, inside the rollout's own
-    program (no second program over recorded frames)."""
-
-    def init(self, model, state):
-        z = jnp.zeros((), state.q.dtype)
-        return {"n": jnp.zeros((), jnp.int32), "e0": z, "e_max": z, "y0": z, "y_max": z, "y_min": z}
-
-    def update(self, model, acc, state, fr, bits, u):
-        e = sim.energy(model, state, fr)
-        e = e["kinetic"] + e["gravity"]
-        y = sim.centre_of_mass(model, fr)[0][1]
-        first = acc["n"] == 0
-        return {"n": acc["n"] + 1, "e0": jnp.where(first, e, acc["e0"]), "y0": jnp.where(first, y, acc["y0"]),
-                "e_max": jnp.where(first, e, jnp.maximum(acc["e_max"], e)),
-                "y_max": jnp.where(first, y, jnp.maximum(acc["y_max"], y)),
-                "y_min": jnp.where(first, y, jnp.minimum(acc["y_min"], y))}
-
-
 def _energy_run(spec: Creature, seconds: float = 10.0):
     """(energy watch of every step, the energy the chain can lose from its release to hanging
     straight down, the rollout)."""
+    # every step recorded (the state before it), its energy and centre of mass read by the kernel
     m = sim.compile_creature(spec, "float64")
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), seconds, observer=_EnergyWatch())
-    w = {k: float(np.asarray(v)[0]) for k, v in r.acc.items()}
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), seconds, record_fps=1.0 / float(m.params.dt))
+    q, qd = r.frames.q[0], r.frames.qd[0]
+    e = sim.energy(m, sim.make_state(m, q, qd))
+    e = e["kinetic"] + e["gravity"]
+    y = sim.poses(m, q)["com"][:, 1]
+    w = {"e0": e[0], "e_max": e.max(), "y0": y[0], "y_max": y.max(), "y_min": y.min()}
     # hanging straight down from the pivot: each link's centre of mass below its joint by its
     # offset along the link, each joint below the last by the length of the link above it
     hang, y = 0.0, spec.links[0].position[1]
@@ -278,8 +260,8 @@ def test_a_body_started_inside_the_ground_is_placed_on_it_not_launched():
     m = sim.compile_creature(spec, "float64")
     low = float(np.min(np.asarray(sim.poses(m, m.params.q0)["contacts"][:, 1])))
     assert low == pytest.approx(0.0, abs=1e-9)
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), 1.0, record_fps=100)
-    y = np.asarray(jax.vmap(lambda q: sim.poses(m, q)["com"])(r.frames.q[0]))[:, 1]
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), 1.0, record_fps=100)
+    y = sim.poses(m, r.frames.q[0])["com"][:, 1]
     assert y.max() < 0.05 + 1e-3  # never thrown up
 
 
@@ -311,8 +293,8 @@ def test_a_segment_coasting_along_its_axis_slows_down_by_skin_drag():
     # lets it coast for ever (the old behaviour: 0.3 m/s for 30 s).
     for tangential, rate in ((0.1, 0.1 * 0.5 * 0.4 / 0.2), (0.0, 0.0)):
         m = sim.compile_creature(swimmer(tangential), "float64")
-        s0 = sim.make_state(m, m.params.q0, jnp.array([0.3, 0.0, 0.0]))
-        r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), 30.0, state0=s0, record_fps=10)
+        s0 = sim.make_state(m, m.params.q0, np.array([0.3, 0.0, 0.0]))
+        r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), 30.0, state0=s0, record_fps=10)
         v = np.asarray(r.frames.qd[0, :, 0])
         np.testing.assert_allclose(v, 0.3 * np.exp(-rate * r.frames.t), rtol=2e-3)
         assert np.max(np.abs(np.asarray(r.frames.qd[0, :, 1:]))) < 1e-12  # no sideways push, no turn
@@ -336,11 +318,11 @@ def test_a_joint_stop_holds_a_servo_pushing_past_it():
     lim = JointLimit(-30 * DEG, 30 * DEG)
     for limit, expected in ((lim, (30 * DEG * lim.stiffness + 2.0 * 80 * DEG) / (lim.stiffness + 2.0)), (None, 80 * DEG)):
         m = sim.compile_creature(stop_rig(limit), "float64")
-        r = sim.rollout(m, sim.ConstantController(), jnp.ones((1, 1)), 3.0, record_fps=100)
+        r = sim.rollout(m, sim.ConstantController(), np.ones((1, 1)), 3.0, record_fps=100)
         assert float(r.state.q[0, 0]) == pytest.approx(expected, abs=1e-4)
     # and it never pulls: driven back to -80 deg, the arm leaves the stop freely
     m = sim.compile_creature(stop_rig(lim), "float64")
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 1)), 3.0, record_fps=100)
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 1)), 3.0, record_fps=100)
     assert float(r.state.q[0, 0]) == pytest.approx((-30 * DEG * lim.stiffness - 2.0 * 80 * DEG) / (lim.stiffness + 2.0),
                                                    abs=1e-4)
 
@@ -356,11 +338,9 @@ def test_a_tilt_sensor_reads_the_link_in_the_world_not_at_its_joint():
                TiltSensor("tipped", "leg", 30 * DEG, 60 * DEG))
     m = sim.compile_creature(Creature("tilt", (body, leg), sensors=sensors, world=World(plane="horizontal")), "float64")
 
-    @jax.jit
     def bits(q):
-        s = sim.make_state(m, q)
-        return sim.sense(m, sim.prepare(m, s), s.t)
+        return sim.sense(m, q)
 
-    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 0.0, 0.0]))), [1, 1, 0])
-    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 45 * DEG, 0.0]))), [1, 0, 1])
-    np.testing.assert_array_equal(np.asarray(bits(jnp.array([0.0, 0.0, 45 * DEG, -45 * DEG]))), [0, 1, 0])
+    np.testing.assert_array_equal(np.asarray(bits(np.array([0.0, 0.0, 0.0, 0.0]))), [1, 1, 0])
+    np.testing.assert_array_equal(np.asarray(bits(np.array([0.0, 0.0, 45 * DEG, 0.0]))), [1, 0, 1])
+    np.testing.assert_array_equal(np.asarray(bits(np.array([0.0, 0.0, 45 * DEG, -45 * DEG]))), [0, 1, 0])

@@ -17,8 +17,6 @@ import dataclasses
 import functools
 import math
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -43,7 +41,6 @@ from sanlab.creature.spec import (
     TouchSensor,
     World,
 )
-from sanlab.sim.dynamics import terrain_height
 
 G = 9.81
 DEG = math.pi / 180
@@ -59,8 +56,8 @@ def compile64(spec: Creature) -> sim.Model:
 def stack(models: list[sim.Model]) -> sim.Model:
     """One model whose every parameter carries a leading batch axis (same structure, different
     numbers): a batch of variants in one compiled rollout (``params_batched=True``)."""
-    params = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *[m.params for m in models])
-    return dataclasses.replace(models[0], params=params)
+    fields = [f.name for f in dataclasses.fields(models[0].params)]
+    return models[0].with_params(**{f: np.stack([np.asarray(getattr(m.params, f)) for m in models]) for f in fields})
 
 
 def roll(model, seconds, u=None, B=1, state0=None, batched=False):
@@ -69,7 +66,7 @@ def roll(model, seconds, u=None, B=1, state0=None, batched=False):
     if u is None:
         u = np.zeros((B, model.structure.n_actuators))
     return sim.rollout(
-        model, sim.ConstantController(), jnp.asarray(u, jnp.float64), seconds=seconds,
+        model, sim.ConstantController(), np.asarray(u, np.float64), seconds=seconds,
         record_fps=1.0 / model.structure.dt, state0=state0, params_batched=batched,
     )  # fmt: skip
 
@@ -192,7 +189,7 @@ def terrain_world(**terrain) -> Creature:
 
 
 def heights(model, x) -> tuple[np.ndarray, np.ndarray]:
-    h, dh = terrain_height(model.structure, model.params, jnp.asarray(np.asarray(x, float)))
+    h, dh = sim.terrain_height(model, np.asarray(x, float))
     x = np.asarray(x, float)
     return np.broadcast_to(np.asarray(h), x.shape), np.broadcast_to(np.asarray(dh), x.shape)
 
@@ -408,8 +405,7 @@ def test_linear_spring_period_and_energy():
     assert len(zc) == 2
     assert 2 * (zc[1] - zc[0]) == pytest.approx(period, rel=0.005)
     assert zc[0] == pytest.approx(period / 4, rel=0.005)
-    energy = jax.jit(jax.vmap(lambda q, qd: sim.energy(m, sim.make_state(m, q, qd))))
-    E = energy(res.frames.q[0], res.frames.qd[0])
+    E = sim.energy(m, sim.make_state(m, res.frames.q[0], res.frames.qd[0]))
     total = np.asarray(E["kinetic"] + E["elastic"])
     assert total[0] == pytest.approx(0.5 * k * x0**2, rel=1e-12)
     assert np.max(np.abs(total / total[0] - 1)) < 1e-3
@@ -582,11 +578,6 @@ def test_angle_sensors_of_a_servoed_joint_with_wrapping():
     np.testing.assert_array_equal(np.asarray(res.frames.bits[:, -1]), expected)
 
 
-@jax.jit
-def _sense(m, state):
-    return sim.sense(m, sim.prepare(m, state), state.t)
-
-
 def test_eye_sensors_see_a_fixed_follow_point_and_swap_when_turned():
     # Follow point fixed at (1, 0) (speed 0). Eyes on a free head at the origin: looking along +x
     # the target is at 0 deg (in [-30, 30], not in [60, 120]); turned by -90 deg it is at +90 deg
@@ -605,8 +596,7 @@ def test_eye_sensors_see_a_fixed_follow_point_and_swap_when_turned():
     m = compile64(Creature("eyes", (head,), sensors=eyes, world=world))
 
     def look(angle, t=0.0):
-        s = sim.make_state(m, jnp.array([0.0, 0.0, angle]), t=t)
-        return np.asarray(_sense(m, s))
+        return sim.sense(m, np.array([0.0, 0.0, angle]), t)
 
     np.testing.assert_array_equal(look(0.0), [1, 0, 1])
     np.testing.assert_array_equal(look(-math.pi / 2), [0, 1, 0])
@@ -619,14 +609,9 @@ def _follow_model(points, speed, loop=False):
     return sim.compile_creature(Creature("f", (point("p", 1.0),), world=world), "float64")
 
 
-@jax.jit
-def _follow_points(m, t):
-    return jnp.stack(jax.vmap(lambda s: sim.follow_point(m, s))(t), -1)
-
-
 def _follow(m, t) -> np.ndarray:
     """The follow point at times t [N] (s) -> [N, 2] (m)."""
-    return np.asarray(_follow_points(m, jnp.asarray(np.atleast_1d(t), jnp.float64)))
+    return sim.follow_point(m, np.atleast_1d(np.asarray(t, np.float64)))
 
 
 def test_follow_point_moves_along_a_straight_path_at_its_speed():
