@@ -328,3 +328,16 @@ def test_audit_select_command(selected, tmp_path):
                                     parent_gait=done.parent_gait).run_id
     early = run_cli("audit", unfinished, "--select", "--db", str(db))
     assert early.exit_code == 2 and f"sanlab tune --resume {unfinished} --db {db}" in early.stderr
+
+
+def test_the_commands_defaults_are_the_audits():
+    # the CLI writes the audit's defaults as literals (importing sanlab.audit would slow --help)
+    import inspect
+
+    from sanlab.audit import MAX_MEMBERS, MEMBERS
+    from sanlab.cli import audit as cli_audit
+
+    params = inspect.signature(cli_audit.audit).parameters
+    assert params["members"].default == MEMBERS and params["max_members"].default == MAX_MEMBERS
+    sel = inspect.signature(cli_audit.select_and_report).parameters
+    assert sel["members"].default == MEMBERS and sel["max_members"].default == MAX_MEMBERS

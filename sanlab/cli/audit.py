@@ -22,10 +22,10 @@ def audit(
         "The band: a relative change of the mean speed within it is robust (0.10 = 10 %)."))] = 0.10,
     members: Annotated[int, typer.Option(min=2, max=4096, help=(
         "Perturbed starts the audit draws for itself; more narrow the interval (an undecided audit says how many "
-        "would decide it)."))] = 32,
+        "would decide it)."))] = 64,  # sanlab.audit.MEMBERS (not imported: --help stays light)
     max_members: Annotated[int, typer.Option(min=2, max=4096, help=(
         "An undecided audit looks again, each time on as many members as the last look said would decide it "
-        "(at least twice as many), up to this."))] = 256,
+        "(at least twice as many), up to this."))] = 1024,  # sanlab.audit.MAX_MEMBERS
     select: Annotated[bool, typer.Option("--select", help=(
         "With a tuning run: audit the rungs of its climb and store the best-scoring one that no nudge "
         "moves by more than the threshold as its gait RUN#1."))] = False,
@@ -156,7 +156,7 @@ def verdict_cell(verdict: str, needed: int | None = None) -> str:
 
 
 def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16,
-                      members: int = 32, max_members: int = 256) -> dict:
+                      members: int = 64, max_members: int = 1024) -> dict:
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
     ``quiet``; returns its JSON summary, the ``selection`` record ({"schema", "run_id", "robust_gait", "trial", "speed_cm_s", "worst",
     "candidates": [...]})."""
