@@ -326,34 +326,37 @@ def second_look(members: int, need: int | None, max_members: int) -> int | None:
 
 def decide(evaluate, n: int, members: int, max_members: int, threshold: float, level: float,
            log=None) -> list[Look]:
-    """Audit ``n`` evaluations: ``evaluate(M)`` -> (ScoreBatch at the gait's own step, {nudge
-    name: ScoreBatch}) for ``M`` members each. Those left undecided are looked at again, all at
-    the size the most demanding of them asked for (:func:`second_look`: at least twice the last
-    look), until each is decided, or a look on ``max_members`` is made, or one asks for far more;
-    the last look's verdict stands. (Each look is a 95 % interval: the chance of a false verdict
-    grows with the looks, which the Bonferroni split over the nudges more than pays for in
-    practice; at the defaults there are at most five looks, 64 to 1024 members.)"""
-    def looks(M: int) -> list[Look]:
-        ref, nudged = evaluate(M)
+    """Audit ``n`` evaluations: ``evaluate(M, rows)`` -> (ScoreBatch at the gait's own step,
+    {nudge name: ScoreBatch}) of the evaluations ``rows`` (indices into the n) for ``M`` members
+    each. Those left undecided are looked at again, all at the size the most demanding of them
+    asked for (:func:`second_look`: at least twice the last look), until each is decided, or a
+    look on ``max_members`` is made, or one asks for far more; the last look's verdict stands.
+    A second look simulates only the evaluations it looks at again. (Each look is a 95 %
+    interval: the chance of a false verdict grows with the looks, which the Bonferroni split over
+    the nudges more than pays for in practice; at the defaults there are at most five looks, 64
+    to 1024 members.)"""
+    def looks(M: int, rows: list[int]) -> list[Look]:
+        ref, nudged = evaluate(M, rows)
         out = []
-        for k in range(n):
+        for k in range(len(rows)):
             speeds, shifts, fell = shifts_of(ref, nudged, k, threshold, level)
             ok = np.isfinite(ref.score[k]) and not bool(ref.nonfinite[k])
             out.append(Look(M, float(np.mean(ref.member_speed_cm_s[k])), float(ref.score[k]) if ok else -math.inf,
                             speeds, shifts, fell))
         return out
 
-    result = looks(members)
+    result = looks(members, list(range(n)))
     while True:
         again = [k for k, x in enumerate(result) if combine(x.shifts) == UNDECIDED]
         sizes = [second_look(result[k].members, needed(result[k].shifts), max_members) for k in again]
         if all(m is None for m in sizes):  # none undecided, or none another look could decide
             return result
         M = max(m for m in sizes if m is not None)
+        rows = [k for k, m in zip(again, sizes, strict=True) if m is not None]
         if log:
             log(f"{len(again)} undecided on {max(result[k].members for k in again)} members: another look on {M}")
-        nxt = looks(M)
-        result = [nxt[k] if k in again and sizes[again.index(k)] is not None else x for k, x in enumerate(result)]
+        for k, x in zip(rows, looks(M, rows), strict=True):
+            result[k] = x
 
 
 def advice(audit_members: int, need: int | None, most: int = MAX_MEMBERS_ADVISED) -> int | None:
@@ -392,7 +395,8 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
                               ensemble=ensemble, morphology=morphology)
         return ev(g.weights[None], theta, [k])
 
-    def evaluate(M: int):
+    def evaluate(M: int, rows: list[int]):
+        assert rows == [0]
         aens = audit_ensemble(g.ensemble, M)
         return (scored(1.0, dtype0, aens, audit_key(key)),
                 {name: scored(factor, dtype, aens, audit_key(key)) for name, factor, dtype in nudges})
@@ -609,22 +613,26 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     spec0 = parent.spec
     dtype0 = run.dtype or "float32"
     thetas = np.stack([v[2] for v in ranked])
-    weights = np.repeat(parent.weights[None], len(ranked), axis=0)
     evaluators: dict = {}
 
-    def scores(factor: float, dtype: str, ensemble: Ensemble, key: Key):
-        ek = (factor, dtype, ensemble)  # one evaluator (one compiled program) per setting, for both draws
+    def scores(factor: float, dtype: str, ensemble: Ensemble, key: Key, rows: Any = None):
+        """The rungs ``rows`` (default: all) scored; a vector the climb visited twice (an accepted
+        trial can land where an earlier one did) is simulated once."""
+        ek = (factor, dtype, ensemble)  # one evaluator per setting, for both draws
         if ek not in evaluators:
             evaluators[ek] = nudged_evaluator(spec0, factor, dtype, batch=len(ranked), metric=s.metric,
                                               seconds=s.seconds, terrain=s.terrain, ensemble=ensemble,
                                               morphology=s.morphology)
-        return evaluators[ek](weights, thetas, [key] * len(ranked))
+        th = thetas if rows is None else thetas[np.asarray(rows, int)]
+        distinct, back = np.unique(th, axis=0, return_inverse=True)
+        w = np.repeat(parent.weights[None], len(distinct), axis=0)
+        return evaluators[ek](w, distinct, [key] * len(distinct)).take(back.reshape(-1))
 
     def audited(key: Key):
-        def evaluate(M: int):
+        def evaluate(M: int, rows: list[int]):
             aens = audit_ensemble(s.ensemble, M)
-            return (scores(1.0, dtype0, aens, key),
-                    {name: scores(factor, dtype, aens, key) for name, factor, dtype in NUDGES})
+            return (scores(1.0, dtype0, aens, key, rows),
+                    {name: scores(factor, dtype, aens, key, rows) for name, factor, dtype in NUDGES})
         return decide(evaluate, len(ranked), members, max_members, threshold, level, log)
 
     held = scores(1.0, dtype0, s.ensemble, heldout_key(s.seed, s.chain))  # as the chain scored it: what is stored

@@ -1,4 +1,4 @@
-"""``sanlab audit``: a score that does not survive a nudge (dt/2, dt/4, float64) is flagged, a
+"""``sanlab audit``: a score that does not survive a nudge (dt/2, dt/4) is flagged, a
 converged one is not; the verdict is stored, shown and exported (issue 10, "Robust scores")."""
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def test_a_converged_motion_is_not_flagged(audited):
     a = out["sled"]
     assert a.nominal_cm_s == pytest.approx(a.stored_cm_s, abs=1e-6)  # re-scored exactly as stored
     assert a.nominal_cm_s > 100 * FLOOR_CM_S  # it really moves
-    assert set(a.speeds) == {"dt/2", "dt/4", "float64"}
+    assert set(a.speeds) == {"dt/2", "dt/4"}
     assert a.worst < 0.03 and not a.flagged
 
 
@@ -165,7 +165,7 @@ def test_audit_command_prints_and_stores(audited):
     r = run_cli("audit", f"{sled}/1", "--json", "--db", str(path))
     assert r.exit_code == 0, r.output
     [row] = json.loads(r.stdout)
-    assert row["flagged"] is False and set(row["speeds"]) == {"dt/2", "dt/4", "float64"}
+    assert row["flagged"] is False and set(row["speeds"]) == {"dt/2", "dt/4"}
     bad = run_cli("audit", "nope/1", "--db", str(path))
     assert (bad.exit_code == 2 and "nope" in bad.stderr and bad.exception is None) or isinstance(bad.exception, SystemExit)
 
@@ -260,7 +260,7 @@ def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(select
         assert lib.audit(sel.gait_id) is not None and not lib.audit(sel.gait_id).flagged
         again = audit(lib, sel.gait_id)  # the audit's own path (batch 1, the stored gait): the same numbers
     assert again.nominal_cm_s == pytest.approx(stored.speed_cm_s, abs=1e-6)
-    for name in ("dt/2", "dt/4", "float64"):
+    for name in ("dt/2", "dt/4"):
         assert again.speeds[name] == pytest.approx(c.speeds[name], rel=1e-6, abs=1e-6)
         assert abs(again.speeds[name] - stored.speed_cm_s) <= 0.15 * stored.speed_cm_s  # the issue's bar
 

@@ -85,8 +85,9 @@ def test_the_same_nudge_twice_on_fresh_draws_is_not_flagged(lib):
 @pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_bounder_chain_of_issue_28_is_resolution_dependent(lib):
     """The bounder, seed 5, 200 random SANs + 1000 annealing trials, every member at dt (before issue 28):
-    157.4 cm/s, which issue 28 found at 77.1 in float64 (-51 %)."""
+    157.4 cm/s, which issue 28 found at 77.1 in float64 (-51 %) on the XLA engine; on the kernel (float64
+    throughout) its step moves it by about 20 % at dt/2."""
     a = audit(lib, _imported(lib, "bounder-seed5-tuned-artefact"))
     assert a.stored_cm_s == pytest.approx(157.4, abs=0.05)
     assert a.resolution_dependent, a.summary()
-    assert a.shifts["float64"].verdict == DEPENDENT and a.shifts["float64"].hi < -0.3
+    assert any(sh.verdict == DEPENDENT and max(abs(sh.lo), abs(sh.hi)) > 0.1 for sh in a.shifts.values()), a.summary()

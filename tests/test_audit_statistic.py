@@ -130,7 +130,8 @@ def test_an_undecided_audit_goes_on_looking_up_to_max_members():
 
     sizes = []
 
-    def evaluate(M: int):  # a gait whose nudge moved it by about the threshold: undecided at 32 and 96
+    def evaluate(M: int, rows: list[int]):  # a gait whose nudge moved it by about the threshold: undecided at 32 and 96
+        assert rows == [0]
         sizes.append(M)
         a, b = _skewed(42, M)
         batch = lambda v: SimpleNamespace(member_speed_cm_s=v[None], score=np.array([1.0]),
@@ -140,3 +141,25 @@ def test_an_undecided_audit_goes_on_looking_up_to_max_members():
     [x] = decide(evaluate, 1, 32, 256, 0.10, 0.95)
     # it used to stop after the second look (96), undecided, and ask for more --members
     assert sizes == [32, 96, 256] and x.members == 256
+
+
+def test_a_second_look_simulates_only_the_undecided():
+    # two gaits: one the nudge leaves alone (decided robust on the first look), one it moves by
+    # about the threshold (undecided): only the second is simulated again, on more members
+    from types import SimpleNamespace
+
+    from sanlab.audit import ROBUST, combine, decide
+
+    calls = []
+
+    def evaluate(M: int, rows: list[int]):
+        calls.append((M, list(rows)))
+        a = [np.full(M, 10.0) + np.random.default_rng(M).normal(0, 0.1, M), _skewed(42, M)[0]]
+        b = [a[0].copy(), _skewed(42, M)[1]]
+        batch = lambda vs: SimpleNamespace(member_speed_cm_s=np.stack(vs), score=np.ones(len(vs)),
+                                           nonfinite=np.zeros(len(vs), bool), fell=np.zeros(len(vs), bool))
+        return batch([a[k] for k in rows]), {"dt/2": batch([b[k] for k in rows])}
+
+    x, y = decide(evaluate, 2, 32, 256, 0.10, 0.95)
+    assert calls[0] == (32, [0, 1]) and all(rows == [1] for _, rows in calls[1:]) and len(calls) > 1
+    assert combine(x.shifts) == ROBUST and x.members == 32 and y.members > 32
