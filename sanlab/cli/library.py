@@ -225,15 +225,15 @@ def export_(
         "delays only where every node has the same; else a warning)."))] = False,
     c: Annotated[bool, typer.Option("--c", help=(
         "Write the gait's network as a dependency-free C99 header (san_init, san_step: sensor bits "
-        "in, actuator targets out in rad or m; float32, bit for bit as sanlab's simulation)."))] = False,
+        "in, actuator targets out in rad or m; double precision, bit for bit as sanlab's simulation)."))] = False,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Export a gait as JSON, --toml its creature file with the gait applied, or --c its SAN in C.
 
     JSON: creature, encoding, parameters, score. --toml: the creature file the gait was found
     with, its comments kept, with the gait's tuned parameters written into it. --c: a C99 header
-    (stdint.h only) with the weights, node rates and actuator ranges as constants and Figure 7's
-    node in san_step, for a microcontroller (see the README)."""
+    (stdint.h and float.h only, double precision) with the weights, node rates and actuator
+    ranges as constants and Figure 7's node in san_step, for a microcontroller (see the README)."""
     if toml and c:
         raise fail("--toml and --c: expected one of them (a creature file or a C header), got both")
     lib = open_library(db, readonly=True)

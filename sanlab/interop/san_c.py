@@ -7,16 +7,20 @@ compiler headers that a freestanding C99 implementation has too: no libm, no all
 I/O). Everything is ``static`` (the functions ``static inline``), so the header may be included
 in several files of one program.
 
-Numbers are ``float`` (IEEE single precision), because the search and replays run the SAN in
-float32 (``sanlab.san.San.apply``): the same operations on the same float32 constants (each
-written as the shortest decimal that reads back as the float32 sanlab uses) give the same
-integrator states, binary outputs and targets, bit for bit. One detail decides that: XLA
-compiles ``istate + k dt`` (and the simulator's ``min + u (max - min)``) into a fused
-multiply-add, rounded once, on CPUs that have one (x86-64 since 2013, ARMv8; GPUs as a rule
-too, which these tests do not check). The header does the same (``SAN_FMA``: an exact emulation in double precision by default, no libm;
-``fmaf`` or an FPU instruction may replace it); ``-DSAN_UNFUSED`` rounds the product and the
-sum each on its own instead, as XLA does on a CPU without FMA. Either way the program must be
-compiled without ``-ffast-math``.
+Numbers are ``double`` (IEEE binary64), because the simulator runs the SAN in float64 (the
+kernel's ``san``, ``sanlab/sim/_kernel/step.h``): the same operations on the same float64
+constants give the same integrator states, binary outputs, activations and targets, bit for bit.
+Until the kernel (commit 811b10c) the simulation ran the SAN in float32 under XLA, which fused
+``istate + k dt`` into one fused multiply-add (FMA), and this header was float32 with an exact
+FMA emulation. The kernel is built with ``-ffp-contract=off``: the product and the sum of each
+multiply-add (``istate + k dt``, ``min + u (max - min)``) are rounded each on its own. So are
+they in the header, whatever the compiler's flags: ``san_mul_add`` passes the product through a
+``volatile``, which no compiler may fuse with the sum (GCC's GNU modes fuse a multiply and an add
+even across statements, where the CPU has an FMA). The constants are C99 hexadecimal floating
+constants, which a compiler reads exactly (a decimal one only to within a unit in the last place,
+C99 6.4.4.2), with their shortest decimals in comments. The header refuses to compile
+(``#error``) where ``double`` is not binary64, where double arithmetic runs in excess precision
+(``FLT_EVAL_METHOD`` 2: x87 without SSE2) and under ``-ffast-math``.
 
 Units: sensors are bytes (any non-zero byte is "on"); ``dt`` in seconds; targets in the
 actuator's units: radians for an angular actuator (the joint angle of its child link relative to
@@ -48,11 +52,12 @@ _WHAT = {
 def header(gait: Any) -> str:
     """The C99 header of ``gait`` (a :class:`sanlab.gait.Gait`): its weights, its per-node rates
     (tuned, or from its delays, or the creature file's), and the actuator and sensor ranges of
-    the model it is replayed with (tuned values where the gait has them), in float32."""
+    the model it is replayed with (tuned values where the gait has them), each the float64 the
+    kernel computes with."""
     spec = gait.spec
     san = gait.san
     k1, k2 = gait.params.rates(san.n_nodes, spec.san.delay_on, spec.san.delay_off)
-    p = gait.model("float64").params
+    p = gait.model().params
     sensors = [(s.name, s.kind) for s in spec.sensors]
     actuators = [(a.name, a.kind) for a in spec.actuators]
     return header_from_arrays(
@@ -80,8 +85,8 @@ def header_from_arrays(
     I = S + N inputs: sensors, then the nodes' outputs), rates ``k1`` [N] > 0 and ``k2`` [N] < 0
     (1/s), the actuators' ``act_min``/``act_max`` [A] (rad or m), (name, kind) of each sensor
     and actuator, the step ``dt`` (s) the gait was found with, the sensors' ranges [S] for the
-    comments (optional) and a ``title`` for the first comment. Raises ValueError on bad shapes
-    or values."""
+    comments (optional) and a ``title`` for the first comment. The numbers are written as the
+    float64 values they are (exactly). Raises ValueError on bad shapes or values."""
     w = np.asarray(weights)
     S, A, H = len(sensors), len(actuators), int(n_hidden)
     N, I = H + A, S + H + A
@@ -95,7 +100,7 @@ def header_from_arrays(
     if np.any(k1f <= 0) or np.any(k2f >= 0):
         raise ValueError("rates: expected k1 > 0 and k2 < 0 for every node")
     amin, amax = _floats(act_min, A, "act_min"), _floats(act_max, A, "act_max")
-    dtf = np.float32(dt)
+    dtf = float(np.float64(dt))
     if not (np.isfinite(dtf) and dtf > 0):
         raise ValueError(f"dt: expected a positive step (s), got {dt}")
     smin = None if sens_min is None else _floats(sens_min, S, "sens_min")
@@ -123,15 +128,17 @@ def header_from_arrays(
  * The gait was found stepping the network every {_float(dtf)} s ({M}_DT). The delays are in
  * seconds, so another period runs the same network, but only {M}_DT replays the simulation.
  *
- * Arithmetic: single-precision float, as sanlab's float32 simulation: fed the same sensor bytes
- * with the same dt, it gives sanlab's outputs, states and targets bit for bit. sanlab's compiled
- * step rounds each multiply-add (istate + k dt, min + u (max - min)) once, as a fused
- * multiply-add (XLA does so on a CPU with FMA); so does {M}_FMA below, exactly, in double
- * precision (no libm). Define {M}_FMA before including this file to use a faster exact one, e.g.
- *     #include <math.h>
- *     #define {M}_FMA(a, b, c) fmaf(a, b, c)   (an FPU's vfma.f32 on a Cortex-M4F or M7)
- * or define {M}_UNFUSED to round the product and the sum each on its own (sanlab on a CPU without
- * FMA). Never compile with -ffast-math.
+ * Arithmetic: IEEE double precision (binary64), as sanlab's simulator, whose kernel runs the
+ * SAN in float64 (since sanlab's commit 811b10c; before, the simulator ran it in float32 and this
+ * header did too): fed the same sensor bytes with the same dt, it gives the simulator's outputs,
+ * states, activations and targets bit for bit. The simulator rounds the product and the sum of
+ * each multiply-add (istate + k dt, min + u (max - min)) each on its own, never as one fused
+ * multiply-add (FMA); so does {P}_mul_add below, whatever the compiler's flags. The constants are
+ * hexadecimal, which C99 reads exactly, their decimals in comments. This file refuses to compile
+ * where double is not binary64, where double arithmetic runs in excess precision (FLT_EVAL_METHOD
+ * 2: x87; use SSE2, e.g. gcc -msse2 -mfpmath=sse) and under -ffast-math. On an FPU of single
+ * precision only (Cortex-M4F) double runs in the compiler's software routines: slower, and the
+ * same bits where those round as IEEE 754 says (libgcc's do).
  */
 #ifndef {M}_H
 #define {M}_H
@@ -139,49 +146,34 @@ def header_from_arrays(
 #include <float.h>
 #include <stdint.h>
 
+#if FLT_RADIX != 2 || DBL_MANT_DIG != 53 || DBL_MAX_EXP != 1024
+#error "{P}.h: needs double to be IEEE binary64 (avr-gcc: -mdouble=64)"
+#endif
+/* double operations evaluated in double: ISO C's 0 and 1, and TS 18661-3's 16, 32 and 64 (GCC's
+ * GNU modes where the FPU does half-precision arithmetic); not 2, x87's long double */
+#if !(FLT_EVAL_METHOD == 0 || FLT_EVAL_METHOD == 1 || FLT_EVAL_METHOD == 16 || FLT_EVAL_METHOD == 32 \\
+      || FLT_EVAL_METHOD == 64)
+#error "{P}.h: double is evaluated in excess precision (FLT_EVAL_METHOD): on x87 use SSE2 (gcc -msse2 -mfpmath=sse)"
+#endif
+#ifdef __FAST_MATH__
+#error "{P}.h: compile the file that includes it without -ffast-math (which lets the compiler change the arithmetic)"
+#endif
+
 #define {M}_N_SENSORS {S}
 #define {M}_N_HIDDEN {H}
 #define {M}_N_ACTUATORS {A}
 #define {M}_N_NODES {N}    /* hidden nodes, then actuator nodes */
 #define {M}_N_INPUTS {I}   /* sensors, then every node's output */
-#define {M}_DT {_float(dtf)}f  /* s: the step the gait was found and scored with */
+#define {M}_DT {_hex(dtf)}  /* {_float(dtf)} s: the step the gait was found and scored with */
 
-#if defined({M}_UNFUSED)
-/* a * b + c rounded twice; each its own statement, so that no compiler fuses them (an ISO C
- * compiler fuses only within one expression; GCC's GNU modes also across statements unless
- * -ffp-contract=off, which -std=c99 implies) */
-static inline float {P}_mul_add(float a, float b, float c)
+/* a * b + c, the product rounded to double and then the sum, as the simulator does: the product
+ * passes through a volatile, which no compiler may fuse with the sum (GCC's GNU modes contract a
+ * multiply and an add into an FMA even across statements, on a CPU that has one). */
+static inline double {P}_mul_add(double a, double b, double c)
 {{
-    float p = a * b;
+    volatile double p = a * b;
     return p + c;
 }}
-#undef {M}_FMA
-#define {M}_FMA(a, b, c) {P}_mul_add(a, b, c)
-#elif !defined({M}_FMA)
-#if DBL_MANT_DIG < 53 || FLT_EVAL_METHOD < 0 || FLT_EVAL_METHOD > 1
-#error "no IEEE double, or excess precision: define {M}_FMA (e.g. fmaf of math.h) or {M}_UNFUSED"
-#endif
-/* a * b + c rounded once to float, as an FMA instruction does: the product of two floats is exact
- * in double; the sum is rounded to odd in double (Knuth's TwoSum gives its exact error, and an
- * inexact sum takes the odd one of its two neighbours), and a double rounded to odd rounds to
- * nearest float correctly, having at least 24 + 2 bits (Boldo & Melquiond 2008). */
-static inline float {P}_fma(float a, float b, float c)
-{{
-    double p = (double)a * (double)b;
-    double s = p + (double)c;
-    double back = s - p;
-    double e = (p - (s - back)) + ((double)c - back);  /* s + e == p + c exactly */
-    if (e != 0.0) {{
-        union {{ double d; uint64_t u; }} v;
-        v.d = s;
-        if ((v.u & 1u) == 0)  /* even: its neighbour on e's side is odd */
-            v.u = ((e > 0.0) == (s > 0.0)) ? v.u + 1u : v.u - 1u;
-        s = v.d;
-    }}
-    return (float)s;
-}}
-#define {M}_FMA(a, b, c) {P}_fma(a, b, c)
-#endif
 """)
     add(f"/* Sensors: input i of every node is sensor i (index into sensors[]). */\nenum {P}_sensor {{")
     for i, ((name, kind), ident) in enumerate(zip(sensors, sensor_ids)):
@@ -206,16 +198,16 @@ static inline float {P}_fma(float a, float b, float c)
     add("};\n")
     add("/* Rates per node (1/s): the integrator climbs by k1 dt while the weighted sum is positive,\n"
         " * else falls by |k2| dt; T_on = 1/k1 and T_off = -1/k2 are the node's delays (section 4). */")
-    add(f"static const float {P}_k1[{M}_N_NODES] = {{{_float_list(k1f)}}};")
-    add(f"static const float {P}_k2[{M}_N_NODES] = {{{_float_list(k2f)}}};\n")
+    add(f"static const double {P}_k1[{M}_N_NODES] = {{{_hex_list(k1f)}}};  /* {_float_list(k1f)} */")
+    add(f"static const double {P}_k2[{M}_N_NODES] = {{{_hex_list(k2f)}}};  /* {_float_list(k2f)} */\n")
     add("/* Actuator ranges: target = min + u (max - min), rad (angular) or m (linear). */")
-    add(f"static const float {P}_act_min[{M}_N_ACTUATORS] = {{{_float_list(amin)}}};")
-    add(f"static const float {P}_act_max[{M}_N_ACTUATORS] = {{{_float_list(amax)}}};\n")
+    add(f"static const double {P}_act_min[{M}_N_ACTUATORS] = {{{_hex_list(amin)}}};  /* {_float_list(amin)} */")
+    add(f"static const double {P}_act_max[{M}_N_ACTUATORS] = {{{_hex_list(amax)}}};  /* {_float_list(amax)} */\n")
     add(f"""typedef struct {P}_state {{
-    float istate[{M}_N_NODES];  /* integrator state in [0, 1] (Figure 7's istate) */
-    uint8_t out[{M}_N_NODES];   /* binary output, 0 or 1 (an input of every node) */
-    int sum[{M}_N_NODES];       /* last weighted sum of the inputs (an integer) */
-    float u[{M}_N_ACTUATORS];   /* last activation in [0, 1] of each actuator */
+    double istate[{M}_N_NODES];  /* integrator state in [0, 1] (Figure 7's istate) */
+    uint8_t out[{M}_N_NODES];    /* binary output, 0 or 1 (an input of every node) */
+    int sum[{M}_N_NODES];        /* last weighted sum of the inputs (an integer) */
+    double u[{M}_N_ACTUATORS];   /* last activation in [0, 1] of each actuator */
 }} {P}_state;
 
 /* All nodes off with istate 0, as at the start of a simulation (section 4). */
@@ -223,20 +215,20 @@ static inline void {P}_init({P}_state *s)
 {{
     int n;
     for (n = 0; n < {M}_N_NODES; n++) {{
-        s->istate[n] = 0.0f;
+        s->istate[n] = 0.0;
         s->out[n] = 0;
         s->sum[n] = 0;
     }}
     for (n = 0; n < {M}_N_ACTUATORS; n++)
-        s->u[n] = 0.0f;
+        s->u[n] = 0.0;
 }}
 
 /* One step of dt seconds: every node sums its weighted inputs (the sensors and every node's
  * output of the previous step, so the order of the nodes does not matter), integrates with
  * hysteresis (Figure 7), and each actuator node's sum, bounded to [-2, 2], picks its target
  * linearly in [min, max]. Writes targets[{M}_N_ACTUATORS] (rad or m) and updates s. */
-static inline void {P}_step({P}_state *s, const uint8_t sensors[{M}_N_SENSORS], float dt,
-                            float targets[{M}_N_ACTUATORS])
+static inline void {P}_step({P}_state *s, const uint8_t sensors[{M}_N_SENSORS], double dt,
+                            double targets[{M}_N_ACTUATORS])
 {{
     int n, i;
     for (n = 0; n < {M}_N_NODES; n++) {{  /* all sums first: from the outputs before this step */
@@ -250,21 +242,21 @@ static inline void {P}_step({P}_state *s, const uint8_t sensors[{M}_N_SENSORS], 
         s->sum[n] = sum;
     }}
     for (n = 0; n < {M}_N_NODES; n++) {{  /* Figure 7 */
-        float rate = s->sum[n] > 0 ? {P}_k1[n] : {P}_k2[n];
-        float istate = {M}_FMA(rate, dt, s->istate[n]);  /* istate + k dt */
-        if (istate > 1.0f) istate = 1.0f;
-        if (istate < 0.0f) istate = 0.0f;
-        if (s->out[n] == 1 && istate == 0.0f) s->out[n] = 0;
-        if (s->out[n] == 0 && istate == 1.0f) s->out[n] = 1;
+        double rate = s->sum[n] > 0 ? {P}_k1[n] : {P}_k2[n];
+        double istate = {P}_mul_add(rate, dt, s->istate[n]);  /* istate + k dt */
+        if (istate > 1.0) istate = 1.0;
+        if (istate < 0.0) istate = 0.0;
+        if (s->out[n] == 1 && istate == 0.0) s->out[n] = 0;
+        if (s->out[n] == 0 && istate == 1.0) s->out[n] = 1;
         s->istate[n] = istate;
     }}
     for (n = 0; n < {M}_N_ACTUATORS; n++) {{  /* the actuator mapping (section 4) */
         int sum = s->sum[{M}_N_HIDDEN + n];
-        float span = {P}_act_max[n] - {P}_act_min[n];
+        double span = {P}_act_max[n] - {P}_act_min[n];
         if (sum > 2) sum = 2;
         if (sum < -2) sum = -2;
-        s->u[n] = (float)(sum + 2) * 0.25f;  /* exact: 0, 1/4, 1/2, 3/4 or 1 */
-        targets[n] = {M}_FMA(s->u[n], span, {P}_act_min[n]);  /* min + u (max - min) */
+        s->u[n] = (double)(sum + 2) * 0.25;  /* exact: 0, 1/4, 1/2, 3/4 or 1 */
+        targets[n] = {P}_mul_add(s->u[n], span, {P}_act_min[n]);  /* min + u (max - min) */
     }}
 }}
 
@@ -277,20 +269,32 @@ def _floats(x: Any, n: int, what: str) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64).reshape(-1)
     if a.shape != (n,):
         raise ValueError(f"{what}: expected {n} values, got {a.size}")
-    f = a.astype(np.float32)
-    if not np.all(np.isfinite(f)):
+    if not np.all(np.isfinite(a)):
         raise ValueError(f"{what}: expected finite values")
-    return f
+    return a
 
 
 def _float(x: Any) -> str:
-    """The shortest decimal that reads back as float32 ``x`` (a C float literal without its
-    ``f``): the compiler then rounds it to exactly the float sanlab computes with."""
-    return np.format_float_positional(np.float32(x), unique=True, trim="0")
+    """The shortest decimal that reads back as float64 ``x``, for the comments."""
+    return np.format_float_positional(np.float64(x), unique=True, trim="0")
+
+
+def _hex(x: Any) -> str:
+    """Float64 ``x`` as a C99 hexadecimal floating constant, which the compiler reads exactly
+    (C99 6.4.4.2: a decimal one may be read as a neighbour of the nearest double): trailing
+    zeros of the fraction dropped, the sign kept (-0.0 is ``-0x0p+0``)."""
+    sign, rest = ("-", float(x).hex()[1:]) if np.signbit(x) else ("", float(x).hex())
+    mant, exp = rest.split("p")
+    mant = mant.rstrip("0").rstrip(".")
+    return f"{sign}{mant}p{exp}"
 
 
 def _float_list(a: np.ndarray) -> str:
-    return ", ".join(_float(v) + "f" for v in a)
+    return ", ".join(_float(v) for v in a)
+
+
+def _hex_list(a: np.ndarray) -> str:
+    return ", ".join(_hex(v) for v in a)
 
 
 def _identifiers(names: Sequence[str]) -> list[str]:

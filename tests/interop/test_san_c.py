@@ -1,22 +1,20 @@
-"""The C99 header of ``sanlab export GAIT --c`` against the Python SAN.
+"""The C99 header of ``sanlab export GAIT --c`` against the simulator's SAN.
 
 Compiled with the system's C compiler and fed the sensor trace of a recorded rollout (a frame
-every step), the header's ``san_step`` switches every node on the same step as ``San.apply``
-(float32) and as the rollout itself did, with the same integrator states, activations and
-actuator targets, bit for bit: both do the same float32 operations on the same float32 constants,
-each multiply-add rounded once where XLA fuses it (a CPU with FMA) and twice where it does not
-(``-DSAN_UNFUSED``). The C is compiled as ISO C99 with every warning an error."""
+every step), the header's ``san_step`` switches every node on the same step as the rollout did,
+with the same integrator states, activations and actuator targets, bit for bit: both do the same
+float64 operations on the same float64 constants, each multiply-add rounded twice (the kernel is
+built with ``-ffp-contract=off``; the header keeps any compiler from fusing them). Figure 7 step
+by step in plain Python is the reference for any sensor trace and step. The C is compiled as ISO
+C99 with every warning an error, and in a GNU mode for this CPU, which fuses multiply-adds
+wherever it may."""
 
 from __future__ import annotations
 
-import functools
 import re
 import shutil
 import subprocess
-from fractions import Fraction
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -26,11 +24,15 @@ from sanlab.creature import load, read_source
 from sanlab.gait import Gait, check_params
 from sanlab.interop import san_c
 from sanlab.library import Library
-from sanlab.san import San, SanParams
+from sanlab.san import San
+from sanlab.sim import kernel
 from tests.helpers import ROOT
 
 CC = shutil.which("cc")
 CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]  # ISO C99: no contraction
+# GNU C for this CPU: GCC contracts a * b + c into an FMA here, even across statements, where the
+# CPU has one (x86-64 since 2013, ARMv8)
+GNU_FLAGS = ["-std=gnu99", "-O3", "-march=native", "-Wall", "-Wextra", "-Werror"]
 SECONDS = 3.0  # of each recorded rollout: 3000 steps at the creatures' dt of 1 ms
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc) on this machine")
 runner = CliRunner()
@@ -44,25 +46,25 @@ DRIVER = r"""
 #include <string.h>
 #include "san.h"
 
-static unsigned long bits_of(float x)
+static unsigned long long bits_of(double x)
 {
-    uint32_t b;
+    uint64_t b;
     memcpy(&b, &x, sizeof b);
-    return (unsigned long)b;
+    return (unsigned long long)b;
 }
 
 int main(int argc, char **argv)
 {
     char line[4096];
     san_state s;
-    float dt;
+    double dt;
     if (argc != 2)
         return 2;
-    dt = strtof(argv[1], NULL);
+    dt = strtod(argv[1], NULL);
     san_init(&s);
     while (fgets(line, sizeof line, stdin)) {
         uint8_t sensors[SAN_N_SENSORS];
-        float targets[SAN_N_ACTUATORS];
+        double targets[SAN_N_ACTUATORS];
         char *p = line;
         int i;
         for (i = 0; i < SAN_N_SENSORS; i++)
@@ -71,11 +73,11 @@ int main(int argc, char **argv)
         for (i = 0; i < SAN_N_NODES; i++)
             printf("%d ", s.out[i]);
         for (i = 0; i < SAN_N_NODES; i++)
-            printf("%08lx ", bits_of(s.istate[i]));
+            printf("%016llx ", bits_of(s.istate[i]));
         for (i = 0; i < SAN_N_ACTUATORS; i++)
-            printf("%08lx ", bits_of(s.u[i]));
+            printf("%016llx ", bits_of(s.u[i]));
         for (i = 0; i < SAN_N_ACTUATORS; i++)
-            printf("%08lx ", bits_of(targets[i]));
+            printf("%016llx ", bits_of(targets[i]));
         printf("\n");
     }
     return 0;
@@ -83,10 +85,11 @@ int main(int argc, char **argv)
 """
 
 
-def compile_c(folder, text: str, sources: dict[str, str], flags=CFLAGS) -> str:
-    """``text`` as folder/san.h and ``sources`` beside it, compiled and linked (not even a warning
-    allowed); the program's path."""
-    (folder / "san.h").write_text(text)
+def compile_c(folder, text: str | None, sources: dict[str, str], flags=CFLAGS) -> str:
+    """``text`` as folder/san.h (unless None) and ``sources`` beside it, compiled and linked (not
+    even a warning allowed); the program's path."""
+    if text is not None:
+        (folder / "san.h").write_text(text)
     for name, src in sources.items():
         (folder / name).write_text(src)
     exe = str(folder / "prog")
@@ -96,93 +99,66 @@ def compile_c(folder, text: str, sources: dict[str, str], flags=CFLAGS) -> str:
     return exe
 
 
-def run_c(exe: str, sensors, dt, n_nodes: int, n_actuators: int) -> dict[str, np.ndarray]:
+def run_c(exe: str, sensors, dt: float, n_nodes: int, n_actuators: int) -> dict[str, np.ndarray]:
     """The compiled SAN fed ``sensors`` [T, S] (bytes) with step ``dt`` (s): its outputs [T, N],
-    istate [T, N], u [T, A] and targets [T, A] (float32) after each step."""
+    istate [T, N], u [T, A] and targets [T, A] (float64) after each step."""
     stdin = "".join(" ".join(map(str, row)) + "\n" for row in np.asarray(sensors, int).tolist())
-    r = subprocess.run([exe, float(np.float32(dt)).hex()], input=stdin, capture_output=True, text=True,
-                       timeout=120, check=True)
+    r = subprocess.run([exe, float(dt).hex()], input=stdin, capture_output=True, text=True, timeout=120, check=True)
     rows = [line.split() for line in r.stdout.splitlines()]
     assert len(rows) == len(sensors)
     N, A = n_nodes, n_actuators
-    f32 = lambda a, b: np.array([[int(x, 16) for x in row[a:b]] for row in rows], np.uint32).view(np.float32)
-    return {"out": np.array([[int(x) for x in row[:N]] for row in rows]), "istate": f32(N, 2 * N),
-            "u": f32(2 * N, 2 * N + A), "targets": f32(2 * N + A, 2 * N + 2 * A)}
+    f64 = lambda a, b: np.array([[int(x, 16) for x in row[a:b]] for row in rows], np.uint64).view(np.float64)
+    return {"out": np.array([[int(x) for x in row[:N]] for row in rows]), "istate": f64(N, 2 * N),
+            "u": f64(2 * N, 2 * N + A), "targets": f64(2 * N + A, 2 * N + 2 * A)}
 
 
-def run_python(gait: Gait, bits, dt) -> dict[str, np.ndarray]:
-    """``San.apply`` (float32) fed ``bits`` [T, S] with step ``dt``: outputs, istate and u after
-    each step, and the targets the simulator makes of u."""
-    san = gait.san
-
-    @jax.jit
-    def run(params, bits, dt):  # the parameters as arguments, as in a rollout: XLA folds constants
-        def body(state, b):
-            state, u = san.apply(params, state, b, dt)
-            return state, (state.out, state.istate, u)
-
-        return jax.lax.scan(body, san.init(params, None), bits)[1]
-
-    params = SanParams(*(x[0] for x in gait.san_params("float32")))
-    out, istate, u = (np.asarray(x) for x in run(params, jnp.asarray(bits, jnp.float32), jnp.float32(dt)))
-    return {"out": out.astype(int), "istate": istate, "u": u, "targets": targets_of(gait, u, xla_fuses())}
+def gait_numbers(gait: Gait) -> dict[str, np.ndarray]:
+    """The gait's own numbers (float64): its per-node rates k1, k2 [N] (tuned, or from its or the
+    creature file's delays), and its model's act_min, act_max [A] and dt."""
+    k1, k2 = gait.params.rates(gait.san.n_nodes, gait.spec.san.delay_on, gait.spec.san.delay_off)
+    p = gait.model().params
+    return {name: np.asarray(x, np.float64) for name, x in
+            (("k1", k1), ("k2", k2), ("act_min", p.act_min), ("act_max", p.act_max), ("dt", p.dt))}
 
 
-@functools.cache
-def xla_fuses() -> bool:
-    """Whether XLA rounds ``istate + k dt`` once here (a fused multiply-add, as on any CPU with
-    FMA): then 0.01 - 10 x 0.001 is float32(0.001)'s rounding error, not 0."""
-    dt, k = np.float32(0.001), np.float32(-10.0)
-    return float(jax.jit(lambda i, k, dt: i + k * dt)(-k * dt, k, dt)) != 0.0
+def kernel_numbers(gait: Gait) -> dict[str, np.ndarray]:
+    """The numbers the kernel steps the gait's SAN with, as its replay hands them over: k1, k2
+    [N], the actuators' act_min, act_max [A] (its actuator table) and dt (its world table)."""
+    pk = kernel.pack(gait.model(), gait.san.n_hidden)
+    sp = gait.san_params()
+    return {"k1": np.asarray(sp.k1, np.float64)[0], "k2": np.asarray(sp.k2, np.float64)[0],
+            "act_min": pk.af[:, 0], "act_max": pk.af[:, 1], "dt": pk.wf[kernel.W_DT]}
 
 
-def mode(fused: bool) -> list[str]:
-    """The compiler flags of the header's arithmetic: fused multiply-adds (its default) or not."""
-    return [] if fused else ["-DSAN_UNFUSED"]
+def targets_of(numbers: dict, u) -> np.ndarray:
+    """The actuator targets [T, A] of activations u as the kernel computes them from ``numbers``'
+    act_min, act_max (step.h: ``f[0] + act (f[1] - f[0])``, float64, each operation rounded)."""
+    span = [(float(a), float(b) - float(a)) for a, b in zip(numbers["act_min"], numbers["act_max"])]
+    return np.array([[a + float(v) * d for (a, d), v in zip(span, row)] for row in np.asarray(u)]).reshape(np.shape(u))
 
 
-def fma32(a, b, c) -> np.float32:
-    """a b + c rounded once to the nearest float32 (ties to even): exact rational arithmetic."""
-    x = Fraction(float(a)) * Fraction(float(b)) + Fraction(float(c))
-    f = np.float32(float(x))  # within one float32 step of the answer
-    near = [np.nextafter(f, np.float32(-np.inf)), f, np.nextafter(f, np.float32(np.inf))]
-    return min(near, key=lambda v: (abs(Fraction(float(v)) - x), int(np.float32(v).view(np.uint32)) & 1))
-
-
-def mul_add(a, b, c, fused: bool) -> np.float32:
-    a, b, c = np.float32(a), np.float32(b), np.float32(c)
-    return fma32(a, b, c) if fused else np.float32(a * b) + c
-
-
-def targets_of(gait: Gait, u, fused: bool) -> np.ndarray:
-    """The actuator targets [T, A] of activations u as the simulator computes them,
-    ``act_min + u (act_max - act_min)`` in float32 with the gait's model's ranges."""
-    p = gait.model("float32").params
-    lo, hi = np.asarray(p.act_min, np.float32), np.asarray(p.act_max, np.float32)
-    u = np.asarray(u, np.float32)
-    table = {(a, v): mul_add(v, hi[a] - lo[a], lo[a], fused) for a in range(len(lo)) for v in np.unique(u[:, a])}
-    return np.array([[table[a, v] for a, v in enumerate(row)] for row in u], np.float32).reshape(u.shape)
-
-
-def figure7(gait: Gait, on, dt, fused: bool) -> dict[str, np.ndarray]:
-    """Figure 7 step by step in plain Python (no JAX): the reference for either arithmetic."""
-    w = np.asarray(gait.weights, int)
-    k1, k2 = (np.asarray(x, np.float32) for x in gait.params.rates(gait.san.n_nodes, gait.spec.san.delay_on,
-                                                                      gait.spec.san.delay_off))
-    H = gait.san.n_hidden
-    istate, out = np.zeros(len(w), np.float32), np.zeros(len(w), int)
-    rows = {"out": [], "istate": [], "u": []}
-    for bits in np.asarray(on, bool):
-        total = w @ np.concatenate([bits.astype(int), out])
-        for n in range(len(w)):
-            x = mul_add(k1[n] if total[n] > 0 else k2[n], dt, istate[n], fused)
-            istate[n] = min(max(x, np.float32(0)), np.float32(1))
-            out[n] = 0 if out[n] == 1 and istate[n] == 0 else 1 if out[n] == 0 and istate[n] == 1 else out[n]
-        rows["out"].append(out.copy())
-        rows["istate"].append(istate.copy())
-        rows["u"].append(((np.clip(total[H:], -2, 2) + 2) * 0.25).astype(np.float32))
-    res = {k: np.array(v) for k, v in rows.items()}
-    res["targets"] = targets_of(gait, res["u"], fused)
+def figure7(gait: Gait, on, dt: float) -> dict[str, np.ndarray]:
+    """Figure 7 step by step in plain Python floats (IEEE double, each operation rounded) with the
+    gait's numbers: the reference for any sensor trace ``on`` [T, S] and step ``dt``."""
+    w = np.asarray(gait.weights, int).tolist()
+    k = gait_numbers(gait)
+    k1, k2 = k["k1"].tolist(), k["k2"].tolist()
+    H, N = gait.san.n_hidden, gait.san.n_nodes
+    istate, out = [0.0] * N, [0] * N
+    rows: dict[str, list] = {"out": [], "istate": [], "u": []}
+    for bits in np.asarray(on, bool).tolist():
+        inputs = [int(b) for b in bits] + out
+        total = [sum(wi * x for wi, x in zip(row, inputs)) for row in w]
+        for n in range(N):
+            x = istate[n] + (k1[n] if total[n] > 0 else k2[n]) * dt
+            istate[n] = min(max(x, 0.0), 1.0)
+            out[n] = 0 if out[n] == 1 and istate[n] == 0.0 else 1 if out[n] == 0 and istate[n] == 1.0 else out[n]
+        rows["out"].append(list(out))
+        rows["istate"].append(list(istate))
+        rows["u"].append([(min(max(t, -2), 2) + 2) * 0.25 for t in total[H:]])
+    res = {key: np.array(v) for key, v in rows.items()}
+    res["out"] = res["out"].astype(int)
+    res["targets"] = targets_of(k, res["u"])
     return res
 
 
@@ -190,8 +166,8 @@ def assert_identical(got: dict, want: dict) -> None:
     for key in ("out", "istate", "u", "targets"):
         a, b = np.asarray(got[key]), np.asarray(want[key])
         assert a.shape == b.shape, key
-        if a.dtype == np.float32:  # bit for bit: compare the bit patterns
-            a, b = a.view(np.uint32), np.asarray(b, np.float32).view(np.uint32)
+        if key != "out":  # bit for bit: compare the bit patterns
+            a, b = a.view(np.uint64), np.asarray(b, np.float64).view(np.uint64)
         bad = np.argwhere(a != b)
         assert bad.size == 0, (f"{key} differs first at [step, node] {bad[0].tolist()}: "
                                f"{got[key][tuple(bad[0])]!r} vs {want[key][tuple(bad[0])]!r}")
@@ -242,26 +218,38 @@ def _gait(gaits, case: str) -> Gait:
 CASES = ["cart-search", "cart-tune", "crawler-search"]
 
 
+def random_trace(T: int, S: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(on [T, S], bytes [T, S]): sensors that switch far more often than contacts do, each held
+    for a random while and flickering now and then, "on" as any non-zero byte."""
+    rng = np.random.default_rng(seed)
+    hold = rng.integers(1, 60, (T, S))
+    on = (np.cumsum(hold, axis=0) // 97) % 2 == 1
+    on ^= rng.random((T, S)) < 0.02
+    return on, np.where(on, rng.choice([1, 2, 128, 255], (T, S)), 0)
+
+
 @needs_cc
 @pytest.mark.parametrize("case", CASES)
-def test_fed_a_recorded_rollout_the_c_san_is_the_python_san_bit_for_bit(gaits, case, tmp_path):
+def test_fed_a_recorded_rollout_the_c_san_is_the_kernel_bit_for_bit(gaits, case, tmp_path):
     gait = _gait(gaits, case)
-    dt = gait.model("float32").params.dt
-    r = gait.replay(SECONDS, fps=1.0 / float(dt))  # a frame every step: the whole sensor trace
+    dt = float(kernel_numbers(gait)["dt"])
+    r = gait.replay(SECONDS, fps=1.0 / dt)  # a frame every step: the whole sensor trace
     frames = r.frames
     assert frames is not None
     bits = np.asarray(frames.bits)[0]
-    assert bits.shape == (round(SECONDS / float(dt)), gait.san.n_sensors)
-    exe = compile_c(tmp_path, san_c.header(gait), {"main.c": DRIVER}, CFLAGS + mode(xla_fuses()))
-    got = run_c(exe, bits.astype(int), dt, gait.san.n_nodes, gait.san.n_actuators)
-
-    assert_identical(got, run_python(gait, bits, dt))
-    # ... and what the rollout itself did: frames hold the controller state before each step
+    assert bits.shape == (round(SECONDS / dt), gait.san.n_sensors)
+    # what the rollout did: frames hold the controller state before each step (the first one
+    # san_init's), and each step's activations
     cs, u = frames.cstate, np.asarray(frames.u)[0]
-    after = {"out": np.concatenate([np.asarray(cs.out)[0, 1:], np.asarray(r.cstate.out)]).astype(int),
-             "istate": np.concatenate([np.asarray(cs.istate)[0, 1:], np.asarray(r.cstate.istate)]),
-             "u": u, "targets": targets_of(gait, u, xla_fuses())}
-    assert_identical(got, after)
+    assert not np.any(np.asarray(cs.istate)[0, 0]) and not np.any(np.asarray(cs.out)[0, 0])
+    did = {"out": np.concatenate([np.asarray(cs.out)[0, 1:], np.asarray(r.cstate.out)]).astype(int),
+           "istate": np.concatenate([np.asarray(cs.istate)[0, 1:], np.asarray(r.cstate.istate)]),
+           "u": u, "targets": targets_of(kernel_numbers(gait), u)}
+    assert_identical(figure7(gait, bits, dt), did)
+    for flags in (CFLAGS, GNU_FLAGS):
+        exe = compile_c(tmp_path, san_c.header(gait), {"main.c": DRIVER}, flags)
+        got = run_c(exe, bits.astype(int), dt, gait.san.n_nodes, gait.san.n_actuators)
+        assert_identical(got, did)
     # a trace that exercises the network: contacts that come and go, nodes switching both ways,
     # more than one activation level
     assert np.abs(np.diff(bits, axis=0)).sum() >= 100
@@ -272,73 +260,96 @@ def test_fed_a_recorded_rollout_the_c_san_is_the_python_san_bit_for_bit(gaits, c
 @needs_cc
 @pytest.mark.parametrize("dt", [None, 0.0037])
 def test_any_sensor_trace_and_any_step(gaits, dt, tmp_path):
-    """Random sensor bytes (any non-zero byte is "on") that switch far more often than contacts
-    do, and a step other than the gait's: Figure 7 in plain Python, bit for bit, in either
-    arithmetic, and the Python SAN in XLA's."""
+    """Random sensor bytes (any non-zero byte is "on") and a step other than the gait's: Figure 7
+    in plain Python, bit for bit."""
     gait = _gait(gaits, "cart-tune")
-    dt = np.float32(dt if dt is not None else gait.model("float32").params.dt)
-    rng = np.random.default_rng(3)
-    T, S = 1500, gait.san.n_sensors
-    hold = rng.integers(1, 60, (T, S))  # each sensor keeps its value for a random while
-    on = (np.cumsum(hold, axis=0) // 97) % 2 == 1
-    on ^= rng.random((T, S)) < 0.02  # and flickers now and then
-    values = np.where(on, rng.choice([1, 2, 128, 255], (T, S)), 0)
-    for fused in (True, False):
-        exe = compile_c(tmp_path, san_c.header(gait), {"main.c": DRIVER}, CFLAGS + mode(fused))
-        got = run_c(exe, values, dt, gait.san.n_nodes, gait.san.n_actuators)
-        assert_identical(got, figure7(gait, on, dt, fused))
-        if fused == xla_fuses():
-            assert_identical(got, run_python(gait, on, dt))
-        assert len(np.unique(got["u"])) == 5
+    dt = dt if dt is not None else float(kernel_numbers(gait)["dt"])
+    on, values = random_trace(1500, gait.san.n_sensors, 3)
+    exe = compile_c(tmp_path, san_c.header(gait), {"main.c": DRIVER})
+    got = run_c(exe, values, dt, gait.san.n_nodes, gait.san.n_actuators)
+    assert_identical(got, figure7(gait, on, dt))
+    assert len(np.unique(got["u"])) == 5
+
+
+def run_program(folder, source: str, flags: list[str], args: list[str]) -> str:
+    """The C program ``source`` compiled with ``flags`` and run with ``args``: its output."""
+    exe = compile_c(folder, None, {"prog.c": source}, flags)
+    return subprocess.run([exe, *args], capture_output=True, text=True, timeout=60, check=True).stdout
+
+
+def gnu_mode_fuses(folder) -> bool:
+    """Whether cc in GNU_FLAGS fuses a * b + c written as two statements into one FMA here:
+    (1 + 2^-52)(1 - 2^-53) - 1 is then 2^-53 - 2^-105, rounded twice 0."""
+    return run_program(folder, '#include <stdio.h>\n#include <stdlib.h>\nint main(int argc, char **argv)\n{\n'
+                       '    double a = strtod(argv[1], NULL), b = strtod(argv[2], NULL), p = a * b;\n'
+                       '    (void)argc;\n    printf("%a\\n", p + strtod(argv[3], NULL));\n    return 0;\n}\n',
+                       GNU_FLAGS, ["0x1.0000000000001p0", "0x1.fffffffffffffp-1", "-1"]).strip() != "0x0p+0"
 
 
 @needs_cc
-def test_the_fused_multiply_add_is_rounded_once(tmp_path):
-    """SAN_FMA, the header's FMA in double precision, against exact rational arithmetic: on
-    random operands of every scale and on the cases where rounding the double sum to nearest
-    first would be wrong (an exact result just off a float32 midpoint); fmaf from math.h in its
-    place gives the same."""
-    rng = np.random.default_rng(5)
-    n = 3000
-    a = (rng.standard_normal(n) * 2.0 ** rng.integers(-30, 30, n)).astype(np.float32)
-    b = (rng.standard_normal(n) * 2.0 ** rng.integers(-30, 30, n)).astype(np.float32)
-    c = (rng.standard_normal(n) * 2.0 ** rng.integers(-60, 60, n)).astype(np.float32)
-    near = rng.random(n) < 0.5  # half of them: c near a b, so that they nearly cancel
-    c[near] = (-a[near].astype(np.float64) * b[near] * (1 + rng.standard_normal(near.sum()) * 1e-6)).astype(np.float32)
-    # (1 + 2^-23)(1 - 2^-23) = 1 - 2^-46: 2^24 + 2 + that is 2^24 + 3 - 2^-46, just below the
-    # midpoint 2^24 + 3, which the double sum rounds to (and that midpoint to even, 2^24 + 4);
-    # the other way round from 2^24 + 2 - that; at many scales and both signs
-    traps = []
-    for e in range(-40, 40, 3):
-        for sign in (1.0, -1.0):
-            for m in (1, 3, 5):  # 2^23 + m: odd
-                x = sign * np.ldexp(1.0 + 2.0 ** -23, e)
-                y = 1.0 - 2.0 ** -23
-                z = sign * np.ldexp(2.0 ** 24 + 2 * m, e)
-                traps += [(x, y, z), (-x, y, z)]
-    t = np.array(traps, np.float64).astype(np.float32)
-    a, b, c = np.concatenate([a, t[:, 0]]), np.concatenate([b, t[:, 1]]), np.concatenate([c, t[:, 2]])
-    want = np.array([fma32(*abc) for abc in zip(a, b, c)], np.float32)
-    assert np.any(want != ((a.astype(np.float64) * b + c).astype(np.float32)))  # the traps trap
-    program = ('#include <stdio.h>\n#include <stdlib.h>\n#include <string.h>\n{pre}#include "san.h"\n'
-               'int main(void)\n{{\n    char line[256];\n    while (fgets(line, sizeof line, stdin)) {{\n'
-               '        char *p = line;\n        float a = strtof(p, &p), b = strtof(p, &p), c = strtof(p, &p);\n'
-               '        float r = SAN_FMA(a, b, c);\n        uint32_t bits;\n        memcpy(&bits, &r, sizeof bits);\n'
-               '        printf("%08lx\\n", (unsigned long)bits);\n    }}\n    return 0;\n}}\n')
-    stdin = "".join(f"{float(x).hex()} {float(y).hex()} {float(z).hex()}\n" for x, y, z in zip(a, b, c))
+def test_no_compiler_fuses_the_multiply_adds(gaits, tmp_path):
+    """In a GNU mode for this CPU, where GCC fuses a multiply and an add into an FMA even across
+    statements, the header still rounds each twice (san_mul_add's volatile product): Figure 7 bit
+    for bit; without the volatile it would not be, on a CPU with FMA."""
+    if not gnu_mode_fuses(tmp_path):
+        pytest.skip("cc does not fuse multiply-adds here (a CPU without FMA?)")
+    gait = _gait(gaits, "cart-tune")
+    dt = float(kernel_numbers(gait)["dt"])
+    on, values = random_trace(1500, gait.san.n_sensors, 4)
+    want = figure7(gait, on, dt)
+    text = san_c.header(gait)
+    exe = compile_c(tmp_path, text, {"main.c": DRIVER}, GNU_FLAGS)
+    assert_identical(run_c(exe, values, dt, gait.san.n_nodes, gait.san.n_actuators), want)
+    assert text.count("volatile double p = a * b;") == 1
+    exe = compile_c(tmp_path, text.replace("volatile double p", "double p"), {"main.c": DRIVER}, GNU_FLAGS)
+    fused = run_c(exe, values, dt, gait.san.n_nodes, gait.san.n_actuators)
+    assert not np.array_equal(fused["istate"].view(np.uint64), want["istate"].view(np.uint64))
+    assert not np.array_equal(fused["targets"].view(np.uint64), want["targets"].view(np.uint64))
+
+
+@needs_cc
+@pytest.mark.parametrize("flags, error", [
+    (["-ffast-math"], "without -ffast-math"),
+    (["-m32", "-ffreestanding"], "excess precision"),  # x87: FLT_EVAL_METHOD 2
+    (["-m32", "-ffreestanding", "-msse2", "-mfpmath=sse"], None),  # FLT_EVAL_METHOD 0
+    (["-std=gnu99", "-mavx512fp16"], None),  # FLT_EVAL_METHOD 16: _Float16 in itself, double in double
+])
+def test_arithmetic_it_cannot_keep_is_refused(flags, error, tmp_path):
+    """The header's #error where the compiler would not compute in plain binary64: -ffast-math and
+    excess precision (x87); not where double is evaluated in double. GCC on x86 flags: skipped
+    where cc does not take them."""
+    (tmp_path / "empty.c").write_text("int main(void);\nint main(void) { return 0; }\n")
+    probe = subprocess.run([str(CC), *CFLAGS, *flags, "-fsyntax-only", str(tmp_path / "empty.c")],
+                           capture_output=True, text=True, timeout=60)
+    if probe.returncode != 0:
+        pytest.skip(f"cc does not take {' '.join(flags)}")
     text = san_c.header_from_arrays(weights=np.zeros((1, 2)), n_hidden=0, k1=[1.0], k2=[-1.0], act_min=[0.0],
                                     act_max=[1.0], sensors=[("s", "touch")], actuators=[("a", "angular")], dt=0.001)
-    for pre, libs in (("", []), ("#include <math.h>\n#define SAN_FMA(a, b, c) fmaf(a, b, c)\n", ["-lm"])):
-        (tmp_path / "main.c").write_text(program.format(pre=pre))
-        exe = str(tmp_path / "fma")
-        (tmp_path / "san.h").write_text(text)
-        r = subprocess.run([str(CC), *CFLAGS, "-I", str(tmp_path), str(tmp_path / "main.c"), "-o", exe, *libs],
-                           capture_output=True, text=True, timeout=120)
+    (tmp_path / "san.h").write_text(text)
+    (tmp_path / "main.c").write_text('#include "san.h"\nint main(void);\nint main(void) { return SAN_N_NODES; }\n')
+    r = subprocess.run([str(CC), *CFLAGS, *flags, "-fsyntax-only", str(tmp_path / "main.c")],
+                       capture_output=True, text=True, timeout=60)
+    if error is None:
         assert r.returncode == 0 and not r.stderr, r.stderr
-        out = subprocess.run([exe], input=stdin, capture_output=True, text=True, timeout=60, check=True).stdout
-        got = np.array([int(x, 16) for x in out.split()], np.uint32)
-        bad = np.flatnonzero(got != want.view(np.uint32))
-        assert bad.size == 0, f"{pre or 'SAN_FMA'}: {a[bad[0]]!r} * {b[bad[0]]!r} + {c[bad[0]]!r}"
+    else:
+        assert r.returncode != 0 and "#error" in r.stderr and error in r.stderr, r.stderr
+
+
+@needs_cc
+def test_the_constants_read_back_exactly(tmp_path):
+    """Hexadecimal floating constants, which C99 reads exactly: every double, its sign and the
+    smallest and largest kept."""
+    rng = np.random.default_rng(7)
+    x = np.concatenate([rng.standard_normal(200) * 2.0 ** rng.integers(-60, 60, 200), rng.random(50),
+                        [0.0, -0.0, 1.0, -2.0, 0.1, 1 / 0.07, 5e-324, -2.2250738585072014e-308, 1.7976931348623157e308]])
+    assert san_c._hex(-0.0) == "-0x0p+0" and san_c._hex(2.0) == "0x1p+1" and san_c._hex(0.75) == "0x1.8p-1"
+    source = ("#include <stdio.h>\n#include <string.h>\n#include <stdint.h>\n"
+              f"static const double x[{len(x)}] = {{{san_c._hex_list(x)}}};\n"
+              "int main(void)\n{\n    unsigned i;\n    for (i = 0; i < sizeof x / sizeof x[0]; i++) {\n"
+              "        uint64_t b;\n        memcpy(&b, &x[i], sizeof b);\n"
+              '        printf("%016llx\\n", (unsigned long long)b);\n    }\n    return 0;\n}\n')
+    out = run_program(tmp_path, source, CFLAGS, [])
+    assert np.array_equal(np.array([int(v, 16) for v in out.split()], np.uint64), x.view(np.uint64))
 
 
 @needs_cc
@@ -352,16 +363,24 @@ def test_the_header_is_plain_c99_with_the_gaits_numbers(gaits, tmp_path):
     # program without a warning: static definitions, an include guard, no unused-code warnings
     other = '#include "san.h"\n#include "san.h"\nint other(void);\nint other(void) { return SAN_N_NODES; }\n'
     main = ('#include "san.h"\nint other(void);\nint main(void)\n{\n    san_state s;\n'
-            '    uint8_t sensors[SAN_N_SENSORS] = {0};\n    float targets[SAN_N_ACTUATORS];\n'
+            '    uint8_t sensors[SAN_N_SENSORS] = {0};\n    double targets[SAN_N_ACTUATORS];\n'
             '    san_init(&s);\n    san_step(&s, sensors, SAN_DT, targets);\n    return other() != SAN_N_NODES;\n}\n')
     for flags in (CFLAGS, [f for f in CFLAGS if f != "-O2"] + ["-O0"]):
         exe = compile_c(tmp_path, text, {"a.c": other, "main.c": main}, flags)
         assert subprocess.run([exe], timeout=60).returncode == 0
-    # the constants are the gait's: per-node rates, tuned ranges, every weight
-    k1 = np.asarray(gait.params.k1, np.float32)
-    assert f"static const float san_k1[SAN_N_NODES] = {{{', '.join(san_c._float(v) + 'f' for v in k1)}}};" in text
-    assert "static const float san_act_min[SAN_N_ACTUATORS] = {-2.0f};" in text
-    assert "static const float san_act_max[SAN_N_ACTUATORS] = {2.3f};" in text
+    # the constants are the gait's doubles, the very ones the kernel steps it with: per-node
+    # rates, tuned ranges, the step; and every weight
+    k, g = kernel_numbers(gait), gait_numbers(gait)
+    for name in ("k1", "k2", "act_min", "act_max"):
+        (values,) = re.findall(rf"^static const double san_{name}\[\w+\] = \{{([^}}]*)\}};", text, re.M)
+        got = np.array([float.fromhex(v) for v in values.split(", ")])
+        assert np.array_equal(got.view(np.uint64), k[name].view(np.uint64)), name
+        assert np.array_equal(got.view(np.uint64), g[name].view(np.uint64)), name
+    (dt,) = re.findall(r"^#define SAN_DT (\S+)", text, re.M)
+    assert float.fromhex(dt) == k["dt"] == g["dt"] == 0.001
+    assert gait.params.k1 is not None and np.array_equal(g["k1"], gait.params.k1)  # the tuned per-node rates
+    assert "static const double san_act_min[SAN_N_ACTUATORS] = {-0x1p+1};  /* -2.0 */" in text
+    assert "static const double san_act_max[SAN_N_ACTUATORS] = {0x1.2666666666666p+1};  /* 2.3 */" in text
     assert "[-3.0, -1.9] rad" in text  # a tuned sensor range, in the comment that explains S5
     rows = re.findall(r"^    \{([-0-9, ]+)\},  /\* (\S+) \*/$", text, re.M)
     assert [name for _, name in rows] == ["H1", "H2", "H3", "H4", "H5", "A1"]
@@ -384,7 +403,7 @@ def test_names_are_safe_in_identifiers_and_comments(tmp_path):
                   "SAN_SENSOR_4", "SAN_ACTUATOR_HIP", "SAN_ACTUATOR_9"):
         assert ident + " = " in text
     use = ('#include "san.h"\nint main(void)\n{\n    san_state s;\n    uint8_t b[SAN_N_SENSORS] = {0};\n'
-           '    float t[SAN_N_ACTUATORS];\n    san_init(&s);\n    b[SAN_SENSOR_KNEE_1_2] = 1;\n'
+           '    double t[SAN_N_ACTUATORS];\n    san_init(&s);\n    b[SAN_SENSOR_KNEE_1_2] = 1;\n'
            '    san_step(&s, b, SAN_DT, t);\n    return SAN_ACTUATOR_9 != 1;\n}\n')
     exe = compile_c(tmp_path, text, {"main.c": use})
     assert subprocess.run([exe], timeout=60).returncode == 0
@@ -440,6 +459,6 @@ def test_the_documented_loop_compiles(gaits, tmp_path):
     section = readme.split("# A SAN on a microcontroller", 1)[1]
     loop = section.split("```c\n", 1)[1].split("```", 1)[0]
     program = ('#include "san.h"\nstatic void read_sensors(uint8_t *s) { s[0] = 1; }\n'
-               "static void servo_hold(int a, float target) { (void)a; (void)target; }\n"
+               "static void servo_hold(int a, double target) { (void)a; (void)target; }\n"
                "int main(void);\nint main(void)\n{\n" + loop + "}\n")
     compile_c(tmp_path, san_c.header(_gait(gaits, "cart-search")), {"main.c": program}, [*CFLAGS, "-c"])
