@@ -160,6 +160,12 @@ def test_the_two_routes_of_the_kernels_linear_algebra_agree(source):
     assert relative_error(out[0], out[1]).max() < 1e-12
     with pytest.raises(ValueError, match="trees of rigid links"):
         kernel.pack(sim.compile_creature(creature.load("crawler"), dtype="float64"), 10, articulated=True)
+    # compile_creature's choice reaches the kernel; by default it takes the O(n) route where it can
+    route = lambda mm: int(kernel.pack(mm, 0).wi[kernel.W_ARTICULATED])
+    assert route(m) == 1 and route(sim.compile_creature(spec, articulated=False)) == 0
+    assert route(sim.compile_creature(creature.load("crawler"))) == 0  # linear actuators join two bodies
+    with pytest.raises(ValueError, match="articulated route"):
+        sim.compile_creature(creature.load("crawler"), articulated=True)
 
 
 def observe_of(metric, desc) -> kernel.Observe:
