@@ -58,7 +58,7 @@ def test_ctrl_c_early_in_a_search_exits_130_not_a_crash(tmp_path, after):
     status 130. (With the XLA engine the interpreter's shutdown used to crash in JAX's native
     threads when the interrupt came late in the first compile: SIGSEGV, exit 139.)"""
     db = tmp_path / "gaits.db"
-    args = ["search", "bounder", "-n", "300", "--batch", "8", "--seconds", "2", "--db", str(db)]
+    args = ["search", "bounder", "-n", "100000", "--batch", "8", "--seconds", "2", "--db", str(db)]  # still running at 5 s
     proc = subprocess.Popen(SANLAB + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=interruptible)
     deadline = time.time() + 120
