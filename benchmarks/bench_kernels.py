@@ -1,4 +1,4 @@
-"""Helpers of benchmarks/engine.py: one rollout of random SANs on the kernel or the XLA engine."""
+"""Helpers of benchmarks/engine.py: one rollout of random SANs on the kernel."""
 
 from __future__ import annotations
 
@@ -21,18 +21,6 @@ def best(calls: list, repeats: int) -> list[float]:
     return out
 
 
-_MODELS: dict = {}
-
-
-def _model(spec, dtype):
-    from sanlab import sim
-
-    key = (spec.name, dtype)
-    if key not in _MODELS:
-        _MODELS[key] = sim.compile_creature(spec, dtype=dtype)
-    return _MODELS[key]
-
-
 def _start(spec, B: int, seed: int, rows=None):
     """The kernel's inputs for controllers 0..B-1 of seed ``seed``, with nothing compiled for the
     creature: its tables from the file (``model.assemble``, NumPy arrays), seated and anchored by
@@ -44,7 +32,7 @@ def _start(spec, B: int, seed: int, rows=None):
     from sanlab.sim import kernel
     from sanlab.sim.model import assemble
 
-    m = assemble(spec, "float64", host=True)
+    m = assemble(spec, "float64")
     san = San.for_creature(spec)
     N = san.n_nodes
     weights = np.stack([san.random_weights(seed, i) for i in range(B)]).astype(np.float64)
@@ -67,36 +55,13 @@ def new_creature(spec, B: int = 8, steps: int = 1000) -> float:
     return time.perf_counter() - t0
 
 
-def run(form: str, spec, B: int, steps: int, seed: int):
-    """Final coordinates q [B, D] of B random SANs (controllers 0..B-1 of seed ``seed``) after
-    ``steps`` steps on ``form``: "engine" (sim.rollout, float32), "engine64" or "c++" (the kernel)."""
-    return prepared(form, spec, B, steps, seed)()
-
-
-def prepared(form: str, spec, B: int, steps: int, seed: int, rows=None):
-    """:func:`run` as a callable with its inputs made: calling it times the rollout alone. rows
-    (the kernel only): see :func:`_start`."""
-    if form in ("engine", "engine64"):
-        import jax
-
-        from sanlab import sim
-        from sanlab.engine_report import random_san_params
-
-        dtype = "float32" if form == "engine" else "float64"
-        san, sp = random_san_params(spec, B, seed, dtype=dtype)
-        m = _model(spec, dtype)
-        return lambda: np.asarray(jax.block_until_ready(sim.rollout(m, san, sp, steps=steps).state.q))
+def prepared(spec, B: int, steps: int, seed: int, rows=None):
+    """A rollout of B random SANs (controllers 0..B-1 of seed ``seed``) for ``steps`` steps on the
+    kernel as a callable with its inputs made (calling it times the rollout alone; it returns the
+    final coordinates q [B, D]). rows: see :func:`_start`."""
     from sanlab.sim import kernel
 
-    m, san, sp, pk, (q, p, anchor, istate, out), per_row = _start(spec, B, seed, rows)
+    _, _, sp, pk, (q, p, anchor, istate, out), per_row = _start(spec, B, seed, rows)
     w = np.asarray(sp.weights, np.float64)
     k1, k2 = np.asarray(sp.k1, np.float64), np.asarray(sp.k2, np.float64)
     return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps, rows=per_row)["q"]
-
-
-def agreement(spec, B: int, steps: int) -> np.ndarray:
-    """Per controller, max |q_kernel - q_engine| / (1 + max |q_engine|) after ``steps`` steps in
-    float64."""
-    a = run("engine64", spec, B, steps, 0)
-    b = run("c++", spec, B, steps, 0)
-    return np.abs(a - b).max(1) / (1 + np.abs(a).max(1))

@@ -45,9 +45,6 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seeds", default="1,2")
     ap.add_argument("--db", help="gait library (default: a temporary one)")
     a = ap.parse_args(argv)
-    from sanlab import configure
-
-    configure()
     from sanlab.creature import load_design, read_source
     from sanlab.design import DesignSettings, run_design
     from sanlab.library import Library

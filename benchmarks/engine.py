@@ -3,12 +3,11 @@
 The simulator's kernel (``sanlab.sim.kernel``, C++ in sanlab/sim/_kernel, built once per
 install) steps random closed-loop SANs (dt = 1 ms; the SAN evaluated every step inside the
 kernel, float64). Every figure is printed beside a reference timed in the same run, as a ratio:
-these machines vary 2x from run to run, so a figure alone says little. The references: the XLA
-engine that the kernel replaces (``sim.rollout``, float32, one device per core; ``--no-xla``
-leaves it out), MuJoCo's C step and C rollout loop (``mujoco.rollout`` on the same creature
-converted to MJCF, open-loop servo targets: no network in its loop; benchmarks/mujoco_route.py),
-MuJoCo stepping with the same SAN in NumPy, and the kernel itself (a creature's second call,
-a batch with one shared table).
+these machines vary 2x from run to run, so a figure alone says little. The references: MuJoCo's
+C step and C rollout loop (``mujoco.rollout`` on the same creature converted to MJCF, open-loop
+servo targets: no network in its loop; benchmarks/mujoco_route.py), MuJoCo stepping with the
+same SAN in NumPy, and the kernel itself (a creature's second call, a batch with one shared
+table).
 
 Printed, in order:
 - build: the kernel's one-time compile (``setup.py build_ext`` into a temporary folder);
@@ -17,31 +16,32 @@ Printed, in order:
   from its file to the final states of 8 SANs after 1 s (pack, start, run), the first and the
   second time, for a 9-link then a 16-link chain (the process's first creature also pays the
   first-time costs of the library and of lazy imports; the second creature's first/second ratio
-  is the "nothing compiled" figure); the XLA engine's first call of the same 9-link
-  chain in a fresh process without compile caches; then, through the CLI in fresh processes
-  with an empty cache, ``sanlab search FILE -n 8 --seconds 1`` and ``sanlab check FILE
-  --simulate`` on a never-seen 9-link chain, first and second run (these time the commands as
-  they are: whichever engine they run on);
-- latency: µs per bounder step at batch 1 and 32 (against the XLA engine), and batch 1 against
-  MuJoCo's C step on one thread;
-- throughput: the bounder at ``--batch`` (2048) against the XLA engine, MuJoCo's C rollout loop
-  at the same batch (one thread per core) and the MuJoCo + NumPy route;
+  is the "nothing compiled" figure); then, through the CLI in fresh processes,
+  ``sanlab search FILE -n 8 --seconds 1`` and ``sanlab check FILE --simulate`` on a never-seen
+  9-link chain, first and second run;
+- latency: µs per bounder step at batch 1 and 32, and batch 1 against MuJoCo's C step on one
+  thread;
+- throughput: the bounder at ``--batch`` (2048) against MuJoCo's C rollout loop at the same batch
+  (one thread per core) and the MuJoCo + NumPy route;
 - growth: ns per creature-step of N-link chains (``--growth 2,4,8,16,32``) on the kernel and on
   MuJoCo's C loop at the same batch, cost(longest) / cost(shortest);
 - mixed batches: the bounder at ``--batch`` with every row carrying its own numbers (every float
   table of ``kernel.ROW_TABLES``, each number jittered by up to 2 %: ``run_san(..., rows=)``)
   against one shared table, same batch, steps and SANs;
-- the GPU: unmeasured (the kernel has no GPU twin yet; benchmarks/gpu.py times the XLA engine);
-- with ``--agreement``, the kernel's final states against the XLA engine's in float64; with
-  ``--replay``, a 6 s bounder replay at batch 1 through ``sim.rollout`` in fresh processes.
+- the GPU: unmeasured (the kernel has no GPU twin yet);
+- with ``--replay``, a 6 s bounder replay at batch 1 through ``sim.rollout`` in fresh processes.
+
+The XLA engine the kernel replaced was this benchmark's reference until it was removed; its
+figures are in docs/engine-history.md, and the tests keep its numbers
+(tests/sim/test_kernel_reference.py).
 
 Compared calls alternate (``bench_kernels.best``), so that a change in the machine's load falls
 on both. Then the goals, each with its figure and whether this run met it, and one last line of
 ``key=value`` pairs (nan where a part was skipped).
 
     python benchmarks/engine.py [--batch 2048] [--steps 2000] [--growth 2,4,8,16,32]
-                                [--no-xla] [--no-cli] [--no-build] [--seed N]
-                                [--repeats 5] [--mujoco-seconds 2] [--agreement] [--replay]
+                                [--no-cli] [--no-build] [--seed N]
+                                [--repeats 5] [--mujoco-seconds 2] [--replay]
 
 Needs MuJoCo (``pip install -e '.[bench]'``). About two minutes on 2 shared cores; ``--steps``,
 ``--batch-steps``, ``--growth-steps`` and ``--repeats`` make it longer and steadier.
@@ -69,7 +69,6 @@ NAN = float("nan")
 FIRST_KERNEL = """
 import sys, time; t0 = time.perf_counter()
 sys.path.insert(0, {bench!r})
-import sanlab; sanlab.configure()
 import bench_kernels as bk
 from chains import random_chain
 out = [time.perf_counter() - t0]
@@ -81,27 +80,7 @@ for n, seed in ((9, {seed}), (16, {seed} + 1)):
 print(*out)
 """
 
-FIRST_XLA = """
-import sys, time; t0 = time.perf_counter()
-sys.path.insert(0, {bench!r})
-import sanlab; sanlab.configure()
-import jax
-from sanlab import sim
-from sanlab.engine_report import random_san_params
-from chains import random_chain
-out = [time.perf_counter() - t0]
-for _ in range(2):
-    t = time.perf_counter()
-    spec = random_chain(9, {seed})
-    san, sp = random_san_params(spec, 8, 0)
-    m = sim.compile_creature(spec)
-    jax.block_until_ready(sim.rollout(m, san, sp, steps=1000).state.q)
-    out.append(time.perf_counter() - t)
-print(*out)
-"""
-
 REPLAY = """
-import sanlab; sanlab.configure()
 import time
 from sanlab import creature, sim
 from sanlab.engine_report import random_san_params
@@ -115,11 +94,8 @@ print(time.perf_counter() - t0)
 """
 
 
-def _env(**extra: str) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT), **extra)
-    if "SANLAB_NO_COMPILE_CACHE" not in extra:
-        env.pop("SANLAB_NO_COMPILE_CACHE", None)
-    return env
+def _env() -> dict:
+    return dict(os.environ, PYTHONPATH=str(ROOT))
 
 
 def _python(code: str, env: dict) -> list[float]:
@@ -145,8 +121,8 @@ def build() -> float:
     return s
 
 
-def first_calls(seed: int, xla: bool) -> dict:
-    """A fresh process's first calls of never-seen chains, on the kernel and (``xla``) the engine."""
+def first_calls(seed: int) -> dict:
+    """A fresh process's first calls of never-seen chains."""
     r: dict = {}
     bench = str(ROOT / "benchmarks")
     imp, a1, a2, b1, b2 = _python(FIRST_KERNEL.format(bench=bench, seed=seed), _env())
@@ -155,18 +131,13 @@ def first_calls(seed: int, xla: bool) -> dict:
           f"import {imp:.2f} s first):")
     print(f"  kernel: 9-link chain {a1:.3f} s, again {a2:.3f} s (first/second {a1 / a2:.2f}); then a 16-link chain "
           f"{b1:.3f} s, again {b2:.3f} s ({b1 / b2:.2f})")
-    if xla:
-        imp, e1, e2 = _python(FIRST_XLA.format(bench=bench, seed=seed), _env(SANLAB_NO_COMPILE_CACHE="1"))
-        r["first_xla_s"] = e1
-        print(f"  XLA engine, no compile cache: 9-link chain {e1:.2f} s ({e1 / a1:.0f} x the kernel's), again "
-              f"{e2:.3f} s (first/second {e1 / e2:.1f}; import {imp:.2f} s)")
     return r
 
 
-def _cli(args: list[str], cwd: str, cache: str) -> float:
+def _cli(args: list[str], cwd: str) -> float:
     """Wall seconds of ``python -m sanlab ARGS`` in a fresh process; nan if it fails."""
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-m", "sanlab", *args], cwd=cwd, env=_env(SANLAB_CACHE=cache),
+    p = subprocess.run([sys.executable, "-m", "sanlab", *args], cwd=cwd, env=_env(),
                        capture_output=True, text=True)
     s = time.perf_counter() - t0
     if p.returncode != 0:
@@ -177,41 +148,35 @@ def _cli(args: list[str], cwd: str, cache: str) -> float:
 
 
 def cli(seed: int) -> dict:
-    """The commands' wall times on never-seen 9-link chains, empty cache, first and second run."""
+    """The commands' wall times on never-seen 9-link chains, first and second run."""
     from chains import random_chain_toml
 
-    print("first call through the CLI (fresh processes, empty cache, then warm; as the commands are today):")
+    print("first call through the CLI (fresh processes, first and second run):")
     r: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         for what, s, args in (("search", seed + 2, ["-n", "8", "--seconds", "1", "--db", "gaits.db"]),
                               ("check", seed + 3, ["--simulate"])):
             path = Path(tmp) / f"chain9_{s}.toml"
             path.write_text(random_chain_toml(9, s))
-            cache = tempfile.mkdtemp(dir=tmp)
             argv = [what, path.name, *args]
-            first, second = _cli(argv, tmp, cache), _cli(argv, tmp, cache)
+            first, second = _cli(argv, tmp), _cli(argv, tmp)
             r[f"{what}_first_s"], r[f"{what}_second_s"] = first, second
             print(f"  `sanlab {' '.join(argv)}`: {first:.2f} s, again {second:.2f} s (first/second "
                   f"{first / second:.2f})", flush=True)
     return r
 
 
-def latency(spec, steps: int, repeats: int, xla: bool) -> dict:
-    """µs per bounder step at batch 1 and 32, against the engine and MuJoCo's C step."""
+def latency(spec, steps: int, repeats: int) -> dict:
+    """µs per bounder step at batch 1 and 32, and against MuJoCo's C step."""
     import bench_kernels as bk
     from mujoco_route import mujoco_c_loop_steps_per_s
 
     r: dict = {}
     print(f"latency: bounder, µs per step ({steps} steps a call, best of {repeats}):")
     for B in (1, 32):
-        calls = [bk.prepared(form, spec, B, steps, 0) for form in ("c++", "engine")[:1 + xla]]
-        k, *e = (t / steps * 1e6 for t in bk.best(calls, repeats))
-        r[f"b{B}_us"] = k
-        line = f"  batch {B}: kernel {k:.2f} µs"
-        if e:
-            r[f"b{B}_xla_us"] = e[0]
-            line += f", XLA engine {e[0]:.2f} µs (kernel {e[0] / k:.1f} x faster)"
-        print(line, flush=True)
+        (t,) = bk.best([bk.prepared(spec, B, steps, 0)], repeats)
+        r[f"b{B}_us"] = k = t / steps * 1e6
+        print(f"  batch {B}: kernel {k:.2f} µs", flush=True)
     mj = 1e6 / mujoco_c_loop_steps_per_s(spec, batch=1, steps=max(steps, 1000), repeats=repeats, threads=1)
     r["b1_mujoco_us"] = mj
     print(f"  batch 1: MuJoCo's C step {mj:.2f} µs on one thread, open loop (kernel {mj / r['b1_us']:.1f} x faster, "
@@ -219,20 +184,16 @@ def latency(spec, steps: int, repeats: int, xla: bool) -> dict:
     return r
 
 
-def throughput(spec, batch: int, steps: int, repeats: int, xla: bool, mujoco_seconds: float) -> dict:
-    """Creature-steps per second of the bounder at ``batch``, against the engine and MuJoCo."""
+def throughput(spec, batch: int, steps: int, repeats: int, mujoco_seconds: float) -> dict:
+    """Creature-steps per second of the bounder at ``batch``, against MuJoCo."""
     import bench_kernels as bk
     from mujoco_route import mujoco_c_loop_steps_per_s, mujoco_steps_per_s
 
     r: dict = {}
-    calls = [bk.prepared(form, spec, batch, steps, 0) for form in ("c++", "engine")[:1 + xla]]
-    k, *e = (batch * steps / t for t in bk.best(calls, repeats))
-    r["rate"] = k
+    (t,) = bk.best([bk.prepared(spec, batch, steps, 0)], repeats)
+    r["rate"] = k = batch * steps / t
     print(f"throughput: bounder, batch {batch} x {steps} steps, best of {repeats}:")
     print(f"  kernel (float64): {k / 1e6:.2f} M creature-steps/s ({1e9 / k:.0f} ns per creature-step)")
-    if e:
-        r["rate_xla"] = e[0]
-        print(f"  XLA engine (float32): {e[0] / 1e6:.2f} M/s (kernel {k / e[0]:.2f} x)", flush=True)
     mjc = mujoco_c_loop_steps_per_s(spec, batch=batch, steps=100, repeats=repeats)
     r["rate_mujoco_c"] = mjc
     print(f"  MuJoCo's C rollout loop: {mjc / 1e6:.3f} M/s, open loop, one thread per core (kernel {k / mjc:.1f} x)")
@@ -252,7 +213,7 @@ def growth(links: list[int], batch: int, steps: int, repeats: int) -> dict:
     from chains import chain_creature
     from mujoco_route import mujoco_c_loop_steps_per_s
 
-    calls = {n: bk.prepared("c++", chain_creature(n), batch, steps, 0) for n in links}
+    calls = {n: bk.prepared(chain_creature(n), batch, steps, 0) for n in links}
     best = bk.best(list(calls.values()), repeats)
     cost = {n: t / (batch * steps) * 1e9 for n, t in zip(links, best)}
     print(f"growth: N-link chains, batch {batch} x {steps} steps, ns per creature-step (the kernel's best of {repeats} "
@@ -293,8 +254,8 @@ def mixed(spec, batch: int, steps: int, repeats: int) -> dict:
     import bench_kernels as bk
 
     names: list = []
-    shared_f = bk.prepared("c++", spec, batch, steps, 0)
-    rows_f = bk.prepared("c++", spec, batch, steps, 0, rows=jittered_rows(batch, 0, names))
+    shared_f = bk.prepared(spec, batch, steps, 0)
+    rows_f = bk.prepared(spec, batch, steps, 0, rows=jittered_rows(batch, 0, names))
     shared, per_row = bk.best([shared_f, rows_f], repeats)
     ns = lambda t: 1e9 * t / (batch * steps)
     print(f"mixed batch: bounder, batch {batch} x {steps} steps, rows with their own {', '.join(names)} (each number "
@@ -303,22 +264,12 @@ def mixed(spec, batch: int, steps: int, repeats: int) -> dict:
     return dict(mixed_ratio=per_row / shared)
 
 
-def agreement(spec) -> None:
-    import bench_kernels as bk
-
-    err = bk.agreement(spec, 64, 1000)
-    print(f"agreement with the XLA engine, float64, 64 SANs x 1000 steps: median {np.median(err):.2g}, worst "
-          f"{err.max():.2g} (relative to the state's size)")
-
-
 def replay() -> float:
     """Seconds of one 6 s bounder replay at batch 1 recorded at 30 fps through ``sim.rollout``
-    (render, the studio's playback), fresh processes sharing a new cache: empty, then warm."""
-    with tempfile.TemporaryDirectory() as cache:
-        cold, *warm = (_python(REPLAY, _env(SANLAB_CACHE=cache))[0] for _ in range(3))
-    print(f"replay (sim.rollout, as it is today): bounder, 6 s at batch 1, 30 fps: {cold:.1f} s with an empty cache, "
-          f"{min(warm):.2f} s with a warm one (after import)")
-    return min(warm)
+    (render, the studio's playback), in fresh processes: the best of three (after import)."""
+    best = min(_python(REPLAY, _env())[0] for _ in range(3))
+    print(f"replay (sim.rollout): bounder, 6 s at batch 1, 30 fps: {best:.2f} s (after import, best of 3 processes)")
+    return best
 
 
 def goals(r: dict) -> None:
@@ -344,8 +295,7 @@ def goals(r: dict) -> None:
     line("batch 32 <= 15 µs per bounder step", f"{g('b32_us'):.2f} µs", g("b32_us") <= 15)
     line("batch 1 at least as fast as MuJoCo's C step", f"{g('b1_mujoco_us') / g('b1_us'):.2f} x",
          g("b1_us") <= g("b1_mujoco_us"))
-    e = g("rate_xla")
-    line("batch 2048 no slower than the XLA engine", f"{g('rate') / e:.2f} x", g("rate") >= e if fine(e) else None)
+    line("batch 2048 no slower than the XLA engine", "removed: docs/engine-history.md", None)
     line("batch 2048 >= 40 x MuJoCo's C rollout loop", f"{g('rate') / g('rate_mujoco_c'):.1f} x",
          g("rate") >= 40 * g("rate_mujoco_c"))
     if "growth_ratio" in r:
@@ -369,47 +319,38 @@ def main() -> None:
     ap.add_argument("--mujoco-seconds", type=float, default=2.0,
                     help="seconds of the MuJoCo + NumPy route's workers (0 skips it)")
     ap.add_argument("--seed", type=int, default=None, help="the never-seen chains' seed (default: a new one)")
-    ap.add_argument("--no-xla", action="store_true", help="leave out the XLA engine (sim.rollout) reference")
     ap.add_argument("--no-cli", action="store_true", help="leave out the CLI's first calls")
     ap.add_argument("--no-build", action="store_true", help="leave out the kernel's build")
-    ap.add_argument("--agreement", action="store_true", help="also the final states against the XLA engine's")
     ap.add_argument("--replay", action="store_true", help="also a 6 s replay through sim.rollout, fresh processes")
     a = ap.parse_args()
     t0 = time.perf_counter()
-    os.environ["SANLAB_NO_COMPILE_CACHE"] = "1"  # the engine's reference: nothing of it from disk
-    xla = not a.no_xla
     seed = secrets.randbelow(10**6) if a.seed is None else a.seed
 
-    import sanlab
-
-    sanlab.configure()
     from sanlab import creature
 
     spec = creature.load("bounder")
     r: dict = {}
     if not a.no_build:
         r["build_s"] = build()
-    r.update(first_calls(seed, xla))
+    r.update(first_calls(seed))
     if not a.no_cli:
         r.update(cli(seed))
-    r.update(latency(spec, a.steps, a.repeats, xla))
-    r.update(throughput(spec, a.batch, a.batch_steps, a.repeats, xla, a.mujoco_seconds))
+    r.update(latency(spec, a.steps, a.repeats))
+    r.update(throughput(spec, a.batch, a.batch_steps, a.repeats, a.mujoco_seconds))
     if a.growth:
         r.update(growth([int(n) for n in a.growth.split(",")], a.growth_batch, a.growth_steps, a.repeats))
     r.update(mixed(spec, a.batch, a.batch_steps, a.repeats))
-    print("GPU: unmeasured (the kernel has no GPU twin yet; benchmarks/gpu.py times the XLA engine on one)")
-    if a.agreement and xla:
-        agreement(spec)
+    print("GPU: unmeasured (the kernel has no GPU twin yet)")
     replay_s = replay() if a.replay else NAN
     goals(r)
     print(f"({time.perf_counter() - t0:.0f} s)")
     g = lambda k: r.get(k, NAN)
     summary = dict(
         build_s=g("build_s"), first_s=g("first_s"), first_vs_second=g("first16_s") / g("first16_second_s"),
-        first_xla_vs_kernel=g("first_xla_s") / g("first_s"), search_first_s=g("search_first_s"),
+        search_first_s=g("search_first_s"),
         search_first_vs_second=g("search_first_s") / g("search_second_s"), check_simulate_s=g("check_first_s"),
-        b32_us=g("b32_us"), b32_vs_xla=g("b32_xla_us") / g("b32_us"), b1_vs_mujoco=g("b1_mujoco_us") / g("b1_us"),
-        steps_per_s=g("rate"), vs_xla=g("rate") / g("rate_xla"), vs_mujoco_c_loop=g("rate") / g("rate_mujoco_c"),
+        b32_us=g("b32_us"), b1_vs_mujoco=g("b1_mujoco_us") / g("b1_us"),
+        steps_per_s=g("rate"), vs_mujoco_c_loop=g("rate") / g("rate_mujoco_c"),
         vs_mujoco=g("rate") / g("rate_mujoco_numpy"), growth_ratio=g("growth_ratio"),
         growth_vs_mujoco_min=g("growth_min_vs_mujoco"), mixed_ratio=g("mixed_ratio"), replay_warm_s=replay_s,
     )

@@ -35,9 +35,6 @@ def main() -> None:
     ap.add_argument("--members", type=int, default=8)
     args = ap.parse_args()
 
-    import sanlab
-
-    sanlab.configure()
     from search_backends import timed_search
 
     from sanlab.evaluate import describe_devices

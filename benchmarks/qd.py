@@ -71,9 +71,6 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
 
-    import sanlab
-
-    sanlab.configure()
     from sanlab.library import Library
     from sanlab.search.base import Grid
 

@@ -56,9 +56,6 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
 
-    import sanlab
-
-    sanlab.configure()
     import ray
 
     from sanlab.evaluate import describe_devices, make_backend

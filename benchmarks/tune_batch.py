@@ -52,9 +52,6 @@ def main() -> None:
     ap.add_argument("--batches", default="8,32,128")
     args = ap.parse_args()
 
-    import sanlab
-
-    sanlab.configure()
     from sanlab.creature import read_source
     from sanlab.evaluate import describe_devices
     from sanlab.library import Library

@@ -81,21 +81,17 @@ class Designs:
         self.models = models
 
     def batch(self, thetas: np.ndarray, model):
-        import jax
-        import jax.numpy as jnp
+        import dataclasses
 
         from sanlab.san import San
 
         rows = [self.models[int(t[0])] for t in thetas]
-        leaves = [jax.tree_util.tree_leaves(r.params) for r in rows]
-        stacked = [jnp.asarray(np.stack([np.asarray(x[k]) for x in leaves]), model.dtype)
-                   for k in range(len(leaves[0]))]
-        params = jax.tree_util.tree_unflatten(jax.tree_util.tree_structure(model.params), stacked)
-        base = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (len(rows),) + x.shape), model)
+        stacked = {f.name: np.stack([np.asarray(getattr(r.params, f.name), model.dtype) for r in rows])
+                   for f in dataclasses.fields(model.params)}
         nodes = San.for_creature(model.spec).n_nodes
         on = np.array([[r.spec.san.delay_on] * nodes for r in rows])
         off = np.array([[r.spec.san.delay_off] * nodes for r in rows])
-        return 1 / on, -1 / off, base.with_params(**{f: getattr(params, f) for f in params.__dataclass_fields__})
+        return 1 / on, -1 / off, model.with_params(**stacked)
 
 
 def compile_all(texts: Sequence[str], template) -> list:
@@ -178,9 +174,6 @@ def main(design: Design, argv: list[str] | None = None, *, screen: int = 8, conf
     ap.add_argument("--seeds", default="1,2", help="--validate: the seeds of the fresh random SANs")
     ap.add_argument("--write", type=Path, help="write the best candidate so far as a creature file and stop")
     a = ap.parse_args(argv)
-    from sanlab import configure
-
-    configure()
     done = load_results(a.out)
     if a.validate:
         validate(design, a, done)

@@ -7,25 +7,9 @@ __version__ = "0.1.0"
 
 
 def configure() -> None:
-    """Set up JAX for sanlab in this process; the one place that changes global JAX settings.
+    """Does nothing; kept so that scripts and notebooks that call it keep working.
 
-    Idempotent. It must run before JAX creates its CPU backend (the first array or ``jax.devices()``
-    call) for the device split to apply. It:
-
-    - splits the host into one XLA device per available core (``XLA_FLAGS``
-      ``--xla_force_host_platform_device_count``, unless the variable already sets it), so that a
-      batch is sharded over every core instead of running on one;
-    - turns on ``jax_enable_x64``, so that ``dtype="float64"`` models really are float64 (float32
-      models stay float32: every array sanlab builds is given its dtype);
-    - points JAX's persistent compilation cache at :func:`sanlab._jax.cache_dir` (``SANLAB_CACHE``
-      moves it, ``SANLAB_NO_COMPILE_CACHE=1`` turns it off);
-    - imports JAX with SIGINT and SIGTERM held back, and delivers one that came once the import
-      is done (a KeyboardInterrupt raised inside jaxlib's native initialisation aborts Python).
-
-    Importing sanlab or any of its modules changes none of this. The CLI calls it at the start of
-    every command that simulates; ``sim.compile_creature`` calls it too, so a library user's first
-    compiled creature configures the process if nothing did before.
+    Until issue 46 this set up JAX for the XLA engine (one XLA device per core, float64, the
+    persistent compilation cache). The simulator is now one compiled kernel that needs no set-up
+    (``sanlab.sim``), and sanlab no longer uses JAX.
     """
-    from sanlab import _jax
-
-    _jax.configure()

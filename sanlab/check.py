@@ -28,7 +28,7 @@ each of these is reported in one line, as a warning when it looks wrong:
   :func:`at_rest` tells the same without simulating, where the start pose can tell.
 
 The ground's damping ratio is judged from the contact law N = max(0, k d - c v)
-(``sanlab.sim.dynamics``): the ground pushes and never pulls, so an overdamped contact (damping
+(``docs/simulator.md``, "Forces"): the ground pushes and never pulls, so an overdamped contact (damping
 ratio above 1: beyond critical for the mass each contact carries) only means that landings do
 not bounce, which is fine (it is what real ground does); an underdamped one rings down a
 little. Only the extremes are warnings: a ratio below 0.02 bounces, and one above 20 stops a

@@ -2,7 +2,7 @@
 "automatically discover many possible modes of locomotion", and §6.1's five cart gaits told
 apart by eye).
 
-Computed inside the compiled rollout by an observer (:class:`Descriptors`, beside the metric's),
+Computed inside the kernel's rollout by an observer (:class:`Descriptors`, beside the metric's),
 so no second replay is needed; ``sanlab.evaluate`` stores each evaluation's ensemble medians. With
 T the evaluation time and the creature's centre of mass (COM):
 
@@ -33,10 +33,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import jax.numpy as jnp
 import numpy as np
-
-from sanlab.sim.dynamics import centre_of_mass, terrain_height, wrap_angle
 
 EVENTS = 64  # sensor-word changes kept (the last ones of the run)
 DEBOUNCE_S = 0.02  # s: a sensor word shorter than this is contact chatter, not a change
@@ -97,51 +94,6 @@ class Descriptors:
         return DescriptorAcc(c["steps"], c["height"], c["height2"], c["turn"], c["angle"], c["airborne"], c["duty"],
                              c["joint_speed"], i(c["word"]), i(c["candidate"]), c["since"], i(c["words"]), c["times"],
                              i(c["changes"]))
-
-    def init(self, model, state):
-        z = jnp.zeros((), state.q.dtype)
-        i = jnp.zeros((), jnp.int32)
-        return DescriptorAcc(z, z, z, z, z, z, jnp.zeros((len(self.touch),), state.q.dtype), z, i - 1, i - 1, z,
-                             jnp.zeros((EVENTS,), jnp.int32), jnp.zeros((EVENTS,), state.q.dtype), i)
-
-    def update(self, model, acc: DescriptorAcc, state, fr, bits, u) -> DescriptorAcc:
-        st = model.structure
-        dtype = acc.height.dtype
-        one = jnp.ones((), dtype)
-        c, _ = centre_of_mass(model, fr)
-        if st.plane == "vertical":
-            y = c[1] - terrain_height(st, model.params, c[0])[0]
-            touching = [d > 0 for d in fr.depth]
-            air = jnp.logical_not(jnp.any(jnp.stack(touching))) if touching else jnp.ones((), bool)
-        else:
-            y, air = jnp.zeros((), dtype), jnp.zeros((), bool)
-        turn, angle = acc.turn, acc.angle
-        if self.root >= 0:
-            th = fr.th[self.root] + jnp.zeros((), dtype)
-            turn = turn + jnp.where(acc.steps > 0, wrap_angle(th - acc.angle), 0.0)
-            angle = th
-        js = acc.joint_speed
-        if self.joints:
-            js = js + jnp.mean(jnp.abs(jnp.stack([fr.qd[d] + jnp.zeros((), dtype) for d in self.joints])))
-        duty = acc.duty + bits[jnp.asarray(self.touch, jnp.int32)] if self.touch else acc.duty
-        word, cand, since = acc.word, acc.candidate, acc.since
-        words, times, changes = acc.words, acc.times, acc.changes
-        if 0 < self.n_sensors <= MAX_SENSORS:
-            bit = jnp.left_shift(jnp.ones((), jnp.int32), jnp.arange(self.n_sensors, dtype=jnp.int32))
-            w = jnp.sum(jnp.where(bits > 0.5, bit, jnp.zeros((), jnp.int32)), dtype=jnp.int32)
-            t = state.t + jnp.zeros((), dtype)
-            since = jnp.where(w == cand, since, t)
-            cand = w
-            # a contact that chatters (bounces for a few steps) is not the gait's rhythm: a word
-            # comes into force once it has lasted DEBOUNCE_S
-            new = (cand != word) & (t - since + model.params.dt >= DEBOUNCE_S)
-            slot = changes % EVENTS
-            words = words.at[slot].set(jnp.where(new, cand, words[slot]))
-            times = times.at[slot].set(jnp.where(new, since, times[slot]))
-            changes = changes + new.astype(jnp.int32)
-            word = jnp.where(new, cand, word)
-        return DescriptorAcc(acc.steps + one, acc.height + y, acc.height2 + y * y, turn, angle,
-                             acc.airborne + air.astype(dtype), duty, js, word, cand, since, words, times, changes)
 
 
 def values(obs: Descriptors, acc: DescriptorAcc, dx_m, seconds: float) -> tuple[dict[str, np.ndarray], list]:

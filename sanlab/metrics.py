@@ -1,4 +1,4 @@
-"""Evaluation metrics (paper §5.1), computed inside the compiled rollout as an observer.
+"""Evaluation metrics (paper §5.1), accumulated inside the kernel's rollout as an observer.
 
 Positions are those of the creature's centre of mass (COM), so a score does not depend on where
 a link's frame happens to sit. With T the evaluation time, p the COM and d the displacement
@@ -32,12 +32,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import jax.numpy as jnp
 import numpy as np
 
 from sanlab.creature import geometry
 from sanlab.creature.spec import MAX_PENETRATION, METRICS, PENETRATION_FRACTION
-from sanlab.sim.dynamics import centre_of_mass, follow_point, poses, terrain_height, wrap_angle
 
 
 class MetricAcc(NamedTuple):
@@ -101,46 +99,6 @@ class Metric:
         """The accumulator from the kernel's columns (``sanlab.sim.rollout.columns``)."""
         return MetricAcc((c["p0x"], c["p0y"]), c["y0"], c["hop"], c["pursuit"], c["fell"] > 0, (c["px"], c["py"]),
                          np.maximum(c["deepest"], 0.0))
-
-    def init(self, model, state):
-        p = _com(model, state)
-        z = jnp.zeros((), state.q.dtype)
-        return MetricAcc(p, p[1], z, z, jnp.zeros((), bool), p, z)
-
-    def update(self, model, acc: MetricAcc, state, fr, bits, u) -> MetricAcc:
-        dt = model.params.dt
-        hop, pursuit, fell = acc.hop, acc.pursuit, acc.fell
-        st = model.structure
-        for i in self.fell_links:
-            fell = fell | (jnp.abs(wrap_angle(fr.th[i])) > self.fell_angle)
-            if self.fell_link_height is not None and st.plane == "vertical":
-                c = fr.com[i]
-                fell = fell | (c[1] - terrain_height(st, model.params, c[0])[0] < self.fell_link_height)
-        p, v = centre_of_mass(model, fr)
-        if self.fell_com_height is not None and st.plane == "vertical":
-            fell = fell | (p[1] - terrain_height(st, model.params, p[0])[0] < self.fell_com_height)
-        if self.kind in ("hopping", "pursuit"):
-            if self.kind == "hopping":
-                hop = hop + jnp.maximum(p[1] - acc.y0, 0.0) ** 2 * dt
-            else:
-                f = follow_point(model, state.t)
-                dx, dy = f[0] - p[0], f[1] - p[1]
-                inv = 1.0 / jnp.maximum(jnp.sqrt(dx * dx + dy * dy), 1e-9)
-                pursuit = pursuit + (v[0] * dx + v[1] * dy) * inv * dt
-        deepest = acc.deepest
-        if self.max_depth is not None and fr.depth:
-            deepest = jnp.maximum(deepest, jnp.max(jnp.stack([d + jnp.zeros((), deepest.dtype) for d in fr.depth])))
-        return acc._replace(hop=hop, pursuit=pursuit, fell=fell, deepest=deepest)
-
-    def finish(self, model, acc: MetricAcc, state) -> MetricAcc:
-        return acc._replace(p=_com(model, state))
-
-
-def _com(model, state) -> tuple:
-    """Centre of mass (x, y) of a state from its positions alone: no velocity solve (outside the
-    step's loop it would be unfenced, and XLA's fusion can blow such a solve up)."""
-    c = poses(model, state.q)["com"]
-    return (c[0], c[1])
 
 
 def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -> dict[str, np.ndarray]:

@@ -16,14 +16,9 @@ import re
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-from sanlab.sim.state import SanState
-
 WEIGHT_MIN, WEIGHT_MAX = -2, 2
-MAX_PACKED_INPUTS = 31  # inputs packed into one int32 for the popcount sum
 # ASCII digits only (``\d`` matches other scripts' digits too), at most 9 each: sizes, not numbers
 _ENCODING = re.compile(r"san1-([0-9]{1,9})-([0-9]{1,9})-([0-9]{1,9})-([A-Za-z0-9_-]+)")
 
@@ -39,7 +34,7 @@ class SanParams(NamedTuple):
 @dataclass(frozen=True)
 class San:
     """The SAN as a simulator controller (see ``sanlab.sim.rollout``): the kernel runs it (kind
-    "san"); ``init`` and ``apply`` are its JAX form, for the XLA reference engine (``sim.xla``)."""
+    "san"); :meth:`step` is the same step in NumPy."""
 
     kind = "san"
     n_sensors: int
@@ -75,7 +70,7 @@ class San:
         batch = w.shape[:-2]
         k1 = np.broadcast_to(1.0 / np.asarray(delay_on, float), batch + (self.n_nodes,))
         k2 = np.broadcast_to(-1.0 / np.asarray(delay_off, float), batch + (self.n_nodes,))
-        return SanParams(jnp.asarray(w, dtype), jnp.asarray(k1, dtype), jnp.asarray(k2, dtype))
+        return SanParams(np.asarray(w, dtype), np.asarray(k1, dtype), np.asarray(k2, dtype))
 
     # ---- encoding: the paper's "240 weights that can take on 5 values ... in 70 bytes" ----
 
@@ -127,43 +122,19 @@ class San:
         b64 = m.group(4)
         return self.unpack(base64.urlsafe_b64decode(b64 + "=" * (-len(b64) % 4)))
 
-    def init(self, params: SanParams, model) -> SanState:
-        z = jnp.zeros((self.n_nodes,), params.k1.dtype)
-        planes = bit_planes(params.weights) if self.n_inputs <= MAX_PACKED_INPUTS else None
-        return SanState(z, z, planes)
-
-    def apply(self, params: SanParams, s: SanState, bits, dt):
-        # Every input is binary, so sum_i w_i x_i = sum_k 2^k popcount(x & plane_k) - 2 popcount(x)
-        # with x the inputs packed into one integer and plane_k bit k of (w + 2) per input:
-        # ~40 integer operations per node instead of a 20-wide float dot product per node.
-        p = s.planes
-        if p is None:
-            x = jnp.concatenate([bits.astype(params.k1.dtype), s.out])
-            total = jnp.sum(params.weights * x[None, :], axis=1)
-        else:
-            if self.n_inputs <= 24:
-                # x as two float32 dot products: every partial sum is a sum of distinct powers of
-                # two below 2^24, so exact, and XLA's CPU backend runs a dot faster than the
-                # integer reduction below (bounder: 3 % of a step; bit-identical results)
-                w = jnp.asarray(np.exp2(np.arange(self.n_inputs)), jnp.float32)
-                dot = lambda a, b: jnp.dot(a.astype(jnp.float32), b, precision=jax.lax.Precision.HIGHEST)
-                x = (dot(bits, w[: self.n_sensors]) + dot(s.out, w[self.n_sensors :])).astype(jnp.int32)
-            else:
-                inputs = jnp.concatenate([bits.astype(jnp.int32), s.out.astype(jnp.int32)])
-                x = jnp.sum(inputs << jnp.arange(self.n_inputs, dtype=jnp.int32))
-            pc = jax.lax.population_count
-            total = pc(x & p[0]) + 2 * pc(x & p[1]) + 4 * pc(x & p[2]) - 2 * pc(x)
-            total = total.astype(params.k1.dtype)
-        istate = jnp.clip(s.istate + jnp.where(total > 0, params.k1, params.k2) * dt, 0.0, 1.0)
-        out = jnp.where((s.out == 1) & (istate == 0.0), 0.0, s.out)
-        out = jnp.where((out == 0) & (istate == 1.0), 1.0, out)
-        u = (jnp.clip(total[self.n_hidden :], -2.0, 2.0) + 2.0) * 0.25
-        return SanState(istate, out, p), u
-
-
-def bit_planes(weights) -> Any:
-    """[N, I] integer weights in [-2, 2] -> [3, N] int32: bit k of (w + 2) for each input i at
-    bit position i. Needs I <= 31."""
-    w = jnp.round(weights).astype(jnp.int32) + 2
-    shifts = jnp.arange(w.shape[-1], dtype=jnp.int32)
-    return jnp.stack([jnp.sum(((w >> k) & 1) << shifts, axis=-1) for k in range(3)])
+    def step(self, params: SanParams, istate, out, bits, dt) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One step of Figure 7's node dynamics in NumPy, with the kernel's arithmetic (float64):
+        node states ``istate`` and binary outputs ``out`` [..., N], sensor values ``bits``
+        [..., S] (0/1), the step ``dt`` (s) -> (istate, out, activations u [..., A] in [0, 1]).
+        ``params`` as for the kernel: weights [..., N, I], rates k1, k2 [..., N]. The sums are
+        of integers, exact in any order, so this is the kernel's SAN bit for bit (the Gymnasium
+        policy steps with it)."""
+        w = np.asarray(params.weights, np.float64)
+        x = np.concatenate([np.asarray(bits, np.float64), np.asarray(out, np.float64)], -1)
+        total = np.einsum("...ni,...i->...n", w, x)
+        k1, k2 = (np.asarray(k, np.float64) for k in (params.k1, params.k2))
+        istate = np.clip(np.asarray(istate, np.float64) + np.where(total > 0, k1, k2) * dt, 0.0, 1.0)
+        o = np.asarray(out, np.float64)
+        o = np.where((o == 1.0) & (istate == 0.0), 0.0, o)
+        o = np.where((o == 0.0) & (istate == 1.0), 1.0, o)
+        return istate, o, (np.clip(total[..., self.n_hidden:], -2.0, 2.0) + 2.0) * 0.25

@@ -1,68 +1,127 @@
 """Behaviour descriptors (sanlab.descriptors) on hand-made trajectories whose values are known,
-then through the evaluator and the library."""
+then through the evaluator and the library.
+
+The kernel accumulates the descriptors inside its rollout (``sanlab/sim/_kernel``); its inputs
+cannot be made by hand, so :class:`Reference` does the same accumulation in NumPy, as the
+module docstring of ``sanlab.descriptors`` defines it, on hand-made trajectories, and one test
+holds it to the kernel: fed the kernel's own recorded frames, it gives the kernel's accumulators.
+"""
 
 from __future__ import annotations
 
 import math
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from sanlab import creature, descriptors, sim
-from sanlab.creature.spec import Creature, Ground, Link, Shape, World
 from sanlab.descriptors import EVENTS, Descriptors, cycle, values
 from sanlab.evaluate import Evaluator
 from sanlab.evaluate.ensemble import default_ensemble, search_key
-from sanlab.sim.dynamics import Frame, State
+from sanlab.sim import wrap_angle
 
 G = 9.81
 
 
-def _disc_model():
-    r = 0.1
-    pts = tuple((r * math.cos(2 * math.pi * k / 8), r * math.sin(2 * math.pi * k / 8)) for k in range(8))
-    link = Link("disc", 1.0, 0.5 * r * r, (0.0, 0.0), Shape("polygon", pts), contacts=pts, position=(0.0, r))
-    return sim.compile_creature(Creature("disc", (link,), world=World(ground=Ground())), "float64")
+class Reference:
+    """The descriptors' accumulation (what the kernel does before each step), in NumPy over rows."""
 
+    def __init__(self, obs: Descriptors, rows: int, dt: float):
+        self.obs, self.dt = obs, dt
+        z = lambda: np.zeros(rows)
+        self.steps, self.height, self.height2, self.turn, self.angle, self.airborne, self.joint_speed = (z() for _ in range(7))
+        self.duty = np.zeros((rows, len(obs.touch)))
+        self.word, self.candidate, self.changes = (np.full(rows, -1), np.full(rows, -1), np.zeros(rows, int))
+        self.since = z()
+        self.words, self.times = np.zeros((rows, EVENTS), int), np.zeros((rows, EVENTS))
 
-MODEL = None
+    def update(self, t, y, air, th, joint_rates, bits) -> None:
+        """One step's inputs, each [rows] (joint_rates [rows, J], bits [rows, S]): time (s), the
+        COM's height above the ground under it (m), no contact touching, the root's angle (rad)."""
+        o = self.obs
+        if o.root >= 0:
+            self.turn = self.turn + np.where(self.steps > 0, wrap_angle(th - self.angle), 0.0)
+            self.angle = th
+        if o.joints:
+            self.joint_speed = self.joint_speed + np.mean(np.abs(joint_rates), axis=1)
+        if o.touch:
+            self.duty = self.duty + bits[:, list(o.touch)]
+        if 0 < o.n_sensors <= descriptors.MAX_SENSORS:
+            w = np.sum(np.where(bits > 0.5, 1 << np.arange(o.n_sensors), 0), axis=1)
+            self.since = np.where(w == self.candidate, self.since, t)
+            self.candidate = w
+            # a word comes into force once it has lasted DEBOUNCE_S
+            new = (w != self.word) & (t - self.since + self.dt >= descriptors.DEBOUNCE_S)
+            rows, slot = np.flatnonzero(new), self.changes[new] % EVENTS
+            self.words[rows, slot], self.times[rows, slot] = w[new], self.since[new]
+            self.changes = self.changes + new
+            self.word = np.where(new, w, self.word)
+        self.steps = self.steps + 1
+        self.height, self.height2 = self.height + y, self.height2 + y * y
+        self.airborne = self.airborne + air
 
-
-def model():
-    global MODEL
-    if MODEL is None:
-        MODEL = _disc_model()
-    return MODEL
+    def acc(self) -> descriptors.DescriptorAcc:
+        return descriptors.DescriptorAcc(self.steps, self.height, self.height2, self.turn, self.angle, self.airborne,
+                                         self.duty, self.joint_speed, self.word, self.candidate, self.since, self.words,
+                                         self.times, self.changes)
 
 
 def observe(obs: Descriptors, seconds: float, dt: float, path) -> tuple[dict, str | None]:
-    """Run the observer over a hand-made trajectory: ``path(t)`` -> (x, y, angle, rate, joint
-    rates [J], touching (bool), bits [S]) of the one body, sampled every ``dt``."""
-    m = model()
-    C = len(m.structure.contacts)
-
-    @jax.jit
-    def update(acc, t, x, y, th, w, joints, touching, bits):
-        z = jnp.zeros((), jnp.float64)
-        fr = Frame(X=[(x, y)], V=[(z, z)], cs=[(jnp.cos(th), jnp.sin(th))], th=[th], w=[w], cp=[], cv=[],
-                   depth=[jnp.where(touching, 1e-3, -1e-3)] * C, terrain=[], qd=[joints[j] for j in range(joints.shape[0])],
-                   com=[(x, y)])
-        state = State(q=jnp.zeros(3), qd=jnp.zeros(3), t=t, p=jnp.zeros(3), anchor=jnp.zeros((C, 2)))
-        return obs.update(m, acc, state, fr, bits, None)
-
-    acc = obs.init(m, sim.initial_state(m))
+    """Run the accumulation over a hand-made trajectory: ``path(t)`` -> (x, y, angle, rate, joint
+    rates [J], touching (bool), bits [S]) of one body on flat ground, sampled every ``dt``."""
+    ref = Reference(obs, 1, dt)
     n = int(round(seconds / dt))
     x0 = path(0.0)[0]
     for k in range(n):
         t = k * dt
         x, y, th, w, joints, touching, bits = path(t)
-        acc = update(acc, jnp.float64(t), jnp.float64(x), jnp.float64(y), jnp.float64(th), jnp.float64(w),
-                     jnp.asarray(joints, jnp.float64), jnp.asarray(touching), jnp.asarray(bits, jnp.float64))
-    batched = jax.tree_util.tree_map(lambda a: np.asarray(a)[None], acc)
-    d, sig = values(obs, batched, np.array([path(seconds)[0] - x0]), seconds)
+        ref.update(np.array([t]), np.array([y]), np.array([not touching]), np.array([th]),
+                   np.asarray(joints, float).reshape(1, -1), np.asarray(bits, float).reshape(1, -1))
+    d, sig = values(obs, ref.acc(), np.array([path(seconds)[0] - x0]), seconds)
     return {k: v[0] for k, v in d.items()}, sig[0]
+
+
+@pytest.mark.parametrize("name", ["bounder", "walker", "crawler"])
+def test_the_kernel_accumulates_what_the_reference_does(name):
+    # the reference fed the kernel's recorded frames (every step) and the inspectors' poses of
+    # them: the kernel's descriptor accumulators, the sensor words exactly
+    from sanlab.engine_report import random_san_params
+    from sanlab.metrics import Metric
+    from sanlab.sim import kernel
+    from tests.sim.test_kernel import observe_of
+
+    spec = creature.load(name)
+    m = sim.compile_creature(spec)
+    obs = Descriptors.for_creature(m)
+    B, T = 8, 1500
+    san, sp = random_san_params(spec, B, 2)
+    pk = kernel.pack(m, san.n_hidden)
+    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=False)
+    N = san.n_nodes
+    k = kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N)),
+                       T, every=1, observe=observe_of(Metric.for_creature(spec), obs))
+    dt = float(spec.dt)
+    ref, t = Reference(obs, B, dt), np.zeros(B)
+    vertical = m.structure.plane == "vertical"
+    for n in range(T):
+        po = kernel.poses(pk, k["frames_q"][:, n])
+        c = po["com"]
+        y = c[:, 1] - sim.terrain_height(m, c[:, 0])[0] if vertical else np.zeros(B)
+        air = ~np.any(po["depth"] > 0, axis=1) if vertical else np.zeros(B, bool)
+        th = po["links"][:, max(obs.root, 0), 2]
+        ref.update(t, y, air, th, k["frames_qd"][:, n, list(obs.joints)], k["frames_bits"][:, n])
+        t = t + dt
+    got = dict(zip(kernel.ACC, k["acc"].T))
+    close = lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9)
+    for f in ("steps", "height", "height2", "turn", "angle", "airborne", "joint_speed", "since"):
+        close(getattr(ref, f), got[f])
+    for f in ("word", "candidate", "changes"):
+        assert np.array_equal(getattr(ref, f), got[f].astype(int)), f
+    nt = len(obs.touch)
+    close(ref.duty, k["acc"][:, len(kernel.ACC):len(kernel.ACC) + nt])
+    words = k["acc"][:, len(kernel.ACC) + nt:len(kernel.ACC) + nt + EVENTS]
+    assert np.array_equal(ref.words, words.astype(int))
+    assert ref.changes.max() > 3  # the sensor words changed
 
 
 def test_a_rolling_disc_turns_once_per_circumference_travelled():

@@ -2,7 +2,7 @@
 
 Layers, lowest first (a module may import from its own layer and the ones below):
 
-    base              sanlab (the package: __version__, configure) and sanlab._jax
+    base              sanlab (the package: __version__, configure)
     creature          the spec and the file format
     sim               compile, step, roll out
     san, metrics      controllers and observers of a rollout (metrics, descriptors); interop (MJCF export) sits here too,
@@ -37,7 +37,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "sanlab"
 # (layer, {group: module prefixes}), lowest first; a layer of several groups keeps them apart
 # only where SIDE_BY_SIDE says so.
 LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
-    ("base", {"base": ("sanlab", "sanlab._jax")}),
+    ("base", {"base": ("sanlab",)}),
     ("creature", {"creature": ("sanlab.creature",)}),
     ("sim", {"sim": ("sanlab.sim",)}),
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics", "sanlab.descriptors"), "interop": ("sanlab.interop",)}),

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -24,10 +23,10 @@ def box(name="box", w=0.4, h=0.1, m=2.0, **kw):
 def evaluate(spec, kind, qd0=None, q0=None, seconds=1.0):
     m = sim.compile_creature(spec, "float64")
     metric = Metric.for_creature(spec, kind)
-    q = m.params.q0 if q0 is None else jnp.asarray(q0, jnp.float64)
-    qd = jnp.zeros_like(q) if qd0 is None else jnp.asarray(qd0, jnp.float64)
+    q = m.params.q0 if q0 is None else np.asarray(q0, np.float64)
+    qd = np.zeros_like(q) if qd0 is None else np.asarray(qd0, np.float64)
     s0 = sim.make_state(m, q, qd)
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((1, 0)), seconds, observer=metric, state0=s0)
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((1, 0)), seconds, observer=metric, state0=s0)
     return {k: v[0] for k, v in scores(metric, r.acc, r.finite, seconds, spec.world.plane).items()}
 
 
@@ -88,10 +87,10 @@ def test_a_run_that_blows_up_scores_zero_and_is_flagged():
     spec = resting_box()
     m = sim.compile_creature(spec)
     metric = Metric.for_creature(spec, "distance")
-    q = jnp.stack([m.params.q0, m.params.q0])
-    qd = jnp.array([[1.0, 0.0, 0.0], [jnp.nan, 0.0, 0.0]], jnp.float32)
+    q = np.stack([m.params.q0, m.params.q0])
+    qd = np.array([[1.0, 0.0, 0.0], [np.nan, 0.0, 0.0]], np.float32)
     s0 = sim.make_state(m, q, qd)
-    r = sim.rollout(m, sim.ConstantController(), jnp.zeros((2, 0)), 0.5, observer=metric, state0=s0)
+    r = sim.rollout(m, sim.ConstantController(), np.zeros((2, 0)), 0.5, observer=metric, state0=s0)
     out = scores(metric, r.acc, r.finite, 0.5, "vertical")
     assert list(out["nonfinite"]) == [False, True]
     assert out["score"][1] == 0.0 and out["score"][0] > 0

@@ -53,10 +53,8 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
 def test_reproduce_resumes_from_the_library(tmp_path):
     """A second call reuses every stored search, tuning run, audit and selection; an interrupted tuning run
     continues instead of starting again."""
-    import sanlab
     from sanlab.reproduce import reproduce
 
-    sanlab.configure()
     def call(lib: Library, controllers: int = 8) -> list[str]:
         return _rows(reproduce(lib, ["twolink"], seed=2, controllers=controllers, trials=8, ensemble=1,
                                log=lambda s: None, top=1))["twolink"]
@@ -154,10 +152,8 @@ def test_parse_seeds_rejects(text):
 
 @pytest.mark.slow  # two seeds of phase 1 and two chains of phase 2 each
 def test_reproduce_over_seeds_spreads_phase_two_over_the_top_gaits(tmp_path):
-    import sanlab
     from sanlab.reproduce import reproduce
 
-    sanlab.configure()
     with Library(str(tmp_path / "s.db")) as lib:
         def call():
             return reproduce(lib, ["twolink"], seeds=[0, 1], controllers=6, trials=9, ensemble=1, audit=False,
@@ -239,10 +235,8 @@ def test_reproduce_refuses_a_malformed_ledger_before_any_run(tmp_path):
 def test_a_table_made_in_pieces_is_the_table_made_at_once(tmp_path):
     """Rows in the ledger are taken from it without the library: a second call on an empty
     library runs nothing and writes the same tables; the bounder's §6.2 section travels too."""
-    import sanlab
     from sanlab.reproduce import reproduce
 
-    sanlab.configure()
     ledger = tmp_path / "rows.jsonl"
     kw = dict(controllers=6, trials=4, ensemble=1, audit=False, top=1, log=lambda s: None, ledger=ledger)
     with Library(str(tmp_path / "a.db")) as lib:

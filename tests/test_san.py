@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -36,13 +34,13 @@ def figure7(weights, k1, k2, sensor_seq, n_hidden):
 
 
 def run_san(san, params, sensor_seq):
-    step = jax.jit(san.apply)
-    s = san.init(params, None)
+    """``San.step`` over a sequence of sensor values from rest: (u [T, A], out [T, N])."""
+    istate = out = np.zeros(san.n_nodes)
     us, outs = [], []
     for bits in sensor_seq:
-        s, u = step(params, s, jnp.asarray(bits, jnp.float64), DT)
-        us.append(np.asarray(u))
-        outs.append(np.asarray(s.out))
+        istate, out, u = san.step(params, istate, out, np.asarray(bits, np.float64), DT)
+        us.append(u)
+        outs.append(out)
     return np.array(us), np.array(outs)
 
 
@@ -85,7 +83,7 @@ def test_network_matches_figure_7_transcription():
         w = san.random_weights(seed=trial, index=0)
         k1 = rng.uniform(7, 14, san.n_nodes)
         k2 = -rng.uniform(7, 14, san.n_nodes)
-        p = SanParams(jnp.asarray(w, jnp.float64), jnp.asarray(k1), jnp.asarray(k2))
+        p = SanParams(np.asarray(w, np.float64), np.asarray(k1), np.asarray(k2))
         seq = rng.integers(0, 2, (400, san.n_sensors))
         seq[100:200] = 1  # held inputs let the delays play out
         u, _ = run_san(san, p, seq.tolist())
@@ -94,35 +92,39 @@ def test_network_matches_figure_7_transcription():
         assert len(np.unique(u)) > 2  # the actuators really move
 
 
-@pytest.mark.parametrize("sizes", [(8, 8, 4), (12, 10, 4)], ids=["20 inputs (dot)", "26 inputs (integer sum)"])
-def test_packed_popcount_sum_equals_the_dot_product(sizes):
-    S, H, A = sizes
-    san = San(S, H, A)
-    N = H + A
-    w = np.stack([san.random_weights(0, i) for i in range(50)])
-    bits = np.random.default_rng(1).integers(0, 2, (50, S)).astype(np.float32)
-    out = np.random.default_rng(2).integers(0, 2, (50, N)).astype(np.float32)
-    p = san.params(w, 0.1, 0.1)
-    for b in range(50):
-        pb = jax.tree_util.tree_map(lambda x: x[b], p)
-        s = san.init(pb, None)._replace(out=jnp.asarray(out[b]), istate=jnp.full(N, 0.5, jnp.float32))
-        s2, u = san.apply(pb, s, jnp.asarray(bits[b]), DT)
-        total = w[b].astype(float) @ np.concatenate([bits[b], out[b]])
-        np.testing.assert_array_equal(np.asarray(u), (np.clip(total, -2, 2)[H:] + 2) / 4)
-        # every node's sum, hidden ones too, decides which way its state moves
-        np.testing.assert_array_equal(np.asarray(s2.istate) > 0.5, total > 0)
+def test_the_kernels_san_is_this_step_bit_for_bit():
+    # the kernel's SAN (kernel.run_san, recorded every step) against San.step fed the sensor
+    # values the kernel recorded: the same node states, outputs and activations, bit for bit
+    from sanlab import sim
+    from sanlab.engine_report import random_san_params
+    from sanlab.sim import kernel
+
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec)
+    san, sp = random_san_params(spec, 8, 3)
+    B, N, T = 8, san.n_nodes, 600
+    pk = kernel.pack(m, san.n_hidden)
+    q, anchor = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], B, 0), seat=False)
+    k = kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, np.zeros_like(q), anchor, np.zeros((B, N)), np.zeros((B, N)),
+                       T, every=1)
+    istate = out = np.zeros((B, N))
+    dt = float(spec.dt)
+    for n in range(T):  # a frame: the network's state as the step begins, its sensors and its activations
+        assert np.array_equal(out, k["frames_out"][:, n]) and np.array_equal(istate, k["frames_istate"][:, n]), n
+        istate, out, u = san.step(sp, istate, out, k["frames_bits"][:, n], dt)
+        assert np.array_equal(u, k["frames_u"][:, n]), n
+    assert np.array_equal(out, k["out"]) and np.array_equal(istate, k["istate"])
+    assert len(np.unique(k["frames_u"])) > 2 and np.ptp(k["frames_out"], axis=1).max() == 1  # the networks switched
 
 
-def test_too_many_inputs_fall_back_to_the_float_sum():
-    san = San(20, 10, 3)  # 33 inputs do not fit one int32
+def test_a_network_of_any_size_sums_its_inputs():
+    san = San(20, 10, 3)  # 33 inputs
     w = san.random_weights(0, 0)
     p = san.params(w, 0.1, 0.1, "float64")
-    s = san.init(p, None)
-    assert s.planes is None
     bits = np.random.default_rng(0).integers(0, 2, 20).astype(float)
-    _, u = san.apply(p, s, jnp.asarray(bits), DT)
+    _, _, u = san.step(p, np.zeros(13), np.zeros(13), bits, DT)
     x = np.concatenate([bits, np.zeros(13)])
-    np.testing.assert_allclose(np.asarray(u), (np.clip(w.astype(float) @ x, -2, 2)[10:] + 2) / 4)
+    np.testing.assert_allclose(u, (np.clip(w.astype(float) @ x, -2, 2)[10:] + 2) / 4)
 
 
 @pytest.mark.parametrize("name", creature.builtin_names())

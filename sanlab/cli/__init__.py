@@ -4,8 +4,8 @@
 import), ``modes``, ``tune``, ``design``, ``audit``, ``reproduce``, ``render``, ``mjcf`` (import-mjcf, export-mjcf: MuJoCo
 models in and out), ``studio`` (the web studio, an optional extra);
 ``_common`` holds what they share (``fail``, the options, opening the library, the progress bar).
-Heavy imports (JAX, the drawing libraries, the web stack) stay inside the commands that need them,
-so that ``sanlab check`` starts fast; commands that simulate call :func:`sanlab.configure` first.
+Heavy imports (the simulator, the drawing libraries, the web stack) stay inside the commands that
+need them, so that ``sanlab check`` starts fast.
 Every command that reads the gait library refuses a missing ``--db`` file; only those that start
 runs (search, import, reproduce, studio) may create it.
 """
@@ -63,45 +63,12 @@ _pending: list[threading.Timer] = []
 
 
 def _interrupt(signum, frame) -> None:
-    """SIGINT and SIGTERM end a command as Ctrl-C does: stored work kept, a resume hint.
-
-    XLA compiles on a worker thread while the main thread waits in JAX's compiler; a
-    KeyboardInterrupt raised in that wait ended the process under the running compile, which then
-    touched the freed client (SIGSEGV, exit 139, no message), and waiting for the compile to end
-    kept a user waiting up to minutes (a 10-link creature's first compile). A signal landing
-    there ends the process at once, without Python's shutdown (which is what met the compile):
-    nothing is in flight during a compile, every finished batch or trial is already committed
-    (SQLite rolls back an open transaction), and output files appear whole or not at all."""
+    """SIGINT and SIGTERM end a command as Ctrl-C does: stored work kept, a resume hint. The
+    kernel is called a batch at a time, so the KeyboardInterrupt is raised between two calls:
+    every finished batch or trial is already committed (SQLite rolls back an open transaction),
+    and output files appear whole or not at all."""
     _last_signal[0] = signum
-    if _compiling(frame):
-        _exit_now("sanlab: interrupted while compiling; what was stored is kept "
-                  "(a search or tune goes on with --resume RUN)")
-        return  # not reached: _exit_now does not return
     raise KeyboardInterrupt
-
-
-def _exit_now(message: str, code: int = 130) -> None:
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    try:
-        os.write(2, (message + "\n").encode())
-    except OSError:
-        pass
-    os._exit(code)
-
-
-_COMPILER = os.path.join("jax", "_src", "compiler.py")
-
-
-def _compiling(frame) -> bool:
-    while frame is not None:
-        if frame.f_code.co_filename.endswith(_COMPILER):
-            return True
-        frame = frame.f_back
-    return False
 
 
 def _send_again_soon() -> None:
@@ -113,7 +80,7 @@ def _send_again_soon() -> None:
 
 def _redeliver_interrupts(hook):
     """``sys.unraisablehook`` for a command's lifetime. Python drops an exception raised inside a
-    garbage-collector callback (JAX registers one) or a ``__del__``: a signal that landed there
+    garbage-collector callback (a library may register one) or a ``__del__``: a signal that landed there
     would be lost and the command would run on. Such a KeyboardInterrupt is sent again a moment
     later, out of that context; anything else goes to ``hook``."""
 
@@ -199,13 +166,6 @@ def run() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         code = 130
-    if code == 130 and "jax" in sys.modules:
-        # Interrupted: what was done is committed and the resume hint printed. End here, not in
-        # the interpreter's shutdown, which can crash (SIGSEGV, exit 139) in JAX's native threads
-        # when the interrupt cut a first compile short.
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(130)
     sys.exit(code if isinstance(code, int) else 0)
 
 

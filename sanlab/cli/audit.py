@@ -10,7 +10,6 @@ import typer
 from rich import box
 from rich.table import Table
 
-from sanlab import configure
 from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record
 
 
@@ -48,7 +47,6 @@ def audit(
     the vectors that first reached the scores between) are audited, and the best-scoring robust
     one that is robust again on fresh draws (the start itself, when no tuned rung is) is stored
     as the run's gait RUN#1, the tuned result to quote."""
-    configure()
     from sanlab.audit import SELECT_TOP, audit_and_store
 
     if not math.isfinite(threshold):

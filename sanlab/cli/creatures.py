@@ -1,5 +1,5 @@
-"""``sanlab check`` and ``sanlab creatures``: validate and summarise creature files (no JAX,
-except ``check --simulate``, which drops the creature for two seconds: ``sanlab.check``)."""
+"""``sanlab check`` and ``sanlab creatures``: validate and summarise creature files (no
+simulator, except ``check --simulate``, which drops the creature for two seconds: ``sanlab.check``)."""
 
 from __future__ import annotations
 
@@ -50,16 +50,13 @@ def check(
         out |= _free(design)
     findings = []
     if simulate:
-        from sanlab import configure
-
-        configure()
         from sanlab.check import simulate as drop
 
         with console.status("compiling and dropping the creature...", spinner="dots") if not as_json \
                 else contextlib.nullcontext():
             findings = drop(c, dtype=dtype)
     else:
-        from sanlab.check import static  # no JAX: plain `check` stays fast
+        from sanlab.check import static  # no simulator: plain `check` stays fast
 
         findings = static(c)
     out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]

@@ -75,7 +75,6 @@ def design(
     Each body is scored as a Table 1 row: phase 1, a short phase 2 on its best SANs, the audited
     selection. The best bodies and the reference (the file's defaults) are scored again on other
     seeds; the chosen body is written as a creature file. Run it again to continue."""
-    from sanlab import configure
     from sanlab.creature import CreatureError, load_design, read_source
 
     check_count("--controllers", controllers)
@@ -97,7 +96,6 @@ def design(
     target = out if out is not None else Path(f"{spec.name}-design.toml")
     if render is not None and not render.lower().endswith(".png"):
         raise fail(f"design: --render: expected a .png file, got {render!r}")
-    configure()
     from sanlab.design import DesignSettings, run_design
 
     engine = backend_or_exit(backend, address, workers)

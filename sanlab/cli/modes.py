@@ -52,10 +52,6 @@ def modes(
 
     lib = open_library(db, readonly=True)
     run = library_call(lib.get_run, run_id)
-    if rescore:
-        from sanlab import configure
-
-        configure()
     try:
         found, threshold, missing = library_call(of_run, lib, run.run_id, min_score, min_cluster, rescore)
     except ValueError as e:

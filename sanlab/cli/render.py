@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from sanlab import configure
 from sanlab.cli._common import (
     DbOpt,
     JsonOpt,
@@ -177,8 +176,6 @@ def render(
             raise fail(f"--out {out}: expected a file to write, got an existing "
                        f"{'folder' if os.path.isdir(out) else 'FIFO, device or socket'}")
     lib = open_library(db, readonly=True)
-    if plot is None:
-        configure()  # before the replay's first JAX call
     try:
         if plot is not None:
             info = _render_plot(lib, target, plot, out)

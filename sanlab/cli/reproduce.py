@@ -7,7 +7,6 @@ from typing import Annotated
 
 import typer
 
-from sanlab import configure
 from sanlab.cli._common import (
     DbOpt,
     DtFactorsOpt,
@@ -54,7 +53,6 @@ def reproduce(
 
     Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped.
     With --ledger, finished rows are kept in a small file that travels without the library (a table made in pieces)."""
-    configure()
     from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run
 

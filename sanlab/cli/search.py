@@ -7,7 +7,6 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from sanlab import configure
 from sanlab.cli._common import (
     METRIC_HELP,
     AddressOpt,
@@ -81,11 +80,10 @@ def search(
     With --strategy map-elites, -n controllers are spent on a repertoire instead: the first tenth
     random, then mutants of the archive's elites, keeping the best gait of each cell of --grid."""
     check_dtype(dtype)
-    # The creature is read, and refused, before JAX is imported: a mistyped name is answered at once
+    # The creature is read, and refused, before the simulator is imported: a mistyped name is answered at once
     spec = load_or_exit(creature)[0] if creature is not None and resume is None else None
     if spec is not None and not force:
         refuse_still(spec, str(creature))
-    configure()
     from sanlab.search import run_search
     from sanlab.search.map_elites import DEFAULT_GENERATION, archive_stats, parse_grid
     from sanlab.search.registry import names

@@ -8,7 +8,6 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from sanlab import configure
 from sanlab.cli._common import (
     ARROWS,
     CreatureArg,
@@ -62,7 +61,6 @@ def simulate(
     seconds = seconds if seconds is not None else c.evaluation.seconds
     ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     print_static_warnings(c, creature)  # as search does: the same file, the same warnings
-    configure()
     from sanlab.engine_report import simulate_random
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:

@@ -7,7 +7,6 @@ from typing import Annotated
 
 import typer
 
-from sanlab import configure
 from sanlab.cli._common import fail
 
 
@@ -23,7 +22,6 @@ def studio(
         from sanlab.studio.service import StudioError
     except ImportError as e:  # the web stack is an optional extra
         raise fail(f"studio: missing {e.name} (install with: pip install 'sanlab[studio]')") from None
-    configure()  # before the studio's first JAX call (replays, live mode, searches)
     try:
         serve(db, host, port, open_browser, echo=typer.echo)
     except StudioError as e:

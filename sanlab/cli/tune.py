@@ -9,7 +9,6 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from sanlab import configure
 from sanlab.cli._common import (
     ARROWS,
     MAX_BATCH,
@@ -79,7 +78,6 @@ def tune(
 
     Each trial is scored as the median over an ensemble of perturbed copies; the tuned gait's
     stored score is its best vector re-scored on fresh perturbations (held out)."""
-    configure()
     from sanlab.library import LibraryError
     from sanlab.search.tune import tune as run_tune
 

@@ -13,7 +13,7 @@ rollout:
   1 + U(-friction, friction); with ``dt`` > 0 the member's time step scaled by 1 + U(-dt, dt)
   (it runs the same number of steps, and its score, speed and distance are divided by the same
   factor, so members compare over the nominal time); then, in the vertical plane, the start is
-  re-seated on the ground (``sanlab.sim.dynamics.seat_on_ground``) so that no contact starts
+  re-seated on the ground (``sanlab.sim.state.start_states``) so that no contact starts
   inside it.
 
 Members at several steps (``dt_factors``, issue 28: an objective the step cannot win). With

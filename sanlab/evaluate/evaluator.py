@@ -369,16 +369,6 @@ class Observers:
     def collect(self, c: dict) -> tuple:
         return self.metric.collect(c), self.descriptors.collect(c)
 
-    def init(self, model, state):
-        return self.metric.init(model, state), self.descriptors.init(model, state)
-
-    def update(self, model, acc, state, fr, bits, u):
-        return (self.metric.update(model, acc[0], state, fr, bits, u),
-                self.descriptors.update(model, acc[1], state, fr, bits, u))
-
-    def finish(self, model, acc, state):
-        return self.metric.finish(model, acc[0], state), acc[1]
-
 
 def _tree(fn, model: Model) -> Model:
     """``model`` with ``fn`` applied to every parameter array."""

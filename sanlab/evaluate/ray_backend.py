@@ -2,9 +2,8 @@
 
 The driver process connects to a cluster (``address="auto"`` or ``"ray://HOST:PORT"``; none
 given: it starts a local one for itself), starts one worker actor per CPU of the cluster (or
-``workers``), hands each the evaluator once — each compiles the creature once and keeps it, the
-persistent compilation cache making a restart cheap — and keeps two requests per worker in
-flight, so that no worker waits for the driver. Requests and scores are small NumPy arrays; the
+``workers``), hands each the evaluator once (the creature's tables: nothing is compiled) and
+keeps two requests per worker in flight, so that no worker waits for the driver. Requests and scores are small NumPy arrays; the
 gait library stays on the driver's machine and only the driver writes it.
 
 Faults: the actors are restartable and their tasks retried (Ray's ``max_restarts`` and
@@ -13,10 +12,9 @@ sent again; every evaluation is a pure function of its request, so a batch run t
 same scores, and the driver takes each batch's scores exactly once. A driver killed with SIGKILL
 resumes from the library as with the local backend.
 
-Each worker runs the rollout on one XLA device per CPU it holds (one by default), and a
-controller's scores do not depend on the batch it is in or on the number of devices, so a run
-gives the same results, bit for bit on one device kind and dtype, locally or on any number of
-workers.
+Each worker runs the kernel on one thread per CPU it holds (one by default), and a controller's
+scores do not depend on the batch it is in or on the number of threads, so a run gives the same
+results, bit for bit, locally or on any number of workers.
 """
 
 from __future__ import annotations
@@ -41,17 +39,14 @@ def _ray() -> Any:
 
 
 class _Worker:
-    """One Ray actor: an evaluator compiled once in its own process."""
+    """One Ray actor: an evaluator in its own process."""
 
     def __init__(self, evaluator: Evaluator):
         ray = _ray()
         cpus = int(ray.get_runtime_context().get_assigned_resources().get("CPU", 1)) or 1
-        flags = os.environ.get("XLA_FLAGS", "")
-        if "xla_force_host_platform_device_count" not in flags:  # one XLA device per CPU it holds
-            os.environ["XLA_FLAGS"] = f"{flags} --xla_force_host_platform_device_count={cpus}".strip()
-        import sanlab
-
-        sanlab.configure()
+        # the kernel's OpenMP threads: one per CPU the worker holds (read when the kernel loads,
+        # at the first evaluation), unless Ray or the user set them
+        os.environ.setdefault("OMP_NUM_THREADS", str(cpus))
         self.evaluator = evaluator
 
     def pid(self) -> int:

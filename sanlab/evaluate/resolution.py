@@ -1,7 +1,7 @@
 """Does the step resolve a creature's servos, springs and stops? (issue 28: a gait the integrator
 powers must not rank; issue 48: nor one a spring powers)
 
-The step integrates every stiff term implicitly (``sanlab.sim.dynamics``), so a servo of any
+The step integrates every stiff term implicitly (``docs/simulator.md``, "The step"), so a servo of any
 stiffness stays stable at dt = 1 ms. Stable is not resolved: an underdamped PD servo
 (damping ratio zeta < 1) oscillates at omega = sqrt(ks / I), and once omega dt > 1 the step
 cannot follow that oscillation (fewer than about six steps a period); the implicit step then

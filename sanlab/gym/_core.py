@@ -111,8 +111,8 @@ class Settings:
 
 
 class Core:
-    """``rows`` copies of ``spec`` stepped together by the kernel (``devices``: accepted for the
-    XLA engine's callers, without effect), scored by ``metric`` (default: the creature file's) over ``seconds``
+    """``rows`` copies of ``spec`` stepped together by the kernel (``devices``: accepted for
+    callers written for the XLA engine, without effect), scored by ``metric`` (default: the creature file's) over ``seconds``
     (default: the file's evaluation time).
 
     overrides: {``sanlab.sim.Params`` field: array}, e.g. a tuned gait's ``params.model``

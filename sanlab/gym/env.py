@@ -13,7 +13,7 @@ every simulator step (§4), so ``frame_skip=1`` is the environment a SAN is eval
 - observation: the binary sensor values, ``MultiBinary(S)`` (int8, in the creature file's
   order; paper §3 "sensors"); with ``observation="state"`` a ``Dict`` of ``bits`` (the same),
   ``q`` and ``qd`` (``Box`` [D] of the generalised coordinates, m and rad, and velocities, m/s
-  and rad/s, of ``sanlab.sim.dynamics``: per free tree its centre of mass and root angle, then
+  and rad/s, of ``sanlab.sim``'s state: per free tree its centre of mass and root angle, then
   one relative angle per joint; non-finite values of a blown-up state are reported as 0).
 - action: each actuator's target, ``Box(min, max)`` in the actuator's units (rad for a joint's
   servo angle, m for a linear actuator's length; float64, so that any float32 activation, such

@@ -103,13 +103,9 @@ class SanPolicy:
         observation's dict): activations u [N, A] in [0, 1]."""
         bits = obs["bits"] if isinstance(obs, dict) else obs
         b = np.asarray(bits).reshape(self.n, self.san.n_sensors).astype(np.float64)
-        x = np.concatenate([b, self._out], 1)
-        total = np.einsum("bni,bi->bn", self._w, x)  # sums of integers: exact in any order
-        istate = np.clip(self._istate + np.where(total > 0, self._k1, self._k2) * self._dt, 0.0, 1.0)
-        out = np.where((self._out == 1.0) & (istate == 0.0), 0.0, self._out)
-        self._out = np.where((out == 0.0) & (istate == 1.0), 1.0, out)
-        self._istate = istate
-        return (np.clip(total[:, self.san.n_hidden:], -2.0, 2.0) + 2.0) * 0.25
+        self._istate, self._out, u = self.san.step(SanParams(self._w, self._k1, self._k2), self._istate, self._out, b,
+                                                   self._dt)
+        return u
 
     def __call__(self, obs: Any) -> np.ndarray:
         """Actions for ``obs`` in the environment's action space: [A] for one network, else [N, A]."""

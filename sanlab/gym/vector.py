@@ -46,7 +46,7 @@ class SanlabVectorEnv(VectorEnv):
 
     max_episode_steps: truncate after this many environment steps (default, and at most: the
     creature's evaluation time). autoreset_mode: an ``AutoresetMode`` or its value ("NextStep",
-    "SameStep", "Disabled"). devices: accepted for the XLA engine's callers, without effect (the
+    "SameStep", "Disabled"). devices: accepted for callers written for the XLA engine, without effect (the
     kernel spreads the rows over the cores).
 
     Observations are batched as Gymnasium batches the single space (``batch_space``): [N, S]

@@ -2,7 +2,7 @@
 
 The one copy of the converter: the MuJoCo tests (``tests/sim/test_mujoco.py``),
 ``benchmarks/mujoco_route.py`` and ``sanlab export-mjcf`` use it. It needs only NumPy (and mujoco
-to *load* the result, :func:`load`); it never imports JAX. The other way, MJCF into a creature
+to *load* the result, :func:`load`); it never loads the simulator. The other way, MJCF into a creature
 file, is ``sanlab.interop.mjcf_import``.
 
 Conventions (vertical plane only):

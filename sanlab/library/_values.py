@@ -19,7 +19,7 @@ def sha256(text: str) -> str:
 
 
 def _json_default(obj: Any) -> Any:
-    # NumPy / JAX scalars and arrays, so callers need not convert them by hand.
+    # NumPy scalars and arrays, so callers need not convert them by hand.
     if hasattr(obj, "tolist"):
         return obj.tolist()
     raise TypeError(f"{type(obj).__name__} is not JSON-serialisable")

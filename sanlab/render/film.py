@@ -199,7 +199,7 @@ def write_mp4(path: str, images, fps: float, size: tuple[int, int]) -> int:
     Runs imageio-ffmpeg's bundled ffmpeg itself, with the command imageio-ffmpeg's
     ``write_frames`` would build, but started in its own process group by ``process_group=0``
     rather than by a Python ``preexec_fn``: that runs no Python in the forked child, so Ctrl-C
-    still reaches only sanlab and JAX's warning that ``os.fork()`` may deadlock never fires.
+    still reaches only sanlab and no library's warning that ``os.fork()`` may deadlock can fire.
     Raises OSError with ffmpeg's last message if it fails (a full disk, a bad path)."""
     import subprocess
     from fractions import Fraction

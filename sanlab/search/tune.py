@@ -34,7 +34,7 @@ from sanlab.search.space import Space
 TuneProgress = driver.Progress  # the name reporters of phase 2 have used
 METHODS = {name: registry.STRATEGIES[name] for name in registry.names(2)}
 
-# The default batch, by JAX platform. A round keeps each chain's trials up to its first accepted
+# The default batch, by platform. A round keeps each chain's trials up to its first accepted
 # one and is padded to the whole batch, so proposing ahead only pays where a larger batch costs
 # little more wall time than a small one: on an accelerator, not on a few CPU cores. On 2 cores,
 # benchmarks/tune_batch.py timed the same trials 2.2-3.2 x longer at --batch 128 than at 8, and
@@ -46,7 +46,7 @@ MAX_DEFAULT_BATCH = 128
 
 def default_batch(chains: int, platform: str | None = None) -> int:
     """The default ``batch`` of ``chains`` chains tuned together on ``platform`` ("cpu", "gpu",
-    "tpu"; default: JAX's default backend): on the CPU :data:`CPU_BATCH`, or one trial per chain
+    "tpu"; default: "cpu", where the kernel runs): on the CPU :data:`CPU_BATCH`, or one trial per chain
     where there are more chains (at most :data:`MAX_DEFAULT_BATCH`); elsewhere
     :data:`ACCELERATOR_BATCH`. Raises ValueError for ``chains`` < 1."""
     if chains < 1:

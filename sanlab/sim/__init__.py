@@ -5,8 +5,8 @@
     state = make_state(model); frame = poses(model, state.q)
 
 Every step runs in one compiled kernel that reads the creature as data (:mod:`sanlab.sim.kernel`):
-no creature is ever compiled. ``sanlab.sim.xla`` keeps the XLA engine the kernel replaced, as the
-reference the kernel is tested against; no command runs it.
+no creature is ever compiled. It replaced an XLA engine (issue 46; ``docs/engine-history.md``),
+whose numbers the tests keep (``tests/sim/test_kernel_reference.py``).
 """
 
 from sanlab.sim.compiler import compile_creature

@@ -17,13 +17,15 @@ def compile_creature(spec: Creature, dtype: Any = "float64", articulated: bool |
     """The compiled model of ``spec``: structure and NumPy arrays of its numbers.
 
     dtype: the arrays' type, "float64" (default) or "float32" (the numbers rounded to float32;
-    the kernel computes in float64 either way). articulated: the XLA reference engine's choice
-    of linear algebra (``sanlab.sim.xla``; the kernel takes the O(n) route wherever it applies).
+    the kernel computes in float64 either way). articulated: the step's linear algebra, the O(n)
+    articulated-body recursion (True) or the dense L D L^T (False), the same step to round-off;
+    None (default): the kernel's choice, articulated wherever it applies (trees of rigid links).
+    Raises ValueError for True on a creature with point masses or linear springs or actuators.
 
     In the vertical plane every free tree whose contact points start below the ground is lifted
     just clear of it: a body started inside the ground would be launched by the penalty spring.
     """
-    model = assemble(spec, dtype, articulated, host=True)
+    model = assemble(spec, dtype, articulated)
     if spec.world.plane == "vertical" and model.structure.contacts:
         q, _ = kernel.start(kernel.pack(model, 0), np.asarray(model.params.q0, np.float64)[None], seat=True)
         model = model.with_params(q0=q[0].astype(model.dtype))

@@ -1,19 +1,19 @@
-"""The step as one compiled kernel that reads the creature as data (engine round 4, in progress).
+"""The step as one compiled kernel that reads the creature as data (engine round 4, issue 46).
 
-Today's engine (``sanlab.sim.dynamics``) unrolls each creature's structure into its own XLA
-program at trace time, so every new creature is a compile and a small batch pays ~510 kernel
-dispatches per step. Here the structure is *data*: integer tables (parents, dofs, contacts,
+The XLA engine it replaced unrolled each creature's structure into its own XLA program at trace
+time, so every new creature was a compile and a small batch paid ~510 kernel dispatches per step
+(``docs/engine-history.md``). Here the structure is *data*: integer tables (parents, dofs, contacts,
 sensors, actuators) and float tables (masses, lengths, gains, ranges), read by one C++ kernel
 (``sanlab/sim/_kernel``) that the package's install compiles once and that serves every
 creature, as MuJoCo's C engine and MuJoCo Warp read their models. It steps a tile of
 :func:`lanes` creatures per thread, one SIMD register per value (see ``_kernel/step.h``).
 
-The kernel follows ``dynamics`` term for term (the same coordinates, the same momentum-form
+The kernel followed the XLA engine term for term (the same coordinates, the same momentum-form
 semi-implicit step with its implicitly linearised elements, the same stick-slip contact laws,
-the same elimination order of the L D L^T solve), in float64, so that the two agree to
-round-off. Structural zeros are no longer dropped at trace time; they are carried as exact
-zeros, which changes no value (x + 0 = x exactly), and a contact no creature of a tile touches
-is skipped.
+the same elimination order of the L D L^T solve), in float64, and agreed with it to round-off
+(``tests/sim/test_kernel_reference.py`` holds the engine's numbers, stored before it was
+removed). Structural zeros are carried as exact zeros, which changes no value (x + 0 = x
+exactly), and a contact no creature of a tile touches is skipped.
 
 It covers every physical element of a creature file (both planes, every terrain, point masses,
 angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
@@ -28,7 +28,7 @@ Entry points, each over a batch of B rows (rows may carry their own numbers: ``r
 - inspectors of single configurations: :func:`poses`, :func:`energy`, :func:`momenta`,
   :func:`velocity`, :func:`sense`, :func:`follow_point`, :func:`centre_of_mass` (what
   ``sim.poses``, ``sim.energy``, ``sim.make_state``, ``sim.velocity``, ``sim.sense``,
-  ``sim.follow_point`` and ``sim.centre_of_mass`` compute with JAX).
+  ``sim.follow_point`` and ``sim.centre_of_mass`` compute with them).
 
 Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
 one row per thread), bit for bit as the SIMD tiles. Issue 46 ports the layers above (``sim.rollout``,
@@ -110,13 +110,16 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
     SAN with ``hidden`` hidden nodes.
 
     articulated: the step's linear algebra, the O(n) articulated-body recursion (True) or the
-    dense L D L^T (False), the same step to round-off. None (default): articulated wherever it
-    applies (trees of rigid links: no point masses, nothing joining two bodies), which measured
-    as fast or faster at every size (bounder at batch 2048: 156 against 215 ns per creature-step;
-    a 32-link chain 2.3x). Raises ValueError for True where it does not apply."""
+    dense L D L^T (False), the same step to round-off. None (default): the model's own choice
+    (``compile_creature(spec, articulated=...)``), else articulated wherever it applies (trees of
+    rigid links: no point masses, nothing joining two bodies), which measured as fast or faster
+    at every size (bounder at batch 2048: 156 against 215 ns per creature-step; a 32-link chain
+    2.3x). Raises ValueError for True where it does not apply."""
     from sanlab.sim.model import articulated_supported
 
     st, p = model.structure, model.params
+    if articulated is None:
+        articulated = getattr(st, "articulated", None)
     can = articulated_supported(model.spec)
     if articulated and not can:
         raise ValueError("the articulated route takes trees of rigid links only (no point masses, linear springs "
@@ -340,9 +343,8 @@ def _pointers(arrays: list):
 def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
     clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
-    [B, C, 2] at the contact points). The momenta of a state at rest are zero. As
-    ``dynamics.seat_on_ground`` and ``dynamics.make_state`` compute them, to round-off, without
-    compiling anything for the creature."""
+    [B, C, 2] at the contact points). The momenta of a state at rest are zero. As the XLA
+    engine's ``seat_on_ground`` and ``make_state`` computed them, to round-off."""
     W = lanes()
     q = np.asarray(q, np.float64)
     B = q.shape[0]
@@ -538,7 +540,7 @@ def _times(t, B: int) -> np.ndarray:
 
 
 def poses(pk: Packed, q, rows: dict | None = None, scalar: bool = False) -> dict:
-    """World placement of configurations q [B, D] (``dynamics.poses``, for drawing and analysis):
+    """World placement of configurations q [B, D] (for drawing and analysis):
     ``links`` [B, L, 3] (origin x, y (m) and absolute angle (rad) of each link frame),
     ``contacts`` [B, C, 2] (contact points, m), ``depth`` [B, C] (penetration, m, > 0 when
     touching; horizontal plane: 1), ``com`` [B, 2] (the centre of mass of the links not welded to
@@ -552,7 +554,7 @@ def poses(pk: Packed, q, rows: dict | None = None, scalar: bool = False) -> dict
 
 
 def energy(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> dict:
-    """Mechanical energy of states (q, p) [B, D] (J; ``dynamics.energy``): ``kinetic`` [B] (of the
+    """Mechanical energy of states (q, p) [B, D] (J): ``kinetic`` [B] (of the
     velocity M(q)^-1 p), ``gravity`` [B] (m g y of each centre of mass; 0 in the horizontal
     plane) and ``elastic`` [B] (passive joint and linear springs; actuators, joint stops and the
     ground excluded). Links welded to the world do not count. rows, scalar as for :func:`poses`.
@@ -566,7 +568,7 @@ def energy(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> 
 
 def momenta(pk: Packed, q, qd, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
     """The momenta p = M(q) qd [B, D] of configurations q [B, D] moving at velocities qd [B, D]
-    (state coordinates; what ``dynamics.make_state`` carries). rows, scalar as for :func:`poses`.
+    (state coordinates; what ``sim.make_state`` carries). rows, scalar as for :func:`poses`.
     Raises ValueError for q, qd or a per-row table of the wrong shape."""
     D = pk.ndof
     q = _rows_of("q", q, D)
@@ -575,7 +577,7 @@ def momenta(pk: Packed, q, qd, rows: dict | None = None, scalar: bool = False) -
 
 
 def velocity(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
-    """The velocities qd = M(q)^-1 p [B, D] of states (q, p) [B, D] (``dynamics.velocity``; what a
+    """The velocities qd = M(q)^-1 p [B, D] of states (q, p) [B, D] (what a
     rollout returns as ``qd``). rows, scalar as for :func:`poses`. Raises ValueError for q, p or
     a per-row table of the wrong shape."""
     D = pk.ndof
@@ -585,7 +587,7 @@ def velocity(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -
 
 
 def sense(pk: Packed, q, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
-    """Binary sensor values bits [B, S] (0.0 / 1.0; ``dynamics.sense``) of configurations q
+    """Binary sensor values bits [B, S] (0.0 / 1.0) of configurations q
     [B, D] at time t (s: one number or [B]; the eyes see the follow point of that time). rows,
     scalar as for :func:`poses`. Raises ValueError for q, t or a per-row table of the wrong
     shape."""
@@ -594,7 +596,7 @@ def sense(pk: Packed, q, t, rows: dict | None = None, scalar: bool = False) -> n
 
 
 def follow_point(pk: Packed, t, rows: dict | None = None, scalar: bool = False) -> np.ndarray:
-    """The follow point [B, 2] (m; ``dynamics.follow_point``) at times t [B] (s). rows, scalar as
+    """The follow point [B, 2] (m) at times t [B] (s). rows, scalar as
     for :func:`poses` (a row's own ``wf`` carries its own speed). Raises ValueError for t not 1-D
     or a per-row table of the wrong shape."""
     t = np.asarray(t, np.float64)
@@ -605,7 +607,7 @@ def follow_point(pk: Packed, t, rows: dict | None = None, scalar: bool = False) 
 
 def centre_of_mass(pk: Packed, q, p, rows: dict | None = None, scalar: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The centre of mass [B, 2] (m) of states (q, p) [B, D] and its velocity [B, 2] (m/s; the
-    links welded to the world do not count: ``dynamics.centre_of_mass``). rows, scalar as for
+    links welded to the world do not count). rows, scalar as for
     :func:`poses`. Raises ValueError for q, p or a per-row table of the wrong shape."""
     D = pk.ndof
     q = _rows_of("q", q, D)

@@ -2,10 +2,10 @@
 
 This is the paper's "dynamics compiler" (§3.4). Everything that decides the *shape* of the
 computation (which link hangs from which, which dof moves which point, the kinds of sensors,
-actuators, terrain) goes into :class:`Structure`, a hashable value fixed at trace time, so that
-structural zeros never reach the compiled code. Every number (masses, lengths, gains, ranges,
-friction, terrain heights) goes into :class:`Params`, a pytree of arrays, so that tuning or
-batching over any of them never recompiles.
+actuators, terrain) goes into :class:`Structure`, a hashable value; every number (masses,
+lengths, gains, ranges, friction, terrain heights) goes into :class:`Params`, NumPy arrays, which
+tuning and batching give a leading axis of rows. The kernel (``sim.kernel.pack``) reads both as
+tables: nothing is compiled per creature.
 
 Generalised coordinates. The links form trees, each hanging from a root link. A *free* tree's
 coordinates are the world position of its centre of mass (x, y), its root link's absolute angle,
@@ -13,13 +13,13 @@ then one relative angle per joint; a point mass's are its (x, y); a tree whose r
 the world (``fixed``) has only its joint angles. Using the centre of mass (rather than the root
 link's origin) makes the translational dynamics exact and decoupled, m x'' = F_external: with no
 external horizontal force the centre of mass cannot move along x, whatever the controller does
-(see ``dynamics``).
+(``docs/simulator.md``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -67,7 +67,7 @@ class TreeS:
 
 @dataclass(frozen=True)
 class Structure:
-    """Trace-time structure of a compiled creature (hashable)."""
+    """The structure of a compiled creature (hashable): what the kernel's integer tables hold."""
 
     name: str
     ndof: int
@@ -89,11 +89,12 @@ class Structure:
     water: bool
     follow: bool
     follow_loop: bool
-    # the step's length (s), for the host only (a duration in steps): the traced step reads
-    # ``params.dt``, so it is no part of a program's identity and a nudged step (the audit's
-    # dt/2, dt/4) reuses the nominal step's traced and compiled program
+    # the step's length (s), for the host only (a duration in steps): the step reads
+    # ``params.dt``, so it is no part of the structure's identity (the audit's dt/2, dt/4 share it)
     dt: float = field(compare=False, repr=False)
-    articulated: bool = False  # the step's linear algebra: O(n) articulated-body (see sim.articulated) or dense
+    # the step's linear algebra, O(n) articulated-body (True) or dense L D L^T (False); None: the
+    # kernel's choice (articulated wherever it applies, ``sim.kernel.pack``)
+    articulated: bool | None = None
 
     @property
     def n_sensors(self) -> int:
@@ -102,19 +103,6 @@ class Structure:
     @property
     def n_actuators(self) -> int:
         return len(self.actuators)
-
-
-def _pytree(cls):
-    """Register a dataclass of arrays as a JAX pytree (all fields are children)."""
-    import jax
-
-    names = [f.name for f in fields(cls)]
-    jax.tree_util.register_pytree_node(
-        cls,
-        lambda p: ([getattr(p, n) for n in names], None),
-        lambda _, ch: cls(*ch),
-    )
-    return cls
 
 
 @dataclass(frozen=True)
@@ -158,17 +146,6 @@ class Params:
     dt: Any  # [] s
 
 
-_PYTREE_DONE = False
-
-
-def _register() -> None:
-    global _PYTREE_DONE
-    if not _PYTREE_DONE:
-        _pytree(Params)
-        _pytree_model()
-        _PYTREE_DONE = True
-
-
 @dataclass(frozen=True)
 class Model:
     """A compiled creature: ``structure`` is static, ``params`` are arrays (one creature, or
@@ -181,38 +158,6 @@ class Model:
 
     def with_params(self, **changes) -> "Model":
         return replace(self, params=replace(self.params, **changes))
-
-
-class _Carried:
-    """A value that a pytree's static part carries without it being part of the pytree's
-    identity: it compares equal to any other and prints as nothing. Model carries its creature
-    spec so: no traced code reads it (``structure`` holds all the program depends on), so models
-    that differ only in their spec (another dt) share one traced program and one
-    stored executable (``sim.executables`` keys on the tree's ``repr``)."""
-
-    __slots__ = ("value",)
-
-    def __init__(self, value: Any) -> None:
-        self.value = value
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, _Carried)
-
-    def __hash__(self) -> int:
-        return 0
-
-    def __repr__(self) -> str:
-        return "_Carried"
-
-
-def _pytree_model() -> None:
-    import jax
-
-    jax.tree_util.register_pytree_node(
-        Model,
-        lambda m: ([m.params], (m.structure, _Carried(m.spec), m.dtype)),
-        lambda aux, ch: Model(aux[0], ch[0], aux[1].value, aux[2]),
-    )
 
 
 def _catmull_rom(points: np.ndarray, loop: bool, per_seg: int = 64) -> np.ndarray:
@@ -275,15 +220,6 @@ def drag_edges(spec: Creature) -> list[tuple[int, Vec2, Vec2]]:
     return out
 
 
-# The step's linear algebra: from this many dofs on, the O(n) articulated-body route
-# (sim.articulated) rather than the dense trace-time factorisation. Measured back to back
-# (benchmarks/engine.py's growth table, 2 cores, batch 2048): the two routes run at the same
-# speed up to 8 dofs (bounder 7, walker 8, a 4-link chain 6: within 6 %), and the articulated one
-# is 1.5x faster on an 8-link chain (10 dofs), 3.6x on a 16-link one, and compiles faster.
-# Above every built-in creature (at most 8 dofs), so that their results keep their last bits.
-ARTICULATED_FROM_DOFS: int | None = 9
-
-
 def articulated_supported(spec: Creature) -> bool:
     """Whether the articulated route can step ``spec``: trees of rigid links only (no point
     masses, no linear springs or actuators, which join two bodies)."""
@@ -291,31 +227,21 @@ def articulated_supported(spec: Creature) -> bool:
                 or any(a.kind == "linear" for a in spec.actuators))
 
 
-def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = None, host: bool = False) -> Model:
-    """Build the static structure and parameter arrays of ``spec``, bodies where the file puts
-    them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
+def assemble(spec: Creature, dtype: Any = "float64", articulated: bool | None = None) -> Model:
+    """Build the static structure and parameter arrays (NumPy) of ``spec``, bodies where the file
+    puts them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
 
-    dtype: "float32" (default) or "float64". articulated: the step's linear algebra, O(n)
-    articulated-body (True) or dense (False); None (default) picks by size
-    (``ARTICULATED_FROM_DOFS``). host: NumPy arrays rather than JAX ones (what the kernel reads,
-    ``sim.kernel.pack``: JAX compiles a small program for each new array shape it places, 11 of
-    them, 65 ms, for a new 16-link creature). Raises ValueError for True on a creature the
-    articulated route does not support (see :func:`articulated_supported`).
+    dtype: "float64" (default) or "float32" (the numbers rounded; the kernel computes in float64
+    either way). articulated: the step's linear algebra, O(n) articulated-body (True) or dense
+    (False); None (default) leaves it to the kernel (articulated wherever it applies). Raises
+    ValueError for True on a creature the articulated route does not support (see
+    :func:`articulated_supported`).
     """
-    from sanlab import _jax
-
-    _jax.configure()
-    _register()
-    import jax.numpy as jnp
-
     dt_np = np.dtype(dtype)
     names = {l.name: i for i, l in enumerate(spec.links)}
     links, trees, q0 = _trees(spec, names)
     ndof = len(q0)
-    if articulated is None:
-        articulated = (ARTICULATED_FROM_DOFS is not None and articulated_supported(spec)
-                       and ndof >= ARTICULATED_FROM_DOFS)
-    elif articulated and not articulated_supported(spec):
+    if articulated and not articulated_supported(spec):
         raise ValueError(f"{spec.name}: the articulated route takes no point masses, linear springs or actuators")
 
     contacts, contact_pts, contact_load = [], [], []
@@ -433,14 +359,14 @@ def assemble(spec: Creature, dtype: Any = "float32", articulated: bool | None = 
         follow=w.follow is not None,
         follow_loop=follow_loop,
         dt=spec.dt,
-        articulated=bool(articulated),
+        articulated=None if articulated is None else bool(articulated),
     )
 
     def arr(x, shape=None):
         a = np.asarray(x, dtype=dt_np)
         if shape is not None:
             a = a.reshape(shape)
-        return a if host else jnp.asarray(a)
+        return a
 
     L, C, E, A, S, N = len(links), len(contacts), len(edges), len(acts), len(sensors), len(springs)
     params = Params(

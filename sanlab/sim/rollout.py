@@ -18,9 +18,8 @@ and ``sanlab.descriptors.Descriptors`` are observers):
     observe() -> kernel.Observe            # what to accumulate along the way
     collect(columns: dict) -> acc          # the accumulator from the kernel's named columns
 
-Until issue 46, this was an XLA program compiled per creature (``sanlab.sim.xla``, kept as the
-reference the kernel is tested against); the signature and the :class:`Result` are the same, its
-arrays NumPy float64.
+Until issue 46, this was an XLA program compiled per creature (since removed); the signature and
+the :class:`Result` are the same, its arrays NumPy float64.
 """
 
 from __future__ import annotations
@@ -208,7 +207,7 @@ def _batch(kind: str, cparams: Any) -> int:
 def _san_state(istate: np.ndarray, out: np.ndarray):
     from sanlab.sim.state import SanState
 
-    return SanState(istate, out, None)
+    return SanState(istate, out)
 
 
 def columns(acc: np.ndarray, ob: kernel.Observe) -> dict[str, np.ndarray]:

@@ -38,7 +38,6 @@ class SanState(NamedTuple):
 
     istate: Any  # [N] integrator state in [0, 1]
     out: Any  # [N] binary outputs
-    planes: Any = None  # the XLA engine's packed weights (``sanlab.sim.xla``); None on the kernel
 
 
 def packed(model: Model, hidden: int = 0) -> kernel.Packed:

@@ -23,10 +23,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--terrain", default=None, help="flat, slope, hill or rough (vertical-plane creatures)")
     a = ap.parse_args(argv)
 
-    from sanlab import configure
     from sanlab.studio.service import Service
-
-    configure()
 
     with tempfile.TemporaryDirectory() as tmp:
         svc = Service(os.path.join(tmp, "bench.db"))

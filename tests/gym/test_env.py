@@ -12,10 +12,8 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass
 
 import gymnasium
-import jax.numpy as jnp
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
@@ -41,16 +39,30 @@ ADVICE = ("For Box action spaces, we recommend using a symmetric and normalized 
           "A Box observation space minimum value is -infinity", "A Box observation space maximum value is infinity")
 
 
-@dataclass(frozen=True)
-class Replay:
-    """A rollout controller that plays back a table of activations, params [T, A]: the same
-    actions the environment is given, through ``sim.rollout`` instead."""
+def replay(model, U: np.ndarray, metric: Metric, seconds: float) -> dict:
+    """A rollout of the activations U [T, A] (float32, each held for a stretch of steps) on the
+    kernel, a stretch per call (state, time and the metric's accumulators carried from one call
+    to the next): the sensor values before each step ("bits" [T, S]), the final coordinates
+    ("q" [D]) and ``metrics.scores`` of the run (each [1])."""
+    from sanlab.sim import kernel
 
-    def init(self, params, model):
-        return jnp.zeros((), jnp.int32)
+    pk = kernel.pack(model, 0)
+    ob = metric.observe()
+    q, anchor = kernel.start(pk, np.asarray(model.params.q0, np.float64)[None], seat=False)
+    p, t, acc = np.zeros_like(q), np.zeros(1), None
+    bits, k = [], 0
+    while k < len(U):
+        n = int(np.argmax(np.any(U[k:] != U[k], axis=1))) or len(U) - k  # the stretch U[k] is held
+        r = kernel.run_open(pk, "hold", U[k][None].astype(np.float64), q, p, anchor, n, t0=t, observe=ob,
+                            acc=acc, every=1)
+        q, p, anchor, t, acc = r["q"], r["p"], r["anchor"], r["t"], r["acc"]
+        bits.append(r["frames_bits"][0])
+        k += n
+    finite = np.isfinite(q).all(1) & (np.abs(r["qd"]) < 1e4).all(1) & np.isfinite(p).all(1)
+    from sanlab.sim.rollout import columns
 
-    def apply(self, params, k, bits, dt):
-        return k + 1, params[jnp.minimum(k, params.shape[0] - 1)]
+    out = scores(metric, metric.collect(columns(acc, ob)), finite, seconds, model.spec.world.plane)
+    return {"bits": np.concatenate(bits).astype(np.int8), "q": q[0], **out}
 
 
 @pytest.fixture(scope="module")
@@ -152,22 +164,20 @@ def test_reset_is_the_start_at_rest(env, tippy):
     assert not np.any(obs["qd"])
 
 
-@pytest.mark.slow  # compiles a recording rollout of the bounder: 15-30 s
 def test_steps_are_a_rollouts_and_the_return_is_its_score(env):
     """Any actions: over 400 steps each observation is the sensor bits a rollout's controller
-    sees at that step (``sim.rollout`` with the same activations, recorded every step), the
-    last state is the rollout's, bit for bit (one physics), and the rewards sum to the
-    rollout's metric exactly (``metrics.scores``: the telescoping float64 sum of float32
-    running scores has no round-off). The targets go through the float64 action space and back
-    to the same float32 activations."""
+    sees at that step (the kernel run a held stretch of activations per call, recorded every
+    step), the last state is the rollout's, bit for bit (one physics), and the rewards sum to the
+    rollout's metric exactly (``metrics.scores``: the telescoping sum of running scores has no
+    round-off). The targets go through the float64 action space and back to the same float32
+    activations."""
     e = env.unwrapped
     core = e.core
     U = activations(1, 400, core.n_actuators)
     metric = Metric.for_creature(core.spec)
-    r = sim.rollout(core.model, Replay(), U[None], steps=len(U), observer=metric, record_fps=1 / core.dt)
-    assert r.frames is not None
-    seen = np.asarray(r.frames.bits[0]).astype(np.int8)  # [400, S]: before each step
-    want = scores(metric, r.acc, r.finite, core.seconds, "vertical")["score"][0]
+    r = replay(core.model, U, metric, core.seconds)
+    seen = r["bits"]  # [400, S]: before each step
+    want = r["score"][0]
     obs, _ = e.reset(seed=0)
     total, info = 0.0, {}
     for k, u in enumerate(U):
@@ -177,10 +187,9 @@ def test_steps_are_a_rollouts_and_the_return_is_its_score(env):
         total += reward
     assert want != 0.0 and len(np.unique(seen, axis=0)) > 2  # the comparisons mean something
     assert total == want == info["score"]
-    np.testing.assert_array_equal(core.q(e._out)[0], r.state.q[0])
+    np.testing.assert_array_equal(core.q(e._out)[0], r["q"])
 
 
-@pytest.mark.slow  # compiles a rollout: about 20 s on a busy 2-core machine
 def test_frame_skip_is_that_many_steps_and_falling_ends_it(tippy, tippy_file):
     """With frame_skip 5 an environment step is 5 simulator steps under one action (the same
     numbers as a rollout holding each activation 5 steps); the fall ends the episode
@@ -190,8 +199,7 @@ def test_frame_skip_is_that_many_steps_and_falling_ends_it(tippy, tippy_file):
     assert tippy.dt == pytest.approx(0.005) and tippy.max_episode_steps == 80
     U = activations(2, 80, core.n_actuators, hold=4)
     metric = Metric.for_creature(core.spec)
-    r = sim.rollout(core.model, Replay(), np.repeat(U, 5, axis=0)[None], steps=400, observer=metric)
-    want = scores(metric, r.acc, r.finite, core.seconds, "vertical")
+    want = r = replay(core.model, np.repeat(U, 5, axis=0), metric, core.seconds)
     assert want["fell"][0]  # the creature of this test does topple
     tippy.reset(seed=0)
     total, steps, terminated = 0.0, 0, False
@@ -212,7 +220,7 @@ def test_frame_skip_is_that_many_steps_and_falling_ends_it(tippy, tippy_file):
         obs, reward, terminated, truncated, info = free.step(u)
         assert not terminated and truncated == (k == 79)
     assert info["t"] == pytest.approx(0.4) and info["score"] == want["score"][0] == 0.0
-    np.testing.assert_array_equal(obs["q"], r.state.q[0])
+    np.testing.assert_array_equal(obs["q"], r["q"])
 
 
 def test_reset_noise_is_seeded(tippy_file):

@@ -15,7 +15,6 @@ episodes so that autoresets happen.
 from __future__ import annotations
 
 import gymnasium
-import jax
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
@@ -148,17 +147,14 @@ def test_seeding_and_determinism():
     e.close()
 
 
-@pytest.mark.slow  # a second compile, for two devices: about 20 s
-def test_numbers_do_not_depend_on_devices_or_num_envs():
-    """A sub-environment's numbers are the same on one device or spread over two, and in a
-    batch of 2 or of 3 (its neighbours and the padding rows do not matter)."""
-    if len(jax.devices()) < 2:
-        pytest.skip("one device only")
+def test_numbers_do_not_depend_on_num_envs():
+    """A sub-environment's numbers are the same in a batch of 2 or of 3 (its neighbours and the
+    kernel's padding lanes do not matter). (The XLA engine's devices= is accepted and changes
+    nothing: the kernel's threads change no bit, tests/sim/test_kernel.py.)"""
     acts = actions(SanlabVectorEnv(3, "bounder", **SHORT).action_space, 9, 30)  # [3, A] each; the first N rows for N
     runs = []
-    for n, devices in ((N, jax.devices()[:1]), (N, jax.devices()[:2]), (3, jax.devices()[:2])):
-        e = SanlabVectorEnv(n, "bounder", devices=devices, **SHORT)
-        assert len(e.core.devices) == len(devices)
+    for n in (N, 3):
+        e = SanlabVectorEnv(n, "bounder", devices=("cpu",), **SHORT)
         e.reset(seed=2)
         trace = []
         for act in acts:

@@ -75,7 +75,7 @@ def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     from sanlab import creature, descriptors, sim
     from sanlab.engine_report import random_san_params
     from sanlab.metrics import Metric
-    from sanlab.sim import dynamics, kernel
+    from sanlab.sim import kernel
     from tests.sim.test_kernel import DATA, chain, observe_of
 
     asan = _libasan()
@@ -93,7 +93,7 @@ def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     for spec in specs:  # a batch of 13: tiles with a ragged last one
         m = sim.compile_creature(spec, dtype="float64")
         san, sp = random_san_params(spec, 13, 1, dtype="float64")
-        s0 = dynamics.make_state(m)
+        s0 = sim.make_state(m)
         pk = kernel.pack(m, san.n_hidden)
         rep = lambda x: np.repeat(np.asarray(x)[None], 13, 0)
         A, S = len(m.structure.actuators), m.structure.n_sensors

@@ -1,19 +1,19 @@
-"""The kernel's open-loop and reflex controllers (``kernel.run_open``) against the engine's
-(``sim.ConstantController``, ``SineController``, ``ReflexController`` through the XLA engine's ``sim.xla.rollout``), and
-its host inspectors (``kernel.poses``, ``energy``, ``momenta``, ``velocity``, ``sense``,
-``follow_point``, ``centre_of_mass``) against ``sanlab.sim.dynamics``, all in float64. The
-inspectors agree to 1e-12 on every creature and both routes of the linear algebra (the velocity,
-a solve with M, to 1e-11).
+"""The kernel's open-loop and reflex controllers (``kernel.run_open``) and its host inspectors
+(``kernel.poses``, ``energy``, ``momenta``, ``velocity``, ``sense``, ``follow_point``,
+``centre_of_mass``), against the XLA engine's numbers stored before it was removed
+(``tests/data/engine_details.npz``, see test_kernel_reference.py: the engine's
+``ConstantController``, ``SineController``, ``ReflexController`` and ``sanlab.sim.dynamics``), all
+in float64. The inspectors agree to 1e-12 on every creature and both routes of the linear algebra
+(the velocity, a solve with M, to 1e-11).
 
 A rollout agrees to round-off as long as no binary sensor or stick-slip decision sits on its
 threshold; where one does, the last bit decides it and the two runs part from there, by a little
 where the creature settles again (a bounder held still: 1e-15 before its feet settle, 1e-7 to 1e-5
-after) or by chaos (a hopping sine gait), as a run at dt and dt/2 would (see
-tests/sim/test_kernel.py). Measured over 1000 steps, 16 rows each: crawler, fish and the kitchen
-sink within 1e-14 on every row; cart within 2e-9 but one row; the bounder 2 to 3 rows of 16 beyond
-1e-9. The tests therefore ask the median row to agree within 1e-11 and three in four within 1e-9,
-compare the frames of the rows that agree, and every row's frames of the first 100 steps (before
-any landing) to 1e-11.
+after) or by chaos (a hopping sine gait), as a run at dt and dt/2 would. Measured over 1000 steps,
+16 rows each: crawler, fish and the kitchen sink within 1e-14 on every row; cart within 2e-9 but
+one row; the bounder 2 to 3 rows of 16 beyond 1e-9. The tests therefore ask the median row to agree
+within 1e-11 and three in four within 1e-9, compare the stored frames of the rows that agree (after
+steps 500 and 1000), and every row's frames after steps 50 and 100 (before any landing) to 1e-11.
 """
 
 from __future__ import annotations
@@ -24,13 +24,14 @@ import numpy as np
 import pytest
 
 from sanlab import creature, sim
-from sanlab.sim import dynamics, kernel, xla
+from sanlab.sim import kernel
 from tests.sim.test_kernel import DATA, chain, relative_error
+from tests.sim.test_kernel_reference import DETAILS
 
 B = 16  # rows
 STEPS = 1000
 EVERY = 10
-CONTROLLERS = {"hold": xla.ConstantController(), "sine": xla.SineController(), "reflex": xla.ReflexController()}
+KINDS = ("hold", "sine", "reflex")
 
 
 def load(name: str):
@@ -42,12 +43,7 @@ def load(name: str):
 
 
 def model(name: str):
-    """The compiled creature, its numbers as JAX arrays: the engine's functions index them with
-    traced values, which NumPy arrays refuse."""
-    import jax
-    import jax.numpy as jnp
-
-    return jax.tree_util.tree_map(jnp.asarray, sim.compile_creature(load(name), dtype="float64"))
+    return sim.compile_creature(load(name))
 
 
 def random_params(kind: str, m, rows: int = B, seed: int = 1) -> Any:
@@ -61,39 +57,38 @@ def random_params(kind: str, m, rows: int = B, seed: int = 1) -> Any:
     return rng.uniform(-1, 1, (rows, A, S)), rng.uniform(0, 1, (rows, A))
 
 
-def at_rest(m, rows: int = B) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The start state of ``m`` at rest, repeated over ``rows``: (q, p, anchor)."""
-    s0 = dynamics.make_state(m)
+def at_rest(m, rows: int = B, q0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state at rest at q0 [D] (default: the start pose of ``m``), repeated over ``rows``:
+    (q, p, anchor)."""
+    s0 = sim.make_state(m, q0)
     q, p, anchor = (np.repeat(np.asarray(x)[None], rows, 0) for x in (s0.q, s0.p, s0.anchor))
     return q, p, anchor
 
 
-@pytest.mark.parametrize("kind", list(CONTROLLERS))
-@pytest.mark.parametrize("name", ["bounder", "kitchen_sink",
-                                  *(pytest.param(n, marks=pytest.mark.slow) for n in ("crawler", "fish", "cart"))])
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("name", ["bounder", "kitchen_sink", "crawler", "fish", "cart"])
 def test_each_controller_kind_agrees_with_the_engines_to_round_off(name, kind):
+    # 16 rows of random_params(kind, m) (seed 1), 1000 steps, frames every 10 steps
     m = model(name)
+    ref = lambda f: DETAILS[f"open/{name}/{kind}/{f}"]
     par = random_params(kind, m)
-    r = xla.rollout(m, CONTROLLERS[kind], par, steps=STEPS, record_fps=1 / (EVERY * float(m.structure.dt)))
-    k = kernel.run_open(kernel.pack(m, 0), kind, par, *at_rest(m), STEPS, every=EVERY)
-    err = relative_error(np.asarray(r.state.q), k["q"])
-    fr = r.frames
-    assert fr is not None
+    k = kernel.run_open(kernel.pack(m, 0), kind, par, *at_rest(m, q0=ref("q0")), STEPS, every=EVERY)
+    err = relative_error(ref("q"), k["q"])
     assert np.median(err) < 1e-11 and np.sum(err < 1e-9) >= 3 * B // 4, np.sort(err)
     ok = err < 1e-9
-    early = 100 // EVERY
-    np.testing.assert_allclose(k["frames_q"][:, :early], np.asarray(fr.q)[:, :early], rtol=1e-11, atol=1e-11)
-    np.testing.assert_allclose(k["p"][ok], np.asarray(r.state.p)[ok], rtol=1e-7, atol=1e-9)
-    np.testing.assert_allclose(k["qd"][ok], np.asarray(r.state.qd)[ok], rtol=1e-6, atol=1e-8)
-    np.testing.assert_allclose(k["t"], np.asarray(r.state.t), rtol=0, atol=1e-12)
-    assert k["frames_q"].shape == np.asarray(fr.q).shape == (B, STEPS // EVERY, m.structure.ndof)
-    np.testing.assert_allclose(k["frames_q"][ok], np.asarray(fr.q)[ok], rtol=1e-7, atol=1e-8)
-    np.testing.assert_allclose(k["frames_qd"][ok], np.asarray(fr.qd)[ok], rtol=1e-5, atol=1e-6)
-    np.testing.assert_array_equal(k["frames_bits"][ok], np.asarray(fr.bits)[ok])
-    np.testing.assert_allclose(k["frames_u"][ok], np.asarray(fr.u)[ok], rtol=0, atol=1e-12)
+    early, late = [4, 9], [49, 99]  # the frames after steps 50 and 100, 500 and 1000
+    np.testing.assert_allclose(k["frames_q"][:, early], ref("early_q"), rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(k["p"][ok], ref("p")[ok], rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(k["qd"][ok], ref("qd")[ok], rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(k["t"], ref("t"), rtol=0, atol=1e-12)
+    assert k["frames_q"].shape == (B, int(ref("n_frames")), m.structure.ndof) == (B, STEPS // EVERY, m.structure.ndof)
+    np.testing.assert_allclose(k["frames_q"][ok][:, late], ref("late_q")[ok], rtol=1e-7, atol=1e-8)
+    np.testing.assert_array_equal(k["frames_bits"][ok][:, late], ref("late_bits")[ok])
+    np.testing.assert_allclose(k["frames_u"][ok][:, late], ref("late_u")[ok], rtol=0, atol=1e-12)
     if kind == "hold":
         assert np.array_equal(k["frames_u"], np.repeat(par[:, None], STEPS // EVERY, 1))
     assert set(k) == {"q", "p", "anchor", "t", "dmax", "qd", "frames_q", "frames_qd", "frames_bits", "frames_u"}
+    assert np.abs(ref("q") - ref("q0")).max() > 1e-3  # the runs moved
 
 
 @pytest.mark.parametrize("name", ["bounder", "crawler", "kitchen_sink"])
@@ -108,7 +103,7 @@ def test_the_gpus_form_runs_every_kind_bit_for_bit_as_the_simd_tiles(name):
     m = sim.compile_creature(spec, dtype="float64")
     ob = observe_of(Metric.for_creature(spec), descriptors.Descriptors.for_creature(m))
     pk = kernel.pack(m, 0)
-    for kind in CONTROLLERS:
+    for kind in KINDS:
         par = random_params(kind, m, 11, seed=2)
         out = [kernel.run_open(pk, kind, par, *at_rest(m, 11), 400, t0=0.125, observe=ob, every=50, scalar=s)
                for s in (False, True)]
@@ -143,13 +138,13 @@ def test_the_sine_reads_the_rows_time_from_t0():
     np.testing.assert_allclose(k["t"], t0 + 3 * dt, rtol=0, atol=1e-15)
 
 
-def test_held_activations_move_a_row_as_the_engines_step_does():
+def test_held_activations_move_a_row_as_sim_step_does():
     # the Gymnasium env's use: one step at a time with external actions, row by row
     m = model("twolink")
     pk = kernel.pack(m, 0)
     q, p, anchor = at_rest(m, 2)
     u = np.array([[0.0] * len(m.structure.actuators), [1.0] * len(m.structure.actuators)])
-    s = dynamics.make_state(m)
+    s = sim.make_state(m)
     for _ in range(5):
         k = kernel.run_open(pk, "hold", u, q, p, anchor, 1)
         q, p, anchor = k["q"], k["p"], k["anchor"]
@@ -228,75 +223,60 @@ def configurations(m, rows: int = 6, seed: int = 0) -> tuple[np.ndarray, np.ndar
     return np.asarray(m.params.q0) + rng.normal(0, 0.15, (rows, D)), rng.normal(0, 1.0, (rows, D))
 
 
-def engine_states(m, q, qd):
-    import jax
-
-    return jax.vmap(lambda a, b: dynamics.make_state(m, a, b))(q, qd)
-
-
 INSPECTED = [("bounder", False), ("bounder", True), ("kitchen_sink", False), ("fish", False), ("crawler", False),
              ("chain6", False), ("chain6", True), ("bounder@rough", True), ("bounder@hill", False)]
 
 
 def inspected(source: str):
-    import jax
-    import jax.numpy as jnp
-
     from tests.sim.test_kernel import _on
 
     name, _, terrain = source.partition("@")
-    return jax.tree_util.tree_map(jnp.asarray, sim.compile_creature(_on(load(name), terrain or "flat"), dtype="float64"))
+    return sim.compile_creature(_on(load(name), terrain or "flat"))
 
 
 @pytest.mark.parametrize("source, articulated", INSPECTED)
-def test_the_inspectors_compute_what_the_engine_does(source, articulated):
-    import jax
-
+def test_the_inspectors_compute_what_the_engine_did(source, articulated):
+    # six random configurations and velocities near the start pose (stored with the engine's values)
     m = inspected(source)
+    ref = lambda f: DETAILS[f"inspect/{source}/{int(articulated)}/{f}"]
     pk = kernel.pack(m, 0, articulated=articulated)
     assert pk.wi[kernel.W_ARTICULATED] == int(articulated)
-    q, qd = configurations(m)
-    s = engine_states(m, q, qd)
-    close = lambda a, b, tol=1e-12: np.testing.assert_allclose(a, np.asarray(b), rtol=tol, atol=tol)
+    q, qd = ref("q"), ref("qd")
+    close = lambda a, b, tol=1e-12: np.testing.assert_allclose(a, b, rtol=tol, atol=tol)
     # poses: every link frame, contact, depth and the centre of mass
-    po, kp = jax.vmap(lambda x: dynamics.poses(m, x))(q), kernel.poses(pk, q)
+    kp = kernel.poses(pk, q)
     assert kp["links"].shape == (6, len(m.structure.links), 3) and kp["depth"].shape == (6, len(m.structure.contacts))
     for key in ("links", "contacts", "depth", "com"):
-        close(kp[key], po[key])
+        close(kp[key], ref(key))
     if m.structure.plane == "horizontal":
         assert np.all(kp["depth"] == 1.0)
     # momenta (make_state's p = M qd) and back (velocity: M^-1 p, where M's conditioning costs a
     # digit: measured up to 1.2e-12 on the 6-link chain, 3e-14 on the bounder)
     p = kernel.momenta(pk, q, qd)
-    close(p, s.p)
-    close(kernel.velocity(pk, q, np.asarray(s.p)), jax.vmap(lambda st: dynamics.velocity(m, st))(s), 1e-11)
+    close(p, ref("p"))
+    close(kernel.velocity(pk, q, ref("p")), ref("velocity"), 1e-11)
     close(kernel.velocity(pk, q, p), qd, 1e-11)
     # energy, term by term
-    e, ke = jax.vmap(lambda st: dynamics.energy(m, st))(s), kernel.energy(pk, q, np.asarray(s.p))
+    ke = kernel.energy(pk, q, ref("p"))
     for key in ("kinetic", "gravity", "elastic"):
-        close(ke[key], e[key])
+        close(ke[key], ref(key))
     assert np.all(ke["kinetic"] > 0)
     # the centre of mass and its velocity
-    c, v = jax.vmap(lambda st: dynamics.centre_of_mass(m, dynamics.prepare(m, st)))(s)
-    kc, kv = kernel.centre_of_mass(pk, q, np.asarray(s.p))
-    close(kc, np.stack(c, 1))
-    close(kv, np.stack(v, 1))
+    kc, kv = kernel.centre_of_mass(pk, q, ref("p"))
+    close(kc, ref("com_x"))
+    close(kv, ref("com_v"))
     # sensor values at several times (the eyes' follow point moves)
     t = np.linspace(0.0, 40.0, 6)
-    bits = jax.vmap(lambda st, tt: dynamics.sense(m, dynamics.prepare(m, st), tt))(s, t)
-    assert np.array_equal(kernel.sense(pk, q, t), np.asarray(bits))
+    assert np.array_equal(kernel.sense(pk, q, t), ref("bits"))
 
 
 @pytest.mark.parametrize("name", ["kitchen_sink", "fish"])
 def test_the_follow_point_is_the_engines(name):
     # the kitchen sink's path loops; the fish's does not (it stops at the end)
-    import jax
-
     m = model(name)
     t = np.linspace(-1.0, 120.0, 37)
-    fp = jax.vmap(lambda tt: jax.numpy.stack(dynamics.follow_point(m, tt)))(t)
     kf = kernel.follow_point(kernel.pack(m, 0), t)
-    np.testing.assert_allclose(kf, np.asarray(fp), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(kf, DETAILS[f"follow/{name}"], rtol=1e-12, atol=1e-12)
     assert len({tuple(x) for x in kf.round(9)}) > 10  # it moved
 
 

@@ -67,6 +67,32 @@ def test_no_controller_moves_the_centre_of_mass_on_frictionless_ground(dtype):
     assert np.max(dy) > 0.02
 
 
+@pytest.mark.parametrize("articulated", [True, False])
+def test_no_controller_moves_a_long_chain_on_ice(articulated):
+    # the momentum form's guarantee on a 12-link chain (14 dofs), by both routes of the step's
+    # linear algebra: 16 random SANs for 2 s
+    out = ['name = "chain"', "dt = 0.001", "[world]", 'plane = "vertical"']
+    for i in range(12):  # a contact at each joint; a touch sensor, an angle sensor and a servo per joint
+        out += ["[[links]]", f'name = "s{i}"', "mass = 0.1", 'shape = "segment"', "points = [[0.0, 0.0], [0.1, 0.0]]"]
+        out += ["contacts = [[0.0, 0.0], [0.1, 0.0]]" if i == 0 else "contacts = [[0.1, 0.0]]"]
+        out += ["position = [0.0, 0.0]"] if i == 0 else [f'parent = "s{i - 1}"', "anchor = [0.1, 0.0]"]
+    for i in range(1, 12):
+        out += ["[[sensors]]", f'name = "a{i}"', 'type = "angle"', f'link = "s{i}"', "min_deg = 20", "max_deg = 180"]
+        out += ["[[sensors]]", f'name = "t{i}"', 'type = "touch"', f'link = "s{i}"', "contact = 0"]
+        out += ["[[actuators]]", f'name = "m{i}"', 'type = "angular"', f'joint = "s{i}"', "min_deg = -45",
+                "max_deg = 45", "ks = 0.02", "kd = 0.002"]
+    spec = on_ice(creature.loads("\n".join(out) + "\n", source="chain12"))
+    m = sim.compile_creature(spec, articulated=articulated)
+    san, p = random_sans(spec, 16, seed=1)
+    r = sim.rollout(m, san, p, 2.0, observer=Metric.for_creature(spec, "distance"))
+    dx = np.asarray(r.acc.p[0]) - np.asarray(r.acc.p0[0])
+    assert bool(np.all(np.asarray(r.finite)))
+    assert np.max(np.abs(dx)) < 1e-3
+    # the joints really moved, and differently under different networks
+    assert np.max(np.abs(np.asarray(r.state.q[:, 3:]) - np.asarray(m.params.q0[3:]))) > 0.2
+    assert np.max(np.ptp(np.asarray(r.state.q[:, 3:]), axis=0)) > 0.05
+
+
 def test_tuned_parameters_cannot_buy_motion_on_ice():
     # What a tuner could reach: every parameter of phase 2 (delays, actuator ranges and gains,
     # sensor ranges, link lengths and masses) moved far from nominal, 48 random variants, each

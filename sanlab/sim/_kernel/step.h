@@ -3,10 +3,12 @@
 // One template serves every target: V is the lane type, a GCC vector of W doubles on the CPU (one
 // SIMD register per value: every operation below is one vector instruction for the whole tile),
 // or plain double (one creature per thread: the GPU's form, and a test's reference). The tables
-// are those of sanlab/sim/kernel.py's pack(); the arithmetic follows sanlab/sim/dynamics.py term
-// for term (see that module's docstring for the physics): the same coordinates, the same
-// momentum-form semi-implicit step with implicitly linearised elements, the same stick-slip
-// contact laws and the same L D L^T elimination order.
+// are those of sanlab/sim/kernel.py's pack(); the arithmetic follows the XLA engine it replaced,
+// sanlab/sim/dynamics.py (removed after issue 46; `git show 019d665:sanlab/sim/dynamics.py`), term
+// for term (docs/simulator.md for the physics): the same coordinates, the same momentum-form
+// semi-implicit step with implicitly linearised elements, the same stick-slip contact laws and the
+// same L D L^T elimination order. A name in parentheses below, dynamics.f, is the function of that
+// module a part was ported from.
 #pragma once
 #include <cmath>
 #include <cstdint>
