@@ -95,7 +95,6 @@ def audited(tmp_path_factory):
     return path, out, sled, coarse
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_converged_motion_is_not_flagged(audited):
     _, out, _, _ = audited
     a = out["sled"]
@@ -105,7 +104,6 @@ def test_a_converged_motion_is_not_flagged(audited):
     assert a.worst < 0.03 and not a.flagged
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_gait_of_an_unresolved_step_is_flagged(audited):
     _, out, _, _ = audited
     a = out["coarse"]
@@ -114,7 +112,6 @@ def test_a_gait_of_an_unresolved_step_is_flagged(audited):
     assert a.flagged and a.worst > 0.25, a
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_verdict_is_stored_shown_and_exported(audited):
     path, out, sled, coarse = audited
     with Library(path) as lib:
@@ -132,7 +129,6 @@ def test_the_verdict_is_stored_shown_and_exported(audited):
     assert "audited: robust" in run_cli("show", f"{sled}/1", "--db", str(path)).stdout
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_stored_speed_the_audit_does_not_reproduce_is_flagged(audited, tmp_path):
     """A robust gait imported with an edited speed: every nudge agrees with the re-scored speed,
     but that is not the stored one, so the audit vouches for nothing (it said "robust")."""
@@ -159,7 +155,6 @@ def test_a_stored_speed_the_audit_does_not_reproduce_is_flagged(audited, tmp_pat
     assert (top[0]["reproduced"], top[0]["resolution_dependent"]) == (False, False)
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_audit_command_prints_and_stores(audited):
     path, _, sled, _ = audited
     r = run_cli("audit", f"{sled}/1", "--json", "--db", str(path))
@@ -225,7 +220,7 @@ def selected(tmp_path_factory):
     return path, res, sel
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 23 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_the_chain_is_rebuilt_from_its_trace(selected):
     import numpy as np
 
@@ -241,7 +236,6 @@ def test_the_chain_is_rebuilt_from_its_trace(selected):
         assert best[1] == pytest.approx(tuned.extra["chain_best"])
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(selected):
     from sanlab.audit import audit
 
@@ -265,7 +259,7 @@ def test_the_selection_is_the_best_robust_rung_and_survives_its_own_audit(select
         assert abs(again.speeds[name] - stored.speed_cm_s) <= 0.15 * stored.speed_cm_s  # the issue's bar
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 28 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, tmp_path, monkeypatch):
     import shutil
     import sqlite3
@@ -305,7 +299,6 @@ def test_a_stored_selection_is_reused_and_other_settings_redo_it(selected, tmp_p
         assert remade.chosen == sel.chosen and lib.gait(sel.gait_id).speed_cm_s == pytest.approx(sel.chosen.nominal_cm_s)
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_audit_select_command(selected, tmp_path):
     import shutil
 

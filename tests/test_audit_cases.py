@@ -33,7 +33,6 @@ def _imported(lib: Library, name: str) -> str:
     return lib.import_gait(json.loads((GAITS / f"{name}.json").read_text()))
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_clean_limit_cycle_is_robust(lib):
     a = audit(lib, _imported(lib, "twolink-limit-cycle"))
     assert a.verdict == ROBUST, a.summary()
@@ -42,14 +41,12 @@ def test_a_clean_limit_cycle_is_robust(lib):
     assert all(s.hi - s.lo < 0.03 for s in a.shifts.values()), a.shifts
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_walker_tuned_to_the_step_is_resolution_dependent(lib):
     a = audit(lib, _imported(lib, "walker-tuned-artefact"))
     assert a.resolution_dependent and a.flagged, a.summary()
     assert a.shifts["dt/4"].verdict == DEPENDENT and a.shifts["dt/4"].hi < -0.5  # it loses most of its speed
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_tuned_bounder_of_table1_is_not_vouched_for(lib):
     """docs/table1.md (commit bc64b5d) flagged it from medians of 8 (66.8 cm/s, 35.9 at dt/4); over 32 starts its
     mean moves less than that, and the interval cannot yet tell: not a pass."""
@@ -57,7 +54,6 @@ def test_the_tuned_bounder_of_table1_is_not_vouched_for(lib):
     assert a.flagged and a.verdict != ROBUST, a.summary()
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_chaotic_gait_whose_speeds_do_not_move_with_the_step_is_not_flagged_resolution_dependent(lib):
     gid = _imported(lib, "threelink-chaotic")
     a = audit(lib, gid, max_members=32)  # one look: the verdict of the statistic itself
@@ -65,7 +61,6 @@ def test_a_chaotic_gait_whose_speeds_do_not_move_with_the_step_is_not_flagged_re
     assert all(s.lo <= 0.0 <= s.hi for s in a.shifts.values()), a.shifts  # no nudge moved it, as far as can be told
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_same_nudge_twice_on_fresh_draws_is_not_flagged(lib):
     """Pure noise: the chaotic gait at dt/2 on two sets of fresh draws."""
     from sanlab.audit import audit_ensemble, nudged_evaluator
@@ -82,7 +77,6 @@ def test_the_same_nudge_twice_on_fresh_draws_is_not_flagged(lib):
     assert shift(a, b).verdict != DEPENDENT
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_the_bounder_chain_of_issue_28_is_resolution_dependent(lib):
     """The bounder, seed 5, 200 random SANs + 1000 annealing trials, every member at dt (before issue 28):
     157.4 cm/s, which issue 28 found at 77.1 in float64 (-51 %) on the XLA engine; on the kernel (float64

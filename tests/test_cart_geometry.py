@@ -58,7 +58,6 @@ def test_a_batched_row_scores_as_its_own_file(cg):
     assert np.abs(a0.member_score - a1.member_score).max() > 1e-4
 
 
-@pytest.mark.slow
 def test_resumes_without_scoring_again(cg, tmp_path, capsys):
     out = tmp_path / "shapes.jsonl"
     args = ["--out", str(out), "--candidates", "2", "--controllers", "3", "--chunk", "1", "--batch", "8"]

@@ -57,7 +57,6 @@ def test_three_broken_files(name, expected):
         assert any(needle in m for m in found[check]), (check, found[check])
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", builtin_names())
 def test_no_warnings_on_the_built_ins(name):
     findings = simulate(load(name))

@@ -104,7 +104,6 @@ def test_candidates_are_bounders_standing_on_their_feet(bd):
         assert math.isclose(hip.min, math.radians(g["hip_sense"] * g["hip_swing"]), rel_tol=1e-3)
 
 
-@pytest.mark.slow  # compiles the bounder's screening and held-out programs
 def test_validation_rescores_the_best_on_fresh_sans_once_and_picks_by_its_mean(bd, tmp_path, capsys):
     import json
 

@@ -18,7 +18,7 @@ def _rows(text: str) -> dict[str, list[str]]:
     return {k.strip(): [c.strip() for c in v] for k, v in rows.items()}
 
 
-@pytest.mark.slow  # about 2 min: ten compiled models, the fish's 30 s evaluations (audits: the test below)
+@pytest.mark.slow  # about 8 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_path):
     out, db = tmp_path / "t1.md", tmp_path / "t1.db"
     subprocess.run(SANLAB + ["reproduce", "--creatures", "twolink,fish", "--controllers", "8", "--trials", "16",
@@ -49,7 +49,7 @@ def test_reproduce_writes_a_table_row_per_creature_and_the_fish_tracking(tmp_pat
         assert {r.creature: r.params["seconds"] for r in searches} == {"fish": 30.0, "twolink": 6.0}
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 6 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_reproduce_resumes_from_the_library(tmp_path):
     """A second call reuses every stored search, tuning run, audit and selection; an interrupted tuning run
     continues instead of starting again."""
@@ -150,7 +150,6 @@ def test_parse_seeds_rejects(text):
         parse_seeds(text)
 
 
-@pytest.mark.slow  # two seeds of phase 1 and two chains of phase 2 each
 def test_reproduce_over_seeds_spreads_phase_two_over_the_top_gaits(tmp_path):
     from sanlab.reproduce import reproduce
 

@@ -116,7 +116,7 @@ anchor = [-0.1, 0]
     assert "repeat" not in out and [k.mass for k in loads(out).links] == [0.05, 0.07, 0.07]
 
 
-@pytest.mark.slow  # compiles a small creature's search, tuning and audit programs (about a minute on 2 cores)
+@pytest.mark.slow  # about 39 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resumes(tmp_path):
     db, out = str(tmp_path / "d.db"), tmp_path / "chosen.toml"
     args = ["design", str(HOPPER), *SMALL, "--db", db, "-o", str(out)]

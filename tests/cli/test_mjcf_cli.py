@@ -104,7 +104,7 @@ def test_an_imported_model_exports_again(tmp_path):
         assert m.body(original.body(b).name).mass[0] == pytest.approx(original.body_mass[b], rel=1e-9)
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 8 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_export_of_a_gait_names_it_and_bad_targets_are_one_line(tmp_path, lib_run):
     db, run_id = lib_run
     r = _run("export-mjcf", f"{run_id}/1", "--db", db)

@@ -97,7 +97,6 @@ def test_plots_are_written(lib_run, tmp_path):
     assert (tmp_path / "t2.png").read_bytes() == (tmp_path / "trace.png").read_bytes()
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_modes_sheet_and_an_archive_plot_of_a_run(lib_run, tmp_path):
     """One tile per mode (sanlab.modes.of_run), named; the archive's heat map agrees with the
     cells it was drawn from."""

@@ -15,7 +15,7 @@ from sanlab.library import Library
 from tests.helpers import SANLAB, interruptible, rows_in
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 5 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_tune_cli_json(bounder_run):
     db, run_id = bounder_run
     # single samples: the tuned gait's score is then its own best (with an ensemble it is re-scored
@@ -36,7 +36,7 @@ def test_tune_cli_json(bounder_run):
     assert lone.returncode == 2 and "--threshold applies to --select" in lone.stderr
 
 
-@pytest.mark.slow  # about a minute: the tuner and four audit evaluators compiled in a fresh process
+@pytest.mark.slow  # about 23 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_tune_select_stores_and_reports_the_robust_gait(bounder_run, tmp_path):
     import shutil
 

@@ -82,7 +82,7 @@ def test_starts_at_rest_on_the_ground(name):
 SECONDS, BATCH = 6.0, 256
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 4 s on 2 busy cores (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("name", NAMES)
 def test_1000_random_networks_stay_finite_for_6_s(name):
     """Every built-in under 1000 random SANs for 6 s, in batches of 256 (one compiled program
@@ -103,7 +103,7 @@ def test_1000_random_networks_stay_finite_for_6_s(name):
     assert max(depth[:200]) < 0.025 and max(depth) < 0.05  # penetration stays around a centimetre or two
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 3 s on 2 busy cores (the pre-commit subset leaves it out)
 @pytest.mark.parametrize("name", NAMES)
 def test_a_small_search_finds_a_gait_that_moves(name, tmp_path):
     """Phase 1 in miniature: 64 random networks, 6 s each."""

@@ -32,7 +32,7 @@ def outcome(text: str) -> str:
     return "accepted"
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 13 s on 2 busy cores (the pre-commit subset leaves it out)
 @settings(max_examples=400, **FUZZ)
 @given(creature_texts())
 def test_mutated_creature_files_are_accepted_or_refused_in_one_line(text):

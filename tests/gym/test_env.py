@@ -100,7 +100,6 @@ def activations(seed: int, steps: int, A: int, hold: int = 25) -> np.ndarray:
     return np.repeat(u, hold, axis=0)[:steps]
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_check_env_passes(env, tippy):
     """Gymnasium's checker (spaces, reset and step determinism, seeding, returned data not
     reused, rendering) on both configurations; only its advice (``ADVICE``) may be printed: the
@@ -335,7 +334,7 @@ def found(tmp_path_factory):
         return [(Gait.from_library(lib, e.gait_id), e.scores) for e in lib.top(run_id, 3)]
 
 
-@pytest.mark.slow  # the search compiles its rollouts: about 25 s
+@pytest.mark.slow  # about 16 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_a_found_san_scores_through_the_env_what_the_library_says(found):
     """A SAN found by ``sanlab search``, driven through the environment as a policy (sensor bits
     in, actuator targets out, ``sanlab.san.San`` every step), earns as its return exactly what

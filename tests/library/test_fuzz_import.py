@@ -70,7 +70,7 @@ def outcome(data) -> str:
     return "imported"
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 14 s on 2 busy cores (the pre-commit subset leaves it out)
 @settings(max_examples=300, **FUZZ)
 @given(exports())
 def test_mutated_exports_import_whole_or_not_at_all(data):

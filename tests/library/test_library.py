@@ -481,7 +481,6 @@ WRITER = textwrap.dedent("""
 """)
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_killed_writer_leaves_complete_batches(tmp_path):
     path = tmp_path / "g.db"
     batch = 997  # odd, so a partly written batch could not pass as whole ones

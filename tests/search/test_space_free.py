@@ -57,7 +57,6 @@ def test_free_values_out_of_range_are_refused(spec):
         check_params(load("cart"), {"free": [1.0]})
 
 
-@pytest.mark.slow  # a search, a tuning and an export of the hopper (compiles its programs)
 def test_tune_morphology_on_free_numbers_stores_replays_and_exports_the_body(tmp_path):
     import json
 

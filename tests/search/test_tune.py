@@ -140,7 +140,7 @@ def test_annealing_accepts_some_worse_changes_and_keeps_the_best():
     assert worse is not None
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 2 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_tuning_a_phase1_gait_improves_it_and_is_stored_with_its_parent(bounder_run):
     db, run_id = bounder_run
     with Library(str(db)) as lib:
@@ -165,7 +165,6 @@ def test_tuning_a_phase1_gait_improves_it_and_is_stored_with_its_parent(bounder_
         assert again.score[0] == pytest.approx(r.after["score"], rel=1e-6)
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_seeded_tuning_run_is_reproducible(bounder_run):
     db, run_id = bounder_run
     with Library(str(db)) as lib:
@@ -178,7 +177,6 @@ def test_a_seeded_tuning_run_is_reproducible(bounder_run):
                    [(t.trial, t.score, t.accepted) for t in lib.trace(y.run_id)]
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_morphology_and_terrain_options(bounder_run):
     db, run_id = bounder_run
     with Library(str(db)) as lib:

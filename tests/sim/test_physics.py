@@ -244,7 +244,6 @@ def _energy_run(spec: Creature, seconds: float = 10.0):
     return w, w["e0"] - hang, r
 
 
-@pytest.mark.slow  # 15 unrolled links compile for about a minute
 def test_a_passive_15_link_pendulum_released_from_rest_gains_no_energy():
     # Released horizontal from rest; 10 s at the creature's dt (1 ms). Right value: the energy
     # never rises more than 1 % of what the fall can release, and the centre of mass never rises

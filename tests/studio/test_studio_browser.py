@@ -148,7 +148,7 @@ def _live_distances(page, target, drag: bool, settle: float = 1.0, watch: float 
     return d(at(t0)), d(at(t0 + watch)), page.evaluate("studio.view.stats")
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 11 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_live_fish_chases_the_dragged_follow_point(page, studio, library, browser):
     target = (1.2, 0.3)  # ahead and to the left of the fish, which starts at the origin facing +x
     page.goto(gait_url(studio, "live", library["fish"]))

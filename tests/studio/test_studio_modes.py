@@ -154,7 +154,6 @@ PIXEL = """([i, j]) => { const [u, v] = studio.view.heat.cellPx(i, j), c = docum
     return Array.from(c.getContext('2d').getImageData(Math.round(u * d), Math.round(v * d), 1, 1).data).slice(0, 3); }"""
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_run_page_shows_modes_and_the_archive_and_a_cell_opens_its_elite(page, studio, library):
     qd = library["qd"]
     with Library(library["db"]) as lib:

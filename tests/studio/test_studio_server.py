@@ -181,7 +181,7 @@ def _job_push(ws, job_id: str, statuses: set, timeout: float = 300.0) -> dict:
             return msg["job"]
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
+@pytest.mark.slow  # about 6 s on 2 busy cores (the pre-commit subset leaves it out)
 def test_a_cancelled_job_stops_after_its_batch_and_its_run_resumes(library, tmp_path):
     """A running search stops after the batch in flight, which is kept, and leaves its run
     interrupted with the command that carries it on; a queued job never starts; cancelling an
@@ -233,7 +233,6 @@ def test_a_cancelled_job_stops_after_its_batch_and_its_run_resumes(library, tmp_
         assert lib.get_run(run_id).status == "done" and lib.count(run_id) == 12 * 256
 
 
-@pytest.mark.slow  # over 4 s even with a warm compile cache (the pre-commit subset leaves it out)
 def test_a_tuning_stopped_by_its_reporter_is_left_interrupted_and_resumes(library, tmp_path):
     """How a tune job is cancelled: its progress callback raises after a round, the tuning run is
     left interrupted, and `sanlab tune --resume` finishes it."""
