@@ -196,6 +196,7 @@ def test_a_design_files_bodies_keep_the_papers_constraints(name):
     import math
 
     from sanlab.creature import load, load_design
+    from sanlab.sim import poses
     from sanlab.sim.compiler import compile_creature
 
     builtin = load(name)
@@ -214,6 +215,10 @@ def test_a_design_files_bodies_keep_the_papers_constraints(name):
             for a in c.actuators:
                 assert (a.ks, a.kd) == pytest.approx((math.degrees(0.4), math.degrees(0.04)))
             assert c.links[0].mass == 2.4  # the body the gain was sized against
+        if name in ("bounder", "walker"):  # stands on its feet (lifted onto the ground where they start in it)
+            m = compile_creature(c, "float64")
+            y = np.sort(np.asarray(poses(m, m.params.q0)["contacts"])[:, 1])
+            assert abs(y[0]) < 2e-4 and y[1] < (1e-6 if name == "bounder" else 3e-3) and y[2] > 0.1
         if name == "crawler":  # point masses: no size to follow, no angular muscle
             assert [link.mass for link in c.links] == [link.mass for link in builtin.links]
             assert [(a.ks, a.kd) for a in c.actuators] == [(a.ks, a.kd) for a in builtin.actuators]
