@@ -148,3 +148,103 @@ def test_the_fourlink_design_file_loads_as_the_built_in():
         if f.name in ranges:
             assert (f.min, f.max) == ranges[f.name], f.name
     assert set(design.names) == (set(ranges) - {"sense"}) | {"fold_end", "fold_mid"}
+
+
+def _close(a, b, rel: float = 1e-12, where: str = "") -> None:
+    """``a == b`` for loaded creatures' parts, floats to ``rel`` (a free number's ``times * x +
+    plus`` may differ from the written number in the last bit)."""
+    import dataclasses
+
+    if dataclasses.is_dataclass(a) and not isinstance(a, type):
+        assert type(a) is type(b), where
+        for f in dataclasses.fields(a):
+            if not f.compare:  # e.g. the creature's design (its free numbers): not part of its physics
+                continue
+            _close(getattr(a, f.name), getattr(b, f.name), rel, f"{where}.{f.name}")
+    elif isinstance(a, tuple | list):
+        assert isinstance(b, tuple | list) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _close(x, y, rel, f"{where}[{i}]")
+    elif isinstance(a, float) and not isinstance(b, bool):
+        assert b == pytest.approx(a, rel=rel, abs=1e-15), where
+    else:
+        assert a == b, where
+
+
+DESIGN_FILES = ["bounder", "walker", "fish", "crawler"]
+
+
+@pytest.mark.parametrize("name", DESIGN_FILES)
+def test_a_design_file_at_its_defaults_loads_as_the_built_in(name):
+    """experiments/NAME_design.toml (issue 47, part 3): at its defaults it is the built-in, in
+    every field of the loaded creature and every compiled number (to the last bits: kd = ks / 10
+    and a start height thigh + a constant are computed, not written)."""
+    from sanlab.creature import read_source
+    from sanlab.creature.loader import loads
+    from sanlab.sim.compiler import compile_creature
+
+    a, b = loads(read_source(name)[0]), loads((ROOT / "experiments" / f"{name}_design.toml").read_text())
+    _close(a, b, where=name)
+    ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
+    assert ma.structure == mb.structure
+    for x, y in zip(jax.tree_util.tree_leaves(ma.params), jax.tree_util.tree_leaves(mb.params), strict=True):
+        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("name", DESIGN_FILES)
+def test_a_design_files_bodies_keep_the_papers_constraints(name):
+    """Every body of the file (its ranges' corners and random draws) is a valid creature of the
+    built-in's structure (one program for all), with the counts of Table 1 and the gains the
+    paper gives (the bounder's ks = 0.4 N m/deg, kd = 0.1 ks); the mass of a link whose size
+    and strength are the stated ones stays the built-in's."""
+    import math
+
+    from sanlab.creature import load, load_design
+    from sanlab.sim import poses
+    from sanlab.sim.compiler import compile_creature
+
+    builtin = load(name)
+    structure = compile_creature(builtin, "float64").structure
+    design, _ = load_design(str(ROOT / "experiments" / f"{name}_design.toml"))
+    assert design.free
+    rng = np.random.default_rng(0)
+    bodies = [design.lo, design.hi, *(design.lo + rng.random(len(design.free)) * (design.hi - design.lo) for _ in range(6))]
+    for v in bodies:
+        c = design.creature(v)
+        assert (len(c.links), len(c.sensors), len(c.actuators), c.san.hidden) == (
+            len(builtin.links), len(builtin.sensors), len(builtin.actuators), builtin.san.hidden)
+        assert compile_creature(c, "float64").structure == structure
+        assert 0.07 <= c.san.delay_on == c.san.delay_off <= 0.15  # the paper's node delays
+        if name == "bounder":  # §3.3's gains, given by the paper
+            for a in c.actuators:
+                assert (a.ks, a.kd) == pytest.approx((math.degrees(0.4), math.degrees(0.04)))
+            assert c.links[0].mass == 2.4  # the body the gain was sized against
+        if name in ("bounder", "walker"):  # stands on its feet (lifted onto the ground where they start in it)
+            m = compile_creature(c, "float64")
+            y = np.sort(np.asarray(poses(m, m.params.q0)["contacts"])[:, 1])
+            assert abs(y[0]) < 2e-4 and y[1] < (1e-6 if name == "bounder" else 3e-3) and y[2] > 0.1
+        if name == "crawler":  # point masses: no size to follow, no angular muscle
+            assert [link.mass for link in c.links] == [link.mass for link in builtin.links]
+            assert [(a.ks, a.kd) for a in c.actuators] == [(a.ks, a.kd) for a in builtin.actuators]
+
+
+@pytest.mark.parametrize("name", ["bounder", "walker"])
+def test_a_design_file_searches_its_scripts_ranges(name):
+    """The bounder's and the walker's files free what their scripts searched, over the same
+    ranges (lengths written negative: the legs point down; sensor thresholds in degrees, over
+    the span the script's fractions could reach), but the start angles, which are trigonometry."""
+    from sanlab.creature import load_design
+
+    script = {n: (lo, hi) for n, lo, hi in _design(name).RANGES}
+    design, _ = load_design(str(ROOT / "experiments" / f"{name}_design.toml"))
+    got = {f.name: (f.min, f.max) for f in design.free}
+    for n in ("thigh", "shin"):
+        assert got[n] == pytest.approx((-script[n][1], -script[n][0]))
+    for n in ("hip_swing", "delay", *(("hip_x",) if name == "bounder" else ("lean", "waist_sense", "waist_fwd"))):
+        assert got[n] == pytest.approx(script[n])
+    assert got["knee_fold"] == pytest.approx((-script["knee_fold"][1], -script["knee_fold"][0]))
+    hs, sw = script["hip_sense"], script["hip_swing"]
+    assert got["hip_sense"] == pytest.approx((hs[0] * sw[0], hs[1] * sw[1]))
+    ks, kf = script["knee_sense"], script["knee_fold"]
+    assert got["knee_sense"] == pytest.approx((-ks[1] * kf[1], -ks[0] * kf[0]))
+    assert not {n for n in got} & {"start_hip", "start_knee"}

@@ -192,3 +192,23 @@ def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_va
     pruned = [b for b in r.bodies if b.speeds[0].get("pruned")]
     assert pruned and all(b.values[0] < 0.9 and b.speed(0) == 0.0 for b in pruned)
     assert not r.chosen.speeds[1].get("pruned")
+
+
+def test_cma_es_started_at_the_ends_of_many_ranges_asks_quietly():
+    """A design file's defaults often sit at the ends of their ranges (a built-in's value that an
+    earlier search pushed to a range's end: the fourlink's range_end, the walker's shin). pyribs
+    resamples each body until it lies in the box and, past 100 rounds, warns that it "may
+    resample forever"; it cannot here (the mean is a weighted mean of bodies in the box), so the
+    warning only alarms a user: none reaches them, and the bodies stay in the box."""
+    import warnings
+
+    d = 12
+    p = BodyProblem(np.zeros(d), np.ones(d), np.r_[np.ones(d // 2), np.zeros(d - d // 2)], 16, 8, 0)
+    s = make_bodies("cma-es", p)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        while not s.done:
+            x = s.ask()
+            assert np.all((x >= 0) & (x <= 1))
+            s.tell(x, -x.sum(axis=1))
+    assert not [w for w in caught if "resampled" in str(w.message)]
