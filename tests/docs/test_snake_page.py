@@ -27,6 +27,6 @@ def test_the_snake_is_a_top_view_chain_written_with_repeat():
     assert [c.split()[1] for c in commands] == ["check", "search", "modes"]
 
 
-@pytest.mark.slow  # about 13 s on 2 busy cores (the pre-commit subset leaves it out)
+@pytest.mark.slow  # a search of 64 controllers and their modes (about 5 s on 2 cores)
 def test_the_snake_page_runs_as_written(tmp_path):
     blocks.run_page(PAGE, tmp_path)
