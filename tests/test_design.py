@@ -187,8 +187,9 @@ def test_a_design_file_at_its_defaults_loads_as_the_built_in(name):
     _close(a, b, where=name)
     ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
     assert ma.structure == mb.structure
-    for x, y in zip(jax.tree_util.tree_leaves(ma.params), jax.tree_util.tree_leaves(mb.params), strict=True):
-        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=1e-15)
+    for f in dataclasses.fields(ma.params):
+        x, y = getattr(ma.params, f.name), getattr(mb.params, f.name)
+        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=1e-15, err_msg=f.name)
 
 
 @pytest.mark.parametrize("name", DESIGN_FILES)
