@@ -240,15 +240,21 @@ def _tile(x: np.ndarray, W: int) -> np.ndarray:
     """[B, ...] -> [T, ..., W], the batch padded with copies of its last row; always a new array:
     the kernel writes its state back in place, and a view (W = 1, or a 1-D array) would hand it
     the caller's own memory."""
-    B = x.shape[0]
+    B, rest = x.shape[0], x.shape[1:]
     T = -(-B // W)
     if T * W != B:
         x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
-    return np.array(np.moveaxis(x.reshape(T, W, *x.shape[1:]), 1, -1), np.float64, order="C", copy=True)
+    # [T, W, n] -> [T, n, W] as one transpose (moveaxis's axis checks cost more than the copy for
+    # the small arrays of a Gymnasium step)
+    out = np.empty((T, int(np.prod(rest, dtype=np.int64)), W), np.float64)
+    out[...] = x.reshape(T, W, -1).transpose(0, 2, 1)
+    return out.reshape(T, *rest, W)
 
 
 def _untile(x: np.ndarray, B: int) -> np.ndarray:
-    return np.moveaxis(x, -1, 1).reshape(x.shape[0] * x.shape[-1], *x.shape[1:-1])[:B]
+    T, W = x.shape[0], x.shape[-1]
+    rest = x.shape[1:-1]
+    return x.reshape(T, -1, W).transpose(0, 2, 1).reshape(T * W, *rest)[:B]
 
 
 ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers a row may carry its own of
@@ -337,7 +343,7 @@ def _check_rows(pk: Packed, B: int, rows: dict | None) -> dict:
 def _pointers(arrays: list):
     import ctypes
 
-    return (ctypes.c_void_p * len(arrays))(*[a.ctypes.data for a in arrays])
+    return (ctypes.c_void_p * len(arrays))(*[a.__array_interface__["data"][0] for a in arrays])
 
 
 def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
