@@ -202,7 +202,7 @@ def throughput(spec, batch: int, steps: int, repeats: int, mujoco_seconds: float
             mjn, info = mujoco_steps_per_s(seconds_budget=mujoco_seconds, details=True)
         except RuntimeError as e:  # MuJoCo went unstable: the route timed a different job
             r["mujoco_numpy_invalid"] = True
-            print(f"  MuJoCo with the SAN in NumPy: INVALID, not timed ({e})")
+            print(f"  MuJoCo with the SAN in NumPy: {e}; not timed")
         else:
             r["rate_mujoco_numpy"] = mjn
             print(f"  MuJoCo with the SAN in NumPy: {mjn / 1e6:.3f} M/s, one process per core, "
