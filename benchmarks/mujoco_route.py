@@ -11,14 +11,24 @@ dt = 1 ms, with ground contact, the network closed around the physics every step
   [-pi, pi)), then the SAN of Figure 7 (12 threshold nodes x 20 integer weights in [-2, 2] over
   8 sensors + 12 node outputs; istate += k1 dt if the sum > 0 else k2 dt, clamped to [0, 1],
   output on at 1 and off at 0), then the 4 actuator nodes' sums clipped to [-2, 2] and mapped
-  onto each actuator's [min, max] as a target angle, then the PD torque
-  ks (target - angle) - kd angle' written to ``data.ctrl`` (motor actuators), then ``mj_step``;
+  onto each actuator's [min, max] (rad) as a target angle written to ``data.ctrl``, then
+  ``mj_step``;
+* the PD servos T = ks (target - angle) - kd angle' (ks N m/rad, kd N m s/rad, as the loader
+  converts the file's per-degree gains) are MuJoCo's ``position`` actuators (the converter's
+  ``servos=True``: kp = ks, kv = kd), integrated by "implicitfast", which takes the servos'
+  damping implicitly, as sanlab's step does. Computing the torque in NumPy and writing it to
+  ``motor`` actuators, as this route once did, is explicit in the damping, and the bounder's
+  0.15 m shins are too light for that at 1 ms: h kd / I_eff is about 3.7 at the knees (stable
+  only below 2), so every creature blew up within its first ~20 steps and MuJoCo reset it; the
+  figures that route gave ("63.5 x MuJoCo with the SAN in NumPy") timed that, not the bounder;
 * each episode lasts the creature's evaluation time (6 s); then that creature restarts from its
   initial pose with fresh random weights, as in a search.
 
 Each worker process (one per CPU core) steps ``creatures`` copies (one ``MjData`` each, the SAN
 arithmetic vectorised over them) for a fixed wall time; the result is the sum over workers of
-creature-steps per second. Setup (imports, model compilation) is not timed.
+creature-steps per second. Setup (imports, model compilation) is not timed. A run in which MuJoCo
+reports any instability (a warning on any creature, warm-up included) raises RuntimeError instead
+of returning a rate: it would time a different job.
 
     python benchmarks/mujoco_route.py [seconds]       # prints the number
 """
@@ -66,11 +76,12 @@ def job(spec=None) -> dict:
     spec = bounder_spec() if spec is None else spec
     if spec.dt != 1e-3:
         raise ValueError(f"the benchmark runs at dt = 1 ms, {spec.name} has {spec.dt}")
-    xml = mm.to_mjcf(spec, ground=True, motors=True, integrator="implicitfast")
+    xml = mm.to_mjcf(spec, ground=True, servos=True, integrator="implicitfast")
     import mujoco
 
     mj: Any = mujoco  # compiled bindings: nothing a type checker can read
     m = mj.MjModel.from_xml_string(xml)
+    _check_servos(spec, m)
     idx = [int(i) for i in mm.qpos_index(spec, m)]
     names = {l.name: i for i, l in enumerate(spec.links)}
     rot_dof = {name: idx[k] for name, k in mm.rotation_dofs(spec).items()}
@@ -107,17 +118,32 @@ def job(spec=None) -> dict:
         angle_dofs=angle_dofs,
         angle_min=angle_min,
         angle_max=angle_max,
-        act_dofs=[rot_dof[a.joint] for a in spec.actuators if isinstance(a, AngularActuator)],  # all (to_mjcf refuses others)
+        n_act=sum(isinstance(a, AngularActuator) for a in spec.actuators),  # all (to_mjcf refuses others)
         act_min=[a.min for a in spec.actuators],
         act_max=[a.max for a in spec.actuators],
-        act_ks=[a.ks for a in spec.actuators],
-        act_kd=[a.kd for a in spec.actuators],
         hidden=hidden,
         k1=1.0 / spec.san.delay_on,
         k2=-1.0 / spec.san.delay_off,
         episode_steps=int(round(spec.evaluation.seconds / spec.dt)),
         dt=spec.dt,
     )
+
+
+def _check_servos(spec, m) -> None:
+    """MuJoCo's actuators are sanlab's PD servos: actuator a is a position servo on its joint with
+    force ks (ctrl - q) - kd q' (SI units: the spec's, after the loader's degree conversion)."""
+    import numpy as np
+
+    for k, a in enumerate(spec.actuators):
+        act = m.actuator(k)
+        ok = (
+            act.name == a.name
+            and m.joint(int(act.trnid[0])).name == f"{a.joint}:joint"
+            and np.allclose([act.gear[0], act.gainprm[0], *act.biasprm[:3]], [1.0, a.ks, 0.0, -a.ks, -a.kd])
+            and np.allclose(act.ctrlrange, [a.min, a.max])
+        )
+        if not ok:
+            raise RuntimeError(f"actuator {a.name}: MuJoCo's servo is not ks = {a.ks}, kd = {a.kd} on {a.joint}")
 
 
 class _Batch:
@@ -137,11 +163,9 @@ class _Batch:
         self.links, self.touch = job["links"], job["touch"]
         self.adofs = np.asarray(job["angle_dofs"], int)
         self.amin, self.amax = np.asarray(job["angle_min"]), np.asarray(job["angle_max"])
-        self.jdofs = np.asarray(job["act_dofs"], int)
         self.tmin = np.asarray(job["act_min"])
         self.tspan = np.asarray(job["act_max"]) - self.tmin
-        self.ks, self.kd = np.asarray(job["act_ks"]), np.asarray(job["act_kd"])
-        self.H, self.A = job["hidden"], len(job["act_dofs"])
+        self.H, self.A = job["hidden"], job["n_act"]
         self.S = len(self.touch) + len(self.adofs)
         self.N = self.H + self.A
         self.k1, self.k2, self.dt = job["k1"], job["k2"], job["dt"]
@@ -150,19 +174,28 @@ class _Batch:
         self.istate = np.zeros((n, self.N))
         self.out = np.zeros((n, self.N))
         self.x = np.zeros((n, self.S + self.N))
-        # state rows [qpos | qvel] and control rows, bound once: one C call each per creature
-        self.sig_state = mj.mjtState.mjSTATE_QPOS | mj.mjtState.mjSTATE_QVEL
+        # qpos rows (the sensors read only angles and heights) and control rows, bound once: one
+        # C call each per creature
+        self.sig_state = mj.mjtState.mjSTATE_QPOS
         self.sig_ctrl = mj.mjtState.mjSTATE_CTRL
-        self.state = np.zeros((n, m.nq + m.nv))
+        self.state = np.zeros((n, m.nq))
         self.ctrl = np.zeros((n, m.nu))
         self.state_rows = [self.state[i] for i in range(n)]
         self.ctrl_rows = [self.ctrl[i] for i in range(n)]
         self.t = 0
+        self.unstable = 0  # creature-episodes in which MuJoCo warned of an instability
         for i in range(n):
             self._restart(i)
 
+    def warnings(self) -> int:
+        """Creature-episodes so far in which MuJoCo warned (mj_resetData clears the counters, and
+        MuJoCo's own reset after an instability sets its count back to 1, so any count > 0 on
+        a creature means at least one warning in its episode)."""
+        return self.unstable + sum(int(d.warning.number.sum() > 0) for d in self.data)
+
     def _restart(self, i: int) -> None:
         d = self.data[i]
+        self.unstable += int(d.warning.number.sum() > 0)
         self.mj.mj_resetData(self.model, d)
         d.qpos[:] = self.qpos0
         self.mj.mj_forward(self.model, d)
@@ -195,7 +228,7 @@ class _Batch:
         get, sig = mj.mj_getState, self.sig_state
         for d, row in zip(self.data, self.state_rows):
             get(m, d, row, sig)
-        qpos, qvel = self.state[:, : m.nq], self.state[:, m.nq :]
+        qpos = self.state
         # sensors
         ang = qpos[:, self.adofs]
         ang = ang - 2 * math.pi * np.floor((ang + math.pi) / (2 * math.pi))
@@ -210,9 +243,8 @@ class _Batch:
         self.out = np.where((self.out == 1) & (self.istate == 0.0), 0.0, self.out)
         self.out = np.where((self.out == 0) & (self.istate == 1.0), 1.0, self.out)
         u = (np.clip(total[:, self.H :], -2.0, 2.0) + 2.0) * 0.25
-        # PD servos
-        target = self.tmin + u * self.tspan
-        self.ctrl[:] = self.ks * (target - qpos[:, self.jdofs]) - self.kd * qvel[:, self.jdofs]
+        # the servos' targets (rad): MuJoCo's position actuators apply the PD law
+        self.ctrl[:] = self.tmin + u * self.tspan
         put, sig, step = mj.mj_setState, self.sig_ctrl, mj.mj_step
         for d, row in zip(self.data, self.ctrl_rows):
             put(m, d, row, sig)
@@ -239,7 +271,9 @@ def _worker(job: dict, creatures: int, seconds: float, seed: int, barrier, queue
         now = time.perf_counter()
         if now >= end:
             break
-    warnings = int(sum(d.warning.number.sum() for d in batch.data))
+    warnings = batch.warnings()
+    if not batch.np.all(batch.np.isfinite(batch.state)):
+        warnings = max(warnings, 1)
     queue.put((steps, now - t0, warnings))
 
 
@@ -250,15 +284,17 @@ def _cores() -> int:
 
 
 def mujoco_steps_per_s(
-    seconds_budget: float = 5.0, *, workers: int | None = None, creatures: int = 32, seed: int = 0,
+    seconds_budget: float = 5.0, *, workers: int | None = None, creatures: int = 128, seed: int = 0,
     details: bool = False,
 ) -> Any:
     """Creature-steps per second of the MuJoCo route on the bounder (see the module docstring).
 
     seconds_budget: wall time each worker steps for (setup excluded). workers: processes (default:
     one per CPU core). creatures: MjData copies per worker, stepped in lock step with the SAN
-    vectorised over them. details: return (rate, dict) instead, the dict with per-worker numbers
-    and MuJoCo's warning count (instabilities would show there).
+    vectorised over them (128: NumPy's per-call cost spread wider than at 32, which ran 10-40 %
+    slower on 2 shared cores; 512 is no faster). details: return (rate, dict) instead, the dict with per-worker numbers
+    and MuJoCo's warning count (always 0: a run with any instability raises RuntimeError, as it
+    would time a different job).
     """
     import multiprocessing as mp
 
@@ -277,6 +313,10 @@ def mujoco_steps_per_s(
     for p in procs:
         p.join()
     rate = sum(steps / wall for steps, wall, _ in results)
+    unstable = sum(w for _, _, w in results)
+    if unstable:
+        raise RuntimeError(f"INVALID: MuJoCo reported instabilities in {unstable} creature-episodes of the "
+                           f"bounder (the route would time a different job)")
     if details:
         return rate, dict(
             workers=workers, creatures=creatures,
