@@ -273,12 +273,17 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
             "phase1_cm_s": float(best[0].speed_cm_s), "chains": chains}
 
 
+ENGINE = "kernel"  # the simulator a ledger's rows were made on (sanlab.sim.kernel)
+
+
 def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens: Ensemble, top: int,
             audit: bool) -> dict:
     """What makes a row: the creature and the SHA-256 of its file's text (a changed file is
-    another creature), the seed and the budget."""
+    another creature), the seed, the budget and the simulator (:data:`ENGINE`: a row the XLA
+    engine made before issue 46, whose key has no engine, is made again)."""
     return {"creature": name, "creature_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
-            "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit}
+            "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit,
+            "engine": ENGINE}
 
 
 class Ledger:

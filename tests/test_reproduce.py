@@ -212,6 +212,10 @@ def test_a_ledger_gives_back_the_rows_it_was_given_and_names_a_bad_line(tmp_path
     assert again.get(row_key("twolink", text + "\n# changed\n", 0, 200, 1000, ens, 4, True)) is None
     assert again.get(row_key("twolink", text, 0, 200, 1000, default_ensemble(4), 4, True)) is None
     assert again.get(row_key("twolink", text, 0, 200, 500, ens, 4, True)) is None
+    # a row another simulator made (the XLA engine's keys have no engine) is made again
+    assert keys[0]["engine"] == "kernel"
+    Ledger(tmp_path / "old.jsonl").add({k: v for k, v in keys[0].items() if k != "engine"}, _made_row(0, 14.0))
+    assert Ledger(tmp_path / "old.jsonl").get(keys[0]) is None
     with path.open("a") as f:
         f.write('{"key": {}, "row": {"creature": "x", "bogus": 1}}\n')
     with pytest.raises(ValueError, match=r"rows.jsonl: line 3: expected a ledger entry"):
