@@ -7,7 +7,21 @@ multiply and add a separate IEEE operation, so a creature's trajectory is the sa
 every lane, thread count and batch size (and agrees with the XLA engine to round-off).
 """
 
+import hashlib
+from pathlib import Path
+
 from setuptools import Extension, setup
+
+
+def kernel_source_hash(folder: Path) -> str:
+    """The hash the built kernel carries of the sources it was built from; sanlab.sim.kernel
+    computes the same from the installed sources and refuses a library built from others (a
+    stale build after a pull that changed the kernel would read its arguments wrongly)."""
+    h = hashlib.sha256()
+    for f in sorted(folder.glob("*.[hc]*")):
+        h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
 
 setup(
     ext_modules=[
@@ -15,6 +29,7 @@ setup(
             "sanlab.sim._kernel_lib",
             sources=["sanlab/sim/_kernel/kernel.cpp"],
             depends=["sanlab/sim/_kernel/step.h"],
+            define_macros=[("SANLAB_KERNEL_SOURCE", '"%s"' % kernel_source_hash(Path("sanlab/sim/_kernel")))],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fopenmp"],
             extra_link_args=["-fopenmp"],

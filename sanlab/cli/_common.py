@@ -447,12 +447,14 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
                         f"sanlab audit {best}"])
 
 
-def print_next(db: str, commands: list[str]) -> None:
+def print_next(db: str, commands: list[str], without_db: tuple[str, ...] = ()) -> None:
     """The "next:" line under a command's output: ``commands`` (each given ``--db`` when the
-    library is not the default one), four spaces apart, never wrapped inside a command."""
+    library is not the default one), then ``without_db`` (commands that take no library, as
+    they are), four spaces apart, never wrapped inside a command."""
     db_opt = "" if db == "sanlab.db" else f" --db {db}"
-    if commands:
-        console.print("next: " + "    ".join(f"{safe(c)}{safe(db_opt)}" for c in commands), soft_wrap=True)
+    shown = [f"{safe(c)}{safe(db_opt)}" for c in commands] + [safe(c) for c in without_db]
+    if shown:
+        console.print("next: " + "    ".join(shown), soft_wrap=True)
 
 
 class ProgressBar:

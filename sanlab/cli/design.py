@@ -142,7 +142,7 @@ def design(
     console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
                   + (f" and {safe(render)}" if render else ""))
     gait = ch.speeds[s.seed]["gait"]
-    print_next(db, [f"sanlab check {target}", *( [f"sanlab render {gait}"] if gait else [])])
+    print_next(db, [f"sanlab render {gait}"] if gait else [], (f"sanlab check {target}",))  # check reads no library
 
 
 def _render(lib, path: str, bodies: list[tuple[str, dict]], title: str) -> None:

@@ -81,5 +81,5 @@ def simulate(
         f"{rep['controllers']} random SANs x {rep['seconds']:g} s on [bold]{escape(c.name)}[/bold], "
         f"metric {rep['metric']}, ensemble of {rep['ensemble']}: "
         f"{rep['steps_per_s'] / 1e6:.3g} M creature-steps/s on {rep['devices']} "
-        f"({rep['wall_s']:.1f} s incl. compile), {rep['tally']['fell']} fell, {rep['tally']['nonfinite']} non-finite"
+        f"({rep['wall_s']:.1f} s), {rep['tally']['fell']} fell, {rep['tally']['nonfinite']} non-finite"
     )

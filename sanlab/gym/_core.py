@@ -191,7 +191,9 @@ class Core:
         if a.shape != (n, A):
             raise ValueError(f"action: expected shape {(A,) if n == 1 else (n, A)} ({A} actuators), got {a.shape}")
         lo, hi = (self.act_min, self.act_max) if self.settings.action == "target" else (np.zeros(A), np.ones(A))
-        bad = ~(np.isfinite(a) & (a >= lo) & (a <= hi))
+        # a bound rounded to float32 (a float32 policy clipped to the Box) may lie a rounding past it
+        tol = np.maximum(np.abs(lo), np.abs(hi)) * 2.0**-23
+        bad = ~(np.isfinite(a) & (a >= lo - tol) & (a <= hi + tol))
         if bad.any():
             r, k = np.argwhere(bad)[0]
             unit = self.act_units[k] if self.settings.action == "target" else "activation"
@@ -199,6 +201,7 @@ class Core:
             got = _shown(action, a, r, k)
             raise ValueError(f"{where} (actuator {self.act_names[k]!r}): {got} is outside its range "
                              f"[{lo[k]:.9g}, {hi[k]:.9g}] {unit}")
+        a = np.clip(a, lo, hi)
         if self.settings.action == "target":
             # float64 throughout, so that any float32 activation (a SAN's) survives the trip to a
             # target and back exactly, and the step sees the activation the controller gave

@@ -1,8 +1,8 @@
 """A replayed gait as plain arrays: everything the drawing code needs, computed once.
 
-:func:`scene` replays a gait with the same compiled step as the search (``Gait.replay``) and turns
-each recorded frame into world placements through ``sim.poses`` (one jitted, vmapped call), so
-what is drawn is exactly what was simulated.
+:func:`scene` replays a gait on the same kernel as the search (``Gait.replay``) and turns each
+recorded frame into world placements through ``sim.poses`` (one call of the kernel for all of
+them), so what is drawn is exactly what was simulated.
 """
 
 from __future__ import annotations

@@ -215,6 +215,12 @@ def _library():
         else:
             raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
         lib = ctypes.CDLL(str(path))
+        if (here / "_kernel").is_dir():  # installed with its sources: the build must be of them
+            lib.sanlab_kernel_source.restype = ctypes.c_char_p
+            built, now = lib.sanlab_kernel_source().decode(), source_hash(here / "_kernel")
+            if built != now:
+                raise RuntimeError(f"sanlab's simulator kernel {path.name} was built from other sources ({built}, "
+                                   f"these are {now}): rebuild it with `pip install -e .`")
         P = ctypes.c_void_p
         i32, i64 = ctypes.c_int32, ctypes.c_int64
         lib.sanlab_rollout.restype = None
@@ -229,6 +235,17 @@ def _library():
 
 
 _LIB = None
+
+
+def source_hash(folder) -> str:
+    """The hash of the kernel's sources in ``folder``, as setup.py stamps it into the build."""
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.sha256()
+    for f in sorted(Path(folder).glob("*.[hc]*")):
+        h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
 
 
 def lanes() -> int:
@@ -291,6 +308,21 @@ class Observe:
         """Accumulator values per row."""
         return len(ACC) + len(self.touch) + 2 * EVENTS
 
+    def check(self, pk: Packed) -> None:
+        """Raise ValueError unless every index it names is one of ``pk``'s (the kernel reads and
+        writes by them: an index past a table would be read or written past it)."""
+        L, S, D = pk.li.shape[0], pk.si.shape[0], pk.ndof
+        if self.kind not in METRIC_KINDS:
+            raise ValueError(f"observe.kind: expected one of {METRIC_KINDS}, got {self.kind!r}")
+        for name, values, n in (("fell_links", self.fell_links, L), ("joints", self.joints, D),
+                                ("touch", self.touch, S), ("root", () if self.root == -1 else (self.root,), L)):
+            bad = [v for v in values if not (isinstance(v, (int, np.integer)) and 0 <= v < n)]
+            if bad:
+                raise ValueError(f"observe.{name}: expected indices in [0, {n}), got {bad[0]!r}")
+        if not (isinstance(self.sensors, (int, np.integer)) and 0 <= self.sensors <= min(30, S)):
+            raise ValueError(f"observe.sensors: expected 0 to {min(30, S)} (the creature's sensors, at most 30), "
+                             f"got {self.sensors!r}")
+
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """(oi int32, of float64), the kernel's config (step.h, "observers")."""
         oi = [METRIC_KINDS.index(self.kind), self.fell_com_height is not None, self.fell_link_height is not None,
@@ -352,7 +384,7 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     [B, C, 2] at the contact points). The momenta of a state at rest are zero. As the XLA
     engine's ``seat_on_ground`` and ``make_state`` computed them, to round-off."""
     W = lanes()
-    q = np.asarray(q, np.float64)
+    q = _rows_of("q", q, pk.ndof)
     B = q.shape[0]
     tables, per_row = _tables(pk, B, rows, W)
     vertical = pk.wi[W_PLANE] == 0
@@ -468,8 +500,12 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     others): parameters par [B, n_param] and state cst [B, n_state] per row, a SAN's weights w16
     (see :func:`run_san`). Returns q, p, anchor, t, dmax, qd, cstate [, acc] [, frames_*]."""
     W = 1 if scalar else lanes()
-    B = np.shape(q)[0]
+    B = np.shape(q)[0] if np.ndim(q) else 0
+    if B < 1:
+        raise ValueError(f"q: expected at least one row [B, {pk.ndof}], got shape {np.shape(q)}")
     D, C, S, A = pk.ndof, pk.ci.shape[0], pk.si.shape[0], pk.ai.shape[0]
+    if observe is not None:
+        observe.check(pk)
     if int(steps) != steps or steps < 0:
         raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
     if int(every) != every or every < 0:
@@ -479,6 +515,9 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     anchor = _shaped("anchor", anchor, (B, C, 2))
     if observe is not None and acc is not None:
         acc = _shaped("acc", acc, (B, observe.size))
+        changes = acc[:, ACC.index("changes")]
+        if not np.all(np.isfinite(acc[:, :len(ACC)])) or np.any(changes < 0) or np.any(changes != np.round(changes)):
+            raise ValueError("acc: expected accumulators a rollout returned (finite, a whole count of changes >= 0)")
     dims = _dims(pk, N)
     T = -(-B // W)
     t0 = np.asarray(t0, np.float64)
@@ -532,8 +571,8 @@ def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None
 def _rows_of(name: str, x, width: int) -> np.ndarray:
     """x as float64 [B, width], or a ValueError naming it."""
     a = np.asarray(x, np.float64)
-    if a.ndim != 2 or a.shape[1] != width:
-        raise ValueError(f"{name}: expected shape (B, {width}), got {a.shape}")
+    if a.ndim != 2 or a.shape[1] != width or a.shape[0] < 1:
+        raise ValueError(f"{name}: expected shape (B, {width}) with B >= 1, got {a.shape}")
     return a
 
 

@@ -154,14 +154,22 @@ def rollout(
     hidden = int(controller.n_hidden) if kind == "san" else 0  # type: ignore[attr-defined]
     pk = packed(one, hidden)
     B = _batch(kind, cparams)
+    if B < 1:
+        raise ValueError("cparams: expected at least one controller (a leading batch axis of B >= 1)")
     rows = row_tables(model, B) if params_batched else None
     if state0 is None:
         q0 = np.broadcast_to(np.asarray(model.params.q0, np.float64), (B, pk.ndof))
         q, anchor = kernel.start(pk, q0, seat=False, rows=rows)
         p, t0 = np.zeros_like(q), 0.0
     else:
-        q, p = (np.broadcast_to(np.asarray(x, np.float64), (B, pk.ndof)) for x in (state0.q, state0.p))
-        anchor = np.broadcast_to(np.asarray(state0.anchor, np.float64), (B, pk.ci.shape[0], 2))
+        def given(name: str, x: Any, shape: tuple) -> np.ndarray:
+            a = np.asarray(x, np.float64)
+            if a.shape not in (shape, (B, *shape)):
+                raise ValueError(f"state0.{name}: expected shape {shape} or {(B, *shape)}, got {a.shape}")
+            return np.broadcast_to(a, (B, *shape))
+
+        q, p = given("q", state0.q, (pk.ndof,)), given("p", state0.p, (pk.ndof,))
+        anchor = given("anchor", state0.anchor, (pk.ci.shape[0], 2))
         times = np.unique(np.asarray(state0.t, np.float64))
         if len(times) > 1:
             raise ValueError(f"state0: expected one time for the whole batch, got {len(times)} different times")
@@ -181,7 +189,8 @@ def rollout(
         params = cparams if kind == "reflex" else np.asarray(cparams, np.float64)
         r = kernel.run_open(pk, kind, params, q, p, anchor, steps, t0=t0, rows=rows, observe=ob, every=every)
     state = State(q=r["q"], qd=r["qd"], t=r["t"], p=r["p"], anchor=r["anchor"])
-    finite = (np.isfinite(r["q"]).all(1) & (np.abs(r["qd"]) < VELOCITY_LIMIT).all(1) & np.isfinite(r["p"]).all(1))
+    finite = (np.isfinite(r["q"]).all(1) & (np.abs(r["qd"]) < VELOCITY_LIMIT).all(1) & np.isfinite(r["p"]).all(1)
+              & np.isfinite(r["t"]))
     acc = observer.collect(columns(r["acc"], ob)) if observer is not None and ob is not None else None
     cstate = _san_state(r["istate"], r["out"]) if kind == "san" else r["t"]
     frames = None

@@ -86,9 +86,12 @@ def start_states(model: Model, q: Any, seat: Any = True, params_batched: bool = 
     return State(qs, z, np.zeros(B), z.copy(), anchor)
 
 
-def _rows(x: Any, D: int) -> tuple[np.ndarray, bool]:
-    """x [D] or [B, D] -> ([B, D] float64, whether it was one)."""
+def _rows(x: Any, D: int, name: str = "q") -> tuple[np.ndarray, bool]:
+    """x [D] or [B, D] -> ([B, D] float64, whether it was one); ValueError naming ``name``
+    otherwise."""
     a = np.asarray(x, np.float64)
+    if a.ndim not in (1, 2) or a.shape[-1] != D or (a.ndim == 2 and a.shape[0] < 1):
+        raise ValueError(f"{name}: expected shape ({D},) or (B, {D}) (the creature's coordinates), got {a.shape}")
     return (a[None], True) if a.ndim == 1 else (a, False)
 
 
@@ -107,7 +110,8 @@ def make_state(model: Model, q: Any = None, qd: Any = None, t: float = 0.0) -> S
         v = np.zeros_like(qq)
         p = np.zeros_like(qq)
     else:
-        v = np.broadcast_to(np.asarray(qd, np.float64), qq.shape).copy()
+        v, _ = _rows(qd, pk.ndof, "qd")
+        v = np.broadcast_to(v, qq.shape).copy()
         p = kernel.momenta(pk, qq, v)
     tt = np.full(qq.shape[0], float(t))
     return State(*(_back(x, single) for x in (qq, v, tt, p, anchor)))
@@ -122,7 +126,7 @@ def velocity(model: Model, state: State) -> np.ndarray:
     """The velocity M(q)^-1 p [..., D] of a state."""
     pk = packed(model)
     q, single = _rows(state.q, pk.ndof)
-    p, _ = _rows(state.p, pk.ndof)
+    p, _ = _rows(state.p, pk.ndof, "p")
     return _back(kernel.velocity(pk, q, p), single)
 
 
@@ -133,6 +137,8 @@ def poses(model: Model, q: Any) -> dict:
     ``com`` [..., 2] (the centre of mass of the links not welded to the world)."""
     pk = packed(model)
     a = np.asarray(q, np.float64)
+    if a.ndim < 1 or a.shape[-1] != pk.ndof or a.size == 0:
+        raise ValueError(f"q: expected shape (..., {pk.ndof}) (the creature's coordinates), got {a.shape}")
     lead = a.shape[:-1]
     out = kernel.poses(pk, a.reshape(-1, pk.ndof))
     return {k: v.reshape(*lead, *v.shape[1:]) for k, v in out.items()}

@@ -358,3 +358,20 @@ def test_a_found_san_scores_through_the_env_what_the_library_says(found):
             done = terminated or truncated
         assert ret == stored.member_scores[0] == info["score"], gait.gait_id
     env.close()
+
+
+def test_a_float32_policy_at_the_bounds_is_accepted():
+    # a float32 policy clipped to the Box rounds its bounds outward by up to half a float32 step
+    import gymnasium
+
+    import sanlab.gym  # noqa: F401
+
+    env = gymnasium.make("sanlab/Bounder-v0")
+    env.reset(seed=0)
+    space = env.action_space
+    for edge in (space.high, space.low):
+        rounded = edge.astype(np.float32)
+        assert np.any(rounded.astype(np.float64) != edge)  # really past a bound somewhere
+        env.step(rounded)
+    with pytest.raises(ValueError, match="outside its range"):
+        env.step(space.high + 0.01 * (space.high - space.low))

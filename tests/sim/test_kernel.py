@@ -199,3 +199,61 @@ def test_the_gpus_form_steps_every_creature_bit_for_bit_as_the_simd_tiles(name):
     assert out[0].keys() == out[1].keys()
     for key in out[0]:
         assert np.array_equal(out[0][key], out[1][key], equal_nan=True), key
+
+
+def test_a_kernel_built_from_other_sources_is_refused(tmp_path):
+    # after a pull that changed the kernel's sources without a rebuild, the old library would read
+    # its arguments by the old layout: kernel.py compares the build's stamp with its sources
+    import shutil
+    import sysconfig
+
+    here = ROOT / "sanlab" / "sim"
+    assert kernel._library().sanlab_kernel_source().decode() == kernel.source_hash(here / "_kernel")
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    shutil.copy(here / "kernel.py", tmp_path / "kernel.py")
+    shutil.copy(here / f"_kernel_lib{suffix}", tmp_path / f"_kernel_lib{suffix}")
+    shutil.copytree(here / "_kernel", tmp_path / "_kernel")
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import kernel\n"
+            "try:\n    kernel.lanes()\nexcept RuntimeError as e:\n    print(e)\n")
+    ok = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert ok.returncode == 0 and ok.stdout == "", ok.stdout + ok.stderr  # the same sources: loads
+    with (tmp_path / "_kernel" / "step.h").open("a") as f:
+        f.write("\n// changed\n")
+    stale = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert "built from other sources" in stale.stdout and "pip install -e ." in stale.stdout, stale.stdout + stale.stderr
+
+
+def test_indices_and_shapes_the_kernel_would_read_past_are_refused():
+    # each of these once crashed the process (a segfault) or returned garbage (a newcomer's run)
+    from sanlab.san import San
+
+    spec = creature.load("bounder")
+    m = sim.compile_creature(spec)
+    pk = kernel.pack(m, 8)
+    san = San.for_creature(spec)
+    sp = san.params(np.stack([san.random_weights(0, i) for i in range(3)]), 0.1, 0.1)
+    q, a = kernel.start(pk, np.repeat(np.asarray(m.params.q0)[None], 3, 0))
+    z = np.zeros((3, san.n_nodes))
+    run = lambda **kw: kernel.run_san(pk, sp.weights, sp.k1, sp.k2, q, np.zeros_like(q), a, z, z, 5, **kw)
+    for ob, name in ((kernel.Observe(touch=(10**6,)), "touch"), (kernel.Observe(touch=(8,)), "touch"),
+                     (kernel.Observe(fell_links=(5,)), "fell_links"), (kernel.Observe(joints=(7,)), "joints"),
+                     (kernel.Observe(root=5), "root"), (kernel.Observe(sensors=31), "sensors")):
+        with pytest.raises(ValueError, match=rf"observe\.{name}: expected"):
+            run(observe=ob)
+    acc = run(observe=kernel.Observe(sensors=6))["acc"]
+    acc[:, kernel.ACC.index("changes")] = -63
+    with pytest.raises(ValueError, match="acc: expected"):
+        run(observe=kernel.Observe(sensors=6), acc=acc)
+    for bad in (np.zeros((4, 1)), np.zeros(7), np.zeros((0, 7))):
+        with pytest.raises(ValueError, match=r"q: expected shape \(B, 7\)"):
+            kernel.start(pk, bad)
+    with pytest.raises(ValueError, match=r"q: expected shape \(7,\) or \(B, 7\)"):
+        sim.make_state(m, q=np.zeros(3))
+    with pytest.raises(ValueError, match="at least one controller"):
+        sim.rollout(m, san, sp._replace(weights=sp.weights[:0], k1=sp.k1[:0], k2=sp.k2[:0]), steps=3)
+    s0 = sim.make_state(m)
+    with pytest.raises(ValueError, match=r"state0\.q: expected shape"):
+        sim.rollout(m, san, sp, steps=3, state0=s0._replace(q=s0.q[:3]))
+    # a NaN time is NaN out, not an int made of NaN
+    fish = sim.compile_creature(creature.load("fish"))
+    assert np.isnan(sim.follow_point(fish, np.array([np.nan]))).all()

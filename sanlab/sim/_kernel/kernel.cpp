@@ -310,7 +310,14 @@ template <class V> static void inspect(const Model &m, Tile<V> &t, int kind, con
   }
 }
 
+// the hash of the sources this library was built from (setup.py); kernel.py checks it
+#ifndef SANLAB_KERNEL_SOURCE
+#define SANLAB_KERNEL_SOURCE "unknown"
+#endif
+
 extern "C" {
+
+const char *sanlab_kernel_source() { return SANLAB_KERNEL_SOURCE; }
 
 int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 

@@ -1014,7 +1014,7 @@ template <class V> static inline void follow_point(const Model &m, const Tile<V>
     double ul = Ls::lane(u, l);
     if (m.wi[W_FOLLOW_LOOP]) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
     ul = ul < 0.0 ? 0.0 : (ul > n - 1 ? n - 1 : ul);
-    int i0 = (int)__builtin_floor(ul);
+    int i0 = ul >= 0.0 ? (int)__builtin_floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
     if (i0 > n - 2) i0 = n - 2;
     double f = ul - i0;
     const double *a = m.follow + 2 * i0, *b = a + 2;
