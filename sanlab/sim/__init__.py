@@ -19,7 +19,6 @@ from sanlab.sim.rollout import (
     SineController,
     batch_quantum,
     devices,
-    frame_capacity,
     rollout,
 )
 from sanlab.sim.state import (
@@ -45,5 +44,5 @@ __all__ = [
     "step", "terrain_height", "velocity", "wrap_angle", "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "ReflexController", "Result", "SineController",
-    "batch_quantum", "devices", "frame_capacity", "rollout",
+    "batch_quantum", "devices", "rollout",
 ]

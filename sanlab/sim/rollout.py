@@ -92,16 +92,6 @@ def batch_quantum() -> int:
     return kernel.lanes()
 
 
-MIN_FRAMES = 256  # kept for callers that size buffers by frame_capacity
-
-
-def frame_capacity(n_frames: int) -> int:
-    """Frame buffers for ``n_frames`` frames as the XLA engine sized them (at least
-    :data:`MIN_FRAMES`, else the next power of two). The kernel records exactly the frames asked
-    for; this stays for callers that preallocate."""
-    return max(MIN_FRAMES, 1 << max(0, int(n_frames) - 1).bit_length())
-
-
 def rollout(
     model: Model,
     controller: Controller,
