@@ -52,13 +52,14 @@ def check(
     if simulate:
         from sanlab.check import simulate as drop
 
-        with console.status("compiling and dropping the creature...", spinner="dots") if not as_json \
+        with console.status("dropping the creature...", spinner="dots") if not as_json \
                 else contextlib.nullcontext():
             findings = drop(c, dtype=dtype)
     else:
         from sanlab.check import static  # no simulator: plain `check` stays fast
 
         findings = static(c)
+    findings += _free_ends(out)
     out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
     out["warnings"] = sum(f.warning for f in findings)
     if as_json:
@@ -148,6 +149,21 @@ def _print_free(out: dict) -> None:
     console.print(f"[bold]couplings[/bold]: {len(lines) or 'none'}")
     for line in lines:
         console.print(f"  {line}", soft_wrap=True)
+
+
+def _free_ends(out: dict) -> list:
+    """A warning for each end of a free range where the file is no valid creature: a design
+    search would propose bodies there and lose them (check --strict refuses such a file)."""
+    from sanlab.check import Finding
+
+    found = []
+    for f in out.get("free", []):
+        for end in ("min", "max"):
+            if f[f"mass_at_{end}"] is None:
+                found.append(Finding("free", True, f"free number {f['name']}: at its {end} ({f[end]:g}) the file is no "
+                                                   "valid creature (`sanlab check` of the file with that value says "
+                                                   "why); narrow its range", {"name": f["name"], "end": end}))
+    return found
 
 
 def _strict(strict: bool, warnings: int, creature: str) -> None:

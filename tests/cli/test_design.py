@@ -212,3 +212,14 @@ def test_cma_es_started_at_the_ends_of_many_ranges_asks_quietly():
             assert np.all((x >= 0) & (x <= 1))
             s.tell(x, -x.sum(axis=1))
     assert not [w for w in caught if "resampled" in str(w.message)]
+
+
+def test_check_warns_of_a_free_range_that_reaches_past_valid_creatures():
+    # a design search would propose bodies at that end and lose every one (a newcomer's run)
+    path = str(DATA / "free_range_too_wide.toml")
+    r = runner.invoke(app, ["check", path])
+    assert r.exit_code == 0 and "warning free number delay: at its min (0) the file is no valid creature" in r.stdout
+    assert runner.invoke(app, ["check", path, "--strict"]).exit_code == 1
+    out = json.loads(runner.invoke(app, ["check", path, "--json"]).stdout)
+    assert out["warnings"] == 1 and [(c["name"], c["end"]) for c in out["checks"] if c["check"] == "free"] == [("delay", "min")]
+    assert runner.invoke(app, ["check", str(ROOT / "experiments" / "walker_design.toml"), "--strict"]).exit_code == 0
