@@ -129,7 +129,7 @@ def render(
     out: Annotated[str | None, typer.Option("--out", "-o", help=(
         "Output file: .gif or .mp4 (animation), .png (strobe picture, contact sheet or plot); default, in the "
         "current folder: RUN_RANK.gif (a gait), RUN_topN.png (a sheet), RUN_PLOT.png."))] = None,
-    seconds: Annotated[float | None, typer.Option(min=0.001, help="Replay this long (s); default: the run's evaluation time.")] = None,
+    seconds: Annotated[float | None, typer.Option(help="Replay this long (s); default: the run's evaluation time.")] = None,
     fps: Annotated[float, typer.Option(min=1.0, max=100.0, help="Frames recorded (and played) per second.")] = 30.0,
     width: Annotated[int | None, typer.Option(min=64, max=4096, help="Picture width in pixels; default 640 (animation), 1000 (strobe), 1200 (sheet).")] = None,
     top: Annotated[int, typer.Option(min=1, max=60, help="Gaits on a run's contact sheet.")] = 10,

@@ -47,7 +47,7 @@ def search(
     ctx: typer.Context,
     creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
-    seconds: Annotated[float | None, typer.Option(min=0.001, help="Evaluation time (s); default: the creature file's.")] = None,
+    seconds: Annotated[float | None, typer.Option(help="Evaluation time (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
     batch: Annotated[int | None, typer.Option(min=1, help=(

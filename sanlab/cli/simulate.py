@@ -44,7 +44,7 @@ def report_record(rep: dict, top: int) -> dict:
 def simulate(
     creature: CreatureArg,
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to run.")] = 200,
-    seconds: Annotated[float | None, typer.Option(min=0.001, help="Simulated time per controller (s); default: the creature file's.")] = None,
+    seconds: Annotated[float | None, typer.Option(help="Simulated time per controller (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     ensemble: EnsembleOpt = 8,
     dt_factors: DtFactorsOpt = None,

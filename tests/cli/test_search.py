@@ -188,6 +188,7 @@ def test_search_prints_the_static_check_warnings_once_on_stderr(tmp_path):
     ["search", "bounder", "--ensemble", "1", "--dt-factors", "1,0.5"],  # two groups need two members
     ["search", "bounder", "--dt-jitter", "0.7"],
     ["simulate", "bounder", "--seconds", "1e9"],
+    ["search", "bounder", "--seconds", "nan"],  # once Typer's "should be >= 0.001": now what is expected
 ])
 def test_command_line_mistakes_are_one_line_with_exit_2(tmp_path, args):
     db = tmp_path / "g.db"
@@ -197,3 +198,5 @@ def test_command_line_mistakes_are_one_line_with_exit_2(tmp_path, args):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr and "╭" not in r.stderr, r.stderr
     assert r.stdout == "" and not db.exists()  # nothing started, nothing stored
+    if "nan" in args:
+        assert "--seconds: expected a number of seconds in (0, 1000]" in r.stderr, r.stderr
