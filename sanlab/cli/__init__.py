@@ -113,12 +113,18 @@ def main(
     sys.unraisablehook = _redeliver_interrupts(hook)
 
     def restore() -> None:
+        dropped = any(timer.is_alive() for timer in _pending)
         for timer in _pending:
             timer.cancel()
         _pending.clear()
         for signum, handler in previous.items():
             signal.signal(signum, handler)
         sys.unraisablehook = hook
+        if dropped:
+            # the command finished before the dropped interrupt came round again: its work is
+            # stored, but a script that sent the signal must still see the command was stopped
+            typer.echo("interrupted as the command ended: its work is complete and stored", err=True)
+            raise typer.Exit(130)
 
     ctx.call_on_close(restore)
 
