@@ -40,6 +40,7 @@ Layout: see :class:`Packed`.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -258,13 +259,19 @@ def _tile(x: np.ndarray, W: int) -> np.ndarray:
     the kernel writes its state back in place, and a view (W = 1, or a 1-D array) would hand it
     the caller's own memory."""
     B, rest = x.shape[0], x.shape[1:]
-    T = -(-B // W)
-    if T * W != B:
-        x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
-    # [T, W, n] -> [T, n, W] as one transpose (moveaxis's axis checks cost more than the copy for
-    # the small arrays of a Gymnasium step)
-    out = np.empty((T, int(np.prod(rest, dtype=np.int64)), W), np.float64)
-    out[...] = x.reshape(T, W, -1).transpose(0, 2, 1)
+    T, full = -(-B // W), B // W
+    n = math.prod(rest)
+    out = np.empty((T, n, W), np.float64)
+    # written through a [T, W, n] view of the tile layout: no padded copy of x in between (a
+    # Gymnasium step tiles nine small arrays per call, where each allocation shows)
+    view = out.transpose(0, 2, 1)
+    flat = x.reshape(B, n)
+    if full:
+        view[:full] = flat[: full * W].reshape(full, W, n)
+    if full < T:
+        r = B - full * W
+        view[full, :r] = flat[full * W :]
+        view[full, r:] = flat[B - 1]
     return out.reshape(T, *rest, W)
 
 
@@ -338,9 +345,16 @@ def _dims(pk: Packed, N: int) -> np.ndarray:
                      pk.follow.shape[0]], np.int32)
 
 
-def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.ndarray]:
+def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndarray, list]:
     """The kernel's tables for a call of B rows in tiles of W (``rows``: per-row ones, see
-    :func:`run_san`), and the per-row flags."""
+    :func:`run_san`): (their addresses, the per-row flags, the arrays, which must outlive the
+    call). Without per-row tables the answer is kept for the last few creatures: a Gymnasium
+    step or a studio chunk calls the kernel thousands of times on one creature."""
+    if not rows:
+        hit = _SHARED.get(id(pk))
+        if hit is not None and hit[0] is pk:  # the creature itself is held, so its id is its own
+            _SHARED.move_to_end(id(pk))
+            return hit[1]
     rows = _check_rows(pk, B, rows)
     T = -(-B // W)
     tables = []
@@ -353,7 +367,15 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[list, np.nda
         if T * W != B:  # padded like the state: copies of the last row
             x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
         tables.append(np.ascontiguousarray(x))
-    return tables, np.array([name in rows for name in ROW_TABLES], np.int32)
+    answer = (_pointers(tables), np.array([name in rows for name in ROW_TABLES], np.int32), tables)
+    if not rows:
+        _SHARED[id(pk)] = (pk, answer)
+        while len(_SHARED) > 8:
+            _SHARED.popitem(last=False)
+    return answer
+
+
+_SHARED: OrderedDict = OrderedDict()  # id(pk) -> (pk, _tables' answer) for the last creatures called
 
 
 def _check_rows(pk: Packed, B: int, rows: dict | None) -> dict:
@@ -386,12 +408,12 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     W = lanes()
     q = _rows_of("q", q, pk.ndof)
     B = q.shape[0]
-    tables, per_row = _tables(pk, B, rows, W)
+    tables, per_row, _keep = _tables(pk, B, rows, W)
     vertical = pk.wi[W_PLANE] == 0
     on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
     qt, st = _tile(q, W), _tile(on, W)
     anchor = np.zeros((qt.shape[0], pk.ci.shape[0], 2, W))
-    _library().sanlab_start(_dims(pk, 0).ctypes.data, _pointers(tables), per_row.ctypes.data, qt.ctypes.data,
+    _library().sanlab_start(_dims(pk, 0).ctypes.data, tables, per_row.ctypes.data, qt.ctypes.data,
                             st.ctypes.data, anchor.ctypes.data, qt.shape[0])
     return _untile(qt, B), _untile(anchor, B)
 
@@ -510,7 +532,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
         raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
     if int(every) != every or every < 0:
         raise ValueError(f"every: expected a whole number >= 0, got {every}")
-    tables, per_row = _tables(pk, B, rows, W)
+    tables, per_row, _keep = _tables(pk, B, rows, W)
     q, p = _shaped("q", q, (B, D)), _shaped("p", p, (B, D))
     anchor = _shaped("anchor", anchor, (B, C, 2))
     if observe is not None and acc is not None:
@@ -534,7 +556,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     ns = cst.shape[1]
     frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
-    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, _pointers(tables), per_row.ctypes.data,
+    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, tables, per_row.ctypes.data,
                               _pointers(st), par_t.ctypes.data, cst_t.ctypes.data, addr(w16), NP, addr(oi), addr(of),
                               int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T,
                               int(steps))
@@ -560,10 +582,10 @@ def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None
     """The kernel's inspector ``kind`` over rows x [B, n_in] -> [B, n_out]."""
     W = 1 if scalar else lanes()
     B = x.shape[0]
-    tables, per_row = _tables(pk, B, rows, W)
+    tables, per_row, _keep = _tables(pk, B, rows, W)
     xt = _tile(x, W)
     out = np.zeros((xt.shape[0], n_out, W))
-    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, _pointers(tables),
+    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, tables,
                               per_row.ctypes.data, xt.ctypes.data, out.ctypes.data, xt.shape[0])
     return _untile(out, B)
 
