@@ -171,7 +171,7 @@ def _close(a, b, rel: float = 1e-12, where: str = "") -> None:
         assert a == b, where
 
 
-DESIGN_FILES = ["bounder", "walker", "fish", "crawler"]
+DESIGN_FILES = ["bounder", "walker", "fish", "crawler", "fourlink", "cart"]
 
 
 @pytest.mark.parametrize("name", DESIGN_FILES)
