@@ -1,160 +1,34 @@
-"""experiments/bounder_design.py, fourlink_design.py and walker_design.py: free sizes and ranges as designs (issue 30).
+"""experiments/*_design.toml: the creatures' designs as creature files with free numbers (issue 47).
 
-The search machinery (a design as rows of one batched program, resumable rounds) is
-experiments/design.py's, tested through the cart in test_cart_geometry.py; here: each built-in is
-its design's chosen values, the bounder search's reference is the bounder it started from, and
-every bounder candidate stands on its feet.
+Each file is what ``sanlab design`` searches for one built-in: at its defaults it is the built-in
+(in every loaded and compiled number), the built-in's numbers lie within its ranges, every body
+of it keeps the paper's constraints, and ``sanlab check`` lists its free numbers. For the four
+built-ins a design search made (issue 30; the record: docs/design-history/), the file's defaults
+are that search's chosen design and its ranges are the ranges the search's script had, where a
+free number can say them (``times * x + plus`` of one number: not a product, not trigonometry).
 """
 
 import dataclasses
-import importlib.util
-import math
-from pathlib import Path
+import json
+import re
+import tomllib
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT
+
+DESIGN_FILES = ["bounder", "walker", "fish", "crawler", "fourlink", "cart"]
+HISTORY = ROOT / "docs" / "design-history"
 
 
-def _design(name: str):
-    spec = importlib.util.spec_from_file_location(f"{name}_design", ROOT / "experiments" / f"{name}_design.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-@pytest.fixture(scope="module")
-def bd():
-    return _design("bounder")
-
-
-def _leaves(params) -> list:
-    """Every array of a model's ``Params``, in field order."""
-    return [getattr(params, f.name) for f in dataclasses.fields(params)]
-
-
-def _same_physics(text_a: str, text_b: str, atol: float = 0.0) -> None:
-    from sanlab.creature.loader import loads
-    from sanlab.sim.compiler import compile_creature
-
-    a, b = loads(text_a), loads(text_b)
-    assert (a.san, a.evaluation, a.sensors, a.actuators, a.world) == (b.san, b.evaluation, b.sensors, b.actuators, b.world)
-    ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
-    assert ma.structure == mb.structure
-    for x, y in zip(_leaves(ma.params), _leaves(mb.params), strict=True):
-        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=0, atol=atol)
-
-
-@pytest.mark.parametrize("name", ["bounder", "fourlink", "walker"])
-def test_the_built_in_is_its_design(name):
-    """The built-in's file is the design its search chose, to the file's rounding (1e-6 m, 1e-3 deg)."""
-    from sanlab.creature import read_source
-
-    d = _design(name)
-    _same_physics(read_source(name)[0], d.toml_text(d.CHOSEN), atol=2e-5)
-
-
-def test_the_bounder_searchs_reference_is_its_first_version(bd):
-    """Round 0's candidate 0 is the bounder as it was before the search (kept in tests/data,
-    equal to the built-in file at 29a0af5 in every compiled number), which the file's design note
-    quotes."""
-    first = (ROOT / "tests" / "data" / "bounder_first.toml").read_text()
-    _same_physics(first, bd.toml_text(bd.FIRST), atol=1e-5)  # that file rounded its start height to 0.01 mm
-
-
-def test_the_walker_searchs_reference_is_its_first_version():
-    """Round 0's candidate 0 is the walker as it was before the search (kept in tests/data, the
-    built-in file at 7f63d6a), split stance and all: the back hip placed by the design's stance
-    rule lands on that file's -20 deg."""
-    w = _design("walker")
-    assert w.stance(w.FIRST) == pytest.approx((30.0, -20.0, 10.0), abs=1e-9)
-    _same_physics((ROOT / "tests" / "data" / "walker_first.toml").read_text(), w.toml_text(w.FIRST), atol=1e-9)
-
-
-def test_walker_candidates_stand_on_both_feet():
-    from sanlab.creature.loader import loads
-    from sanlab.sim import poses
-    from sanlab.sim.compiler import compile_creature
-
-    w = _design("walker")
-    for v in w.DESIGN.uniform(np.random.default_rng(3), 12):  # knees bent more than the hip leans, too
-        m = compile_creature(loads(w.toml_text(w.DESIGN.as_dict(v))), "float64")
-        y = np.sort(np.asarray(poses(m, m.params.q0)["contacts"])[:, 1])
-        assert abs(y[0]) < 1e-6 and abs(y[1]) < 1e-5 and y[2] > 0.01  # two feet down, the rest up
-
-
-def test_candidates_are_bounders_standing_on_their_feet(bd):
-    from sanlab.creature import load
-    from sanlab.creature.loader import loads
-    from sanlab.sim import poses
-    from sanlab.sim.compiler import compile_creature
-
-    builtin = compile_creature(load("bounder"), "float64")  # the same structure, another design
-    for v in bd.DESIGN.uniform(np.random.default_rng(7), 6):
-        g = bd.DESIGN.as_dict(v)
-        spec = loads(bd.toml_text(g))
-        m = compile_creature(spec, "float64")
-        assert m.structure == builtin.structure  # one program for every candidate
-        contacts = np.asarray(poses(m, m.params.q0)["contacts"])
-        feet = contacts[np.argsort(contacts[:, 1])[:2]]
-        assert np.abs(feet[:, 1]).max() < 1e-6  # both feet on the ground, the rest above it
-        assert sorted(feet[:, 0]) == pytest.approx([-g["hip_x"], g["hip_x"]], abs=1e-5)  # each under its hip (angles in 1e-4 deg)
-        hip = spec.sensors[2]
-        assert math.isclose(hip.min, math.radians(g["hip_sense"] * g["hip_swing"]), rel_tol=1e-3)
-
-
-def test_validation_rescores_the_best_on_fresh_sans_once_and_picks_by_its_mean(bd, tmp_path, capsys):
-    import json
-
-    out = tmp_path / "d.jsonl"
-    args = ["--out", str(out), "--candidates", "2", "--controllers", "3", "--chunk", "2", "--batch", "8"]
-    bd.main(args)
-    bd.main([*args, "--validate", "1", "--seeds", "1"])
-    rows = [json.loads(x) for x in out.read_text().splitlines()]
-    checks = [r for r in rows if r["round"] == -1]
-    best = max((r for r in rows if r["round"] == 0), key=lambda r: r["score_m"])
-    # the best design and the reference (candidate 0), each on seed 1's SANs
-    assert sorted(tuple(r["of"]) for r in checks) == sorted({(0, best["index"]), (0, 0)})
-    assert all(r["seed"] == 1 for r in checks)
-    bd.main([*args, "--validate", "1", "--seeds", "1"])
-    assert len(out.read_text().splitlines()) == len(rows)  # nothing scored twice
-    bd.main([*args, "--write", str(tmp_path / "best.toml")])
-    text = (tmp_path / "best.toml").read_text()
-    top = max(checks, key=lambda r: r["speed_cm_s"])
-    assert f"candidate {top['of'][1]}," in text and "validated on fresh SANs" in text
-
-
-def test_the_fourlink_design_file_loads_as_the_built_in():
-    """experiments/fourlink_design.toml, the script's design as free numbers (issue 47): at its
-    defaults it is the built-in fourlink (to the last bits: kd = ks / 10 is computed, not written),
-    and its free numbers are the script's, by name and range (the fold thresholds in degrees)."""
-    from sanlab.creature import load_design, read_source
-
-    fl = _design("fourlink")
-    text = (ROOT / "experiments" / "fourlink_design.toml").read_text()
-    from sanlab.creature.loader import loads
-    from sanlab.sim.compiler import compile_creature
-
-    a, b = loads(read_source("fourlink")[0]), loads(text)
-    assert (a.san, a.evaluation, a.sensors, a.world, a.links) == (b.san, b.evaluation, b.sensors, b.world, b.links)
-    ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
-    assert ma.structure == mb.structure
-    for x, y in zip(_leaves(ma.params), _leaves(mb.params), strict=True):
-        np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=0)
-    design, _ = load_design(str(ROOT / "experiments" / "fourlink_design.toml"))
-    ranges = {n: (lo, hi) for n, lo, hi in fl.RANGES}
-    for f in design.free:
-        if f.name in ranges:
-            assert (f.min, f.max) == ranges[f.name], f.name
-    assert set(design.names) == (set(ranges) - {"sense"}) | {"fold_end", "fold_mid"}
+def _file(name: str) -> str:
+    return str(ROOT / "experiments" / f"{name}_design.toml")
 
 
 def _close(a, b, rel: float = 1e-12, where: str = "") -> None:
     """``a == b`` for loaded creatures' parts, floats to ``rel`` (a free number's ``times * x +
     plus`` may differ from the written number in the last bit)."""
-    import dataclasses
-
     if dataclasses.is_dataclass(a) and not isinstance(a, type):
         assert type(a) is type(b), where
         for f in dataclasses.fields(a):
@@ -171,14 +45,11 @@ def _close(a, b, rel: float = 1e-12, where: str = "") -> None:
         assert a == b, where
 
 
-DESIGN_FILES = ["bounder", "walker", "fish", "crawler"]
-
-
 @pytest.mark.parametrize("name", DESIGN_FILES)
 def test_a_design_file_at_its_defaults_loads_as_the_built_in(name):
-    """experiments/NAME_design.toml (issue 47, part 3): at its defaults it is the built-in, in
-    every field of the loaded creature and every compiled number (to the last bits: kd = ks / 10
-    and a start height thigh + a constant are computed, not written)."""
+    """At its defaults the file is the built-in, in every field of the loaded creature and every
+    compiled number (to the last bits: kd = ks / 10 and a start height thigh + a constant are
+    computed, not written)."""
     from sanlab.creature import read_source
     from sanlab.creature.loader import loads
     from sanlab.sim.compiler import compile_creature
@@ -192,12 +63,37 @@ def test_a_design_file_at_its_defaults_loads_as_the_built_in(name):
         np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), rtol=1e-12, atol=1e-15, err_msg=f.name)
 
 
+def _at(data, path: str):
+    """The value at a free number's path (``links[1].points[1][0]``) in a parsed creature file."""
+    for key, i in re.findall(r"\.?([A-Za-z_]\w*)|\[(\d+)\]", path):
+        data = data[key] if key else data[int(i)]
+    return data
+
+
+@pytest.mark.parametrize("name", DESIGN_FILES)
+def test_the_built_ins_numbers_are_the_files_defaults_within_its_ranges(name):
+    """Where the file writes a free number or a use of one, the built-in's file writes the
+    default's value there (``times * default + plus``), and each default lies in its range: the
+    search starts from the built-in and can stay there."""
+    from sanlab.creature import load_design, read_source
+
+    design, _ = load_design(_file(name))
+    builtin = tomllib.loads(read_source(name)[0])
+    slots = design.slots()
+    assert {p for f in design.free for p in f.uses} == set(slots)
+    for path, slot in slots.items():
+        f = design.free[slot.index]
+        assert f.min <= f.default <= f.max, f.name
+        assert _at(builtin, path) == pytest.approx(slot.times * f.default + slot.plus, rel=1e-12, abs=1e-15), path
+
+
 @pytest.mark.parametrize("name", DESIGN_FILES)
 def test_a_design_files_bodies_keep_the_papers_constraints(name):
     """Every body of the file (its ranges' corners and random draws) is a valid creature of the
     built-in's structure (one program for all), with the counts of Table 1 and the gains the
-    paper gives (the bounder's ks = 0.4 N m/deg, kd = 0.1 ks); the mass of a link whose size
-    and strength are the stated ones stays the built-in's."""
+    paper gives (the bounder's ks = 0.4 N m/deg, kd = 0.1 ks; the cart's Figure 11: masses,
+    sensors, actuator); the mass of a link whose size and strength are the stated ones stays the
+    built-in's."""
     import math
 
     from sanlab.creature import load, load_design
@@ -206,7 +102,7 @@ def test_a_design_files_bodies_keep_the_papers_constraints(name):
 
     builtin = load(name)
     structure = compile_creature(builtin, "float64").structure
-    design, _ = load_design(str(ROOT / "experiments" / f"{name}_design.toml"))
+    design, _ = load_design(_file(name))
     assert design.free
     rng = np.random.default_rng(0)
     bodies = [design.lo, design.hi, *(design.lo + rng.random(len(design.free)) * (design.hi - design.lo) for _ in range(6))]
@@ -224,28 +120,153 @@ def test_a_design_files_bodies_keep_the_papers_constraints(name):
             m = compile_creature(c, "float64")
             y = np.sort(np.asarray(poses(m, m.params.q0)["contacts"])[:, 1])
             assert abs(y[0]) < 2e-4 and y[1] < (1e-6 if name == "bounder" else 3e-3) and y[2] > 0.1
-        if name == "crawler":  # point masses: no size to follow, no angular muscle
+        if name in ("crawler", "cart", "fourlink"):  # no couplings: the masses stay
             assert [link.mass for link in c.links] == [link.mass for link in builtin.links]
+        if name == "crawler":  # point masses: no size to follow, no angular muscle
             assert [(a.ks, a.kd) for a in c.actuators] == [(a.ks, a.kd) for a in builtin.actuators]
+        if name == "cart":  # Figure 11 fixes all but the geometry; every vertex a contact
+            assert (c.sensors, c.actuators) == (builtin.sensors, builtin.actuators)
+            assert [len(link.contacts) for link in c.links] == [4, 4]
+            assert all(link.inertia > 0 for link in c.links)
+        if name == "fourlink":  # kd = ks / 10
+            assert [a.kd for a in c.actuators] == pytest.approx([a.ks / 10 for a in c.actuators])
 
 
-@pytest.mark.parametrize("name", ["bounder", "walker"])
-def test_a_design_file_searches_its_scripts_ranges(name):
-    """The bounder's and the walker's files free what their scripts searched, over the same
-    ranges (lengths written negative: the legs point down; sensor thresholds in degrees, over
-    the span the script's fractions could reach), but the start angles, which are trigonometry."""
+@pytest.mark.parametrize("name", DESIGN_FILES)
+def test_check_lists_a_design_files_free_numbers(name):
+    """``sanlab check FILE`` names every free number with the word free, its range and default,
+    and passes ``--strict`` (no range reaches past valid creatures)."""
+    from typer.testing import CliRunner
+
+    from sanlab.cli import app
     from sanlab.creature import load_design
 
-    script = {n: (lo, hi) for n, lo, hi in _design(name).RANGES}
-    design, _ = load_design(str(ROOT / "experiments" / f"{name}_design.toml"))
-    got = {f.name: (f.min, f.max) for f in design.free}
-    for n in ("thigh", "shin"):
-        assert got[n] == pytest.approx((-script[n][1], -script[n][0]))
-    for n in ("hip_swing", "delay", *(("hip_x",) if name == "bounder" else ("lean", "waist_sense", "waist_fwd"))):
-        assert got[n] == pytest.approx(script[n])
-    assert got["knee_fold"] == pytest.approx((-script["knee_fold"][1], -script["knee_fold"][0]))
-    hs, sw = script["hip_sense"], script["hip_swing"]
-    assert got["hip_sense"] == pytest.approx((hs[0] * sw[0], hs[1] * sw[1]))
-    ks, kf = script["knee_sense"], script["knee_fold"]
-    assert got["knee_sense"] == pytest.approx((-ks[1] * kf[1], -ks[0] * kf[0]))
-    assert not {n for n in got} & {"start_hip", "start_knee"}
+    design, _ = load_design(_file(name))
+    runner = CliRunner()
+    r = runner.invoke(app, ["check", _file(name), "--strict"])
+    assert r.exit_code == 0, r.stdout
+    assert f"free numbers: {len(design.free)} " in r.stdout
+    for f in design.free:
+        line = f"  {f.name}: free in [{f.min:g}, {f.max:g}], default {f.default:g}"
+        assert re.search(re.escape(line) + r"( \(also [^)]*\))?;", r.stdout), f.name
+    out = json.loads(runner.invoke(app, ["check", _file(name), "--json"]).stdout)
+    assert [(x["name"], x["min"], x["max"], x["default"]) for x in out["free"]] == [
+        (f.name, f.min, f.max, f.default) for f in design.free]
+
+
+# -- the design searches of issue 30 (docs/design-history/) -------------------------------------
+#
+# Each search's script (removed; docs/design-history/README.md says where git keeps it) gave a
+# design as named numbers. A map for each: the script's numbers -> the design file's free numbers.
+# A fraction of another range (a sensor threshold, a bump's place along a link) becomes the number
+# itself (degrees, metres), a product; lengths drawn downwards or backwards are negative.
+
+
+def _cart(g):
+    u = g["u"] * g["length2"]
+    return {"length1": g["length1"], "top1_x": g["a1"] * g["length1"], "top1": g["top1"],
+            "bottom1_x": g["b1"] * g["length1"], "bottom1": -g["bottom1"],
+            "near2": -u, "far2": g["length2"] - u, "top2_x": g["a2"] * g["length2"] - u, "top2": g["top2"],
+            "bottom2_x": g["b2"] * g["length2"] - u, "bottom2": -g["bottom2"],
+            "joint_x": g["s"] * g["length1"], "t": g["t"], "start_deg": g["start_deg"]}
+
+
+def _bounder(g):
+    return {"thigh": -g["thigh"], "shin": -g["shin"], "hip_x": g["hip_x"], "hip_swing": g["hip_swing"],
+            "knee_fold": -g["knee_fold"], "hip_sense": g["hip_sense"] * g["hip_swing"],
+            "knee_sense": -g["knee_sense"] * g["knee_fold"], "delay": g["delay"]}
+
+
+def _fourlink(g):
+    return {**{k: g[k] for k in ("len1", "len2", "len3", "len4", "ks_end", "ks_mid", "range_end", "range_mid", "delay")},
+            "fold_end": g["sense"] * g["range_end"], "fold_mid": g["sense"] * g["range_mid"]}
+
+
+def _walker(g):
+    return {"thigh": -g["thigh"], "shin": -g["shin"], "hip_swing": g["hip_swing"], "knee_fold": -g["knee_fold"],
+            "waist_back": -g["waist_back"], "waist_fwd": g["waist_fwd"], "hip_sense": g["hip_sense"] * g["hip_swing"],
+            "knee_sense": -g["knee_sense"] * g["knee_fold"], "lean": g["lean"], "waist_sense": g["waist_sense"],
+            "delay": g["delay"]}
+
+
+# name: (its record, the map, the design the built-in is (round, candidate), the script's ranges,
+# the script's numbers the file cannot say (the start poses: trigonometry), the file's own numbers)
+SEARCHES = {
+    "cart": ("cart_geometry", _cart, (2, 13), {
+        "length1": (0.10, 0.40), "a1": (0.0, 1.0), "top1": (0.005, 0.15), "b1": (0.0, 1.0), "bottom1": (0.005, 0.15),
+        "length2": (0.10, 0.40), "a2": (0.0, 1.0), "top2": (0.005, 0.15), "b2": (0.0, 1.0), "bottom2": (0.005, 0.15),
+        "s": (0.0, 1.0), "t": (-0.05, 0.05), "u": (0.0, 1.0), "start_deg": (-90.0, 90.0)}, set(), set()),
+    "bounder": ("bounder_design", _bounder, (3, 39), {
+        "thigh": (0.15, 0.40), "shin": (0.15, 0.40), "hip_x": (0.10, 0.25), "hip_swing": (30.0, 90.0),
+        "knee_fold": (60.0, 150.0), "hip_sense": (0.3, 1.0), "knee_sense": (0.2, 0.9), "start_hip": (0.0, 40.0),
+        "delay": (0.07, 0.15)}, {"start_hip"}, set()),
+    "fourlink": ("fourlink_design", _fourlink, (2, 41), {
+        "len1": (0.10, 0.30), "len2": (0.10, 0.30), "len3": (0.10, 0.30), "len4": (0.10, 0.30),
+        "ks_end": (0.005, 0.08), "ks_mid": (0.01, 0.16), "range_end": (60.0, 160.0), "range_mid": (60.0, 160.0),
+        "sense": (0.3, 1.0), "delay": (0.07, 0.15)}, set(), set()),
+    "walker": ("walker_design", _walker, (1, 56), {
+        "thigh": (0.15, 0.35), "shin": (0.15, 0.35), "hip_swing": (30.0, 90.0), "knee_fold": (30.0, 120.0),
+        "waist_back": (0.0, 30.0), "waist_fwd": (10.0, 60.0), "hip_sense": (0.2, 1.0), "knee_sense": (0.2, 0.9),
+        "lean": (5.0, 40.0), "waist_sense": (5.0, 40.0), "start_hip": (5.0, 40.0), "start_knee": (0.0, 30.0),
+        "delay": (0.07, 0.15)}, {"start_hip", "start_knee"}, {"ks_leg", "ks_waist"}),
+}
+
+
+class _Reads(dict):
+    """A dict that remembers which keys were read."""
+
+    def __init__(self, *a):
+        super().__init__(*a)
+        self.read: set[str] = set()
+
+    def __getitem__(self, k):
+        self.read.add(k)
+        return super().__getitem__(k)
+
+
+def _rows(record: str) -> list[dict]:
+    return [json.loads(x) for x in (HISTORY / f"{record}.jsonl").read_text().splitlines() if x.strip()]
+
+
+@pytest.mark.parametrize("name", list(SEARCHES))
+def test_a_design_files_defaults_are_its_searchs_chosen_design(name):
+    """The file's defaults (so the built-in) are the record's chosen design, to the rounding of
+    the built-in's file (a millimetre for the cart; 1e-6 m, 1e-3 deg, 1e-4 s for the others)."""
+    from sanlab.creature import load_design
+
+    record, to_file, chosen, _, _, _ = SEARCHES[name]
+    row = next(r for r in _rows(record) if (r["round"], r["index"]) == chosen)
+    want = to_file(row["geometry"])
+    design, _ = load_design(_file(name))
+    got = dict(zip(design.names, design.defaults, strict=True))
+    for k, x in want.items():
+        assert got[k] == pytest.approx(x, rel=1e-3, abs=5e-4), k
+
+
+@pytest.mark.parametrize("name", list(SEARCHES))
+def test_a_design_file_searches_its_scripts_ranges(name):
+    """Each of the script's numbers is a free number of the file, or in one (a fraction of a
+    range, a product), except the start poses; each range is the span the script's could reach
+    (the map's extremes over the corners of the script's box, as the map is linear in each
+    number), so every design the search scored is a body of the file."""
+    import itertools
+
+    from sanlab.creature import load_design
+
+    record, to_file, _, ranges, unsaid, own = SEARCHES[name]
+    design, _ = load_design(_file(name))
+    names = list(ranges)
+    probe = _Reads({n: (lo + hi) / 2 for n, (lo, hi) in ranges.items()})
+    mapped = to_file(probe)
+    assert probe.read | unsaid == set(ranges) and not probe.read & unsaid  # every number accounted for
+    assert set(design.names) == set(mapped) | own
+    corners = [to_file(dict(zip(names, c, strict=True))) for c in itertools.product(*(ranges[n] for n in names))]
+    for f in design.free:
+        if f.name in own:
+            continue
+        span = (min(c[f.name] for c in corners), max(c[f.name] for c in corners))
+        assert (f.min, f.max) == pytest.approx(span, abs=1e-12), f.name
+    for r in _rows(record):
+        v = to_file(r["geometry"])
+        assert all(design.free[i].min - 1e-12 <= v[n] <= design.free[i].max + 1e-12
+                   for i, n in enumerate(design.names) if n in v), (r["round"], r["index"])
