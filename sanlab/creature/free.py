@@ -331,7 +331,7 @@ def unit_of(data: Any, path: str) -> str:
         for p in parts[:keys[-1]]:
             table = table[p]
     except (KeyError, IndexError, TypeError):
-        table = {}
+        return ""  # not a path of this file
     angular = isinstance(table, dict) and table.get("type") == "angular"
     per_deg = "spring" in parts or "limit" in parts
     if key.endswith("_deg"):

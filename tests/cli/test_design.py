@@ -93,6 +93,23 @@ def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
     assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
 
 
+def test_each_free_number_has_the_unit_of_the_field_it_is_written_in():
+    units = lambda name: dict(zip(load_design(str(ROOT / "experiments" / f"{name}_design.toml"))[0].names,
+                                  load_design(str(ROOT / "experiments" / f"{name}_design.toml"))[0].units))
+    crawler, fish = units("crawler"), units("fish")
+    assert crawler["delay"] == "s" and crawler["length"] == "m" and crawler["eye"] == "deg"
+    assert crawler["short"] == crawler["short_on"] == "m"  # a linear actuator's and a length sensor's min
+    assert fish["ks1"] == "N·m/deg" and fish["range1"] == "deg" and fish["head"] == "m"
+    from sanlab.creature.free import unit_of
+
+    data = {"actuators": [{"type": "linear", "ks": 1.0, "kd": 0.1}], "springs": [{"stiffness": 1.0}],
+            "links": [{"spring": {"stiffness": 1.0, "damping": 0.1}, "inertia": 0.1}]}
+    assert [unit_of(data, p) for p in ("actuators[0].ks", "actuators[0].kd", "springs[0].stiffness",
+                                        "links[0].spring.stiffness", "links[0].spring.damping", "links[0].inertia",
+                                        "links[0].friction.forward", "nowhere[3].ks")] == \
+        ["N/m", "N·s/m", "N/m", "N·m/deg", "N·m·s/deg", "kg·m²", "", ""]
+
+
 def test_a_body_of_a_file_with_repeats_is_written_out():
     text = """name = "chain"
 [[links]]
