@@ -12,7 +12,10 @@ phase 2 and scores 0, which saves its tuning and audits). Every run is stored in
 library and found there again, keyed by the body's creature file (its text) and the settings,
 so a design made again on the same library asks the same bodies (the body strategies are
 deterministic given their seed and the scores told) and continues where it stopped; each search
-and tuning runs on the one driver.
+and tuning runs on the one driver. The design itself is stored there too
+(``Library.begin_design``): its settings, free numbers and units, each body's score on each seed
+as it is made (so an interrupted design shows what it has), and once done the chosen body;
+``sanlab studio`` shows it.
 
 The outer search over bodies is a body strategy (``sanlab.search.bodies``: CMA-ES by default,
 or random). Then the ``validate`` best bodies, and the reference (the file's defaults), are
@@ -36,7 +39,7 @@ import numpy as np
 from sanlab import __version__
 from sanlab.creature.free import Design
 from sanlab.evaluate.ensemble import default_ensemble
-from sanlab.library import Library
+from sanlab.library import Library, LibraryError
 from sanlab.search.bodies import BodyProblem, make_bodies
 
 DIGITS = 6  # significant digits of a body's values (its file's text, so its runs' key, is stable)
@@ -87,7 +90,8 @@ class Body:
 @dataclass
 class DesignResult:
     """A finished design: every body scored (``bodies``, the reference first), the ``chosen``
-    one and the ``reference``, the chosen body's creature file ``text``, and the seconds spent."""
+    one and the ``reference``, the chosen body's creature file ``text``, the seconds spent, and
+    the design's id in the library (``design_id``)."""
 
     settings: DesignSettings
     bodies: list[Body]
@@ -95,6 +99,7 @@ class DesignResult:
     chosen: Body
     text: str
     seconds: float
+    design_id: str = ""
 
     def to_json(self) -> dict:
         """The ``sanlab/design/1`` record's fields (``sanlab/schemas/design.json``) but its own."""
@@ -103,9 +108,20 @@ class DesignResult:
             return {"values": b.values, "round": b.round, "index": b.index,
                     "speeds": {str(k): v for k, v in b.speeds.items()}}
 
-        return {"settings": {**asdict(self.settings), "seeds": list(self.settings.seeds)},
+        return {"design": self.design_id, "settings": settings_json(self.settings),
                 "reference": body(self.reference), "chosen": body(self.chosen),
                 "bodies": [body(b) for b in self.bodies]}
+
+
+def settings_json(s: DesignSettings) -> dict:
+    """``s`` as a JSON object (the library's key of a design with the file's text)."""
+    return {**asdict(s), "seeds": list(s.seeds)}
+
+
+def free_json(design: Design) -> list[dict]:
+    """Each free number of ``design`` as {name, path, min, max, default, unit} (the file's units)."""
+    return [{"name": f.name, "path": f.path, "min": f.min, "max": f.max, "default": f.default, "unit": u}
+            for f, u in zip(design.free, design.units, strict=True)]
 
 
 def rounded(values) -> np.ndarray:
@@ -120,10 +136,10 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
                reporter: Reporter | None = None, backend=None) -> DesignResult:
     """Search the free numbers of ``design`` (the parsed ``text``, read from ``where``) as the
     module docstring says; every run goes to ``lib``. Raises ValueError for a file without free
-    numbers or bad settings, and as ``run_search`` and ``tune`` do. ``backend``: where each body's
-    search and tuning evaluate (``sanlab.evaluate.backends``; default this machine)."""
-    from sanlab.reproduce import robust_tuned
-
+    numbers or bad settings, LibraryError while another process makes the same design, and as
+    ``run_search`` and ``tune`` do. ``backend``: where each body's search and tuning evaluate
+    (``sanlab.evaluate.backends``; default this machine). The design is stored in ``lib`` as it
+    goes (each score as it is made; "interrupted" if anything stops it, Ctrl-C included)."""
     if not design.free:
         raise ValueError(f"{where}: no free numbers to design (write a range, e.g. mass = {{ min = 0.1, max = 0.3 }})")
     s = settings
@@ -136,7 +152,29 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
             raise ValueError(f"{name}: expected >= 1, got {getattr(s, name)}")
     t0 = time.perf_counter()
     ens = default_ensemble(s.ensemble)
-    seconds = s.seconds if s.seconds is not None else design.creature().evaluation.seconds
+    stated = design.creature()
+    seconds = s.seconds if s.seconds is not None else stated.evaluation.seconds
+    design_id = lib.begin_design(stated.name, where, text, settings_json(s), free_json(design)).design_id
+    try:
+        result = _run(lib, design, design_id, text, where, s, ens, seconds, reporter, backend)
+    except BaseException:
+        try:
+            lib.end_design(design_id, "interrupted")
+        except LibraryError:  # the disk that stopped the design may refuse this too: the cause is
+            pass  # what to report; the design reads "interrupted" once this process is gone
+        raise
+    result.seconds = time.perf_counter() - t0
+    lib.end_design(design_id, "done", {"chosen": {"round": result.chosen.round, "index": result.chosen.index},
+                                       "seconds": result.seconds, "text": result.text})
+    return result
+
+
+def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s: DesignSettings, ens, seconds: float,
+         reporter: Reporter | None, backend) -> DesignResult:
+    """The design's search and validation (:func:`run_design`), each score stored as it is made
+    (the result's ``seconds`` left 0: the caller's to set)."""
+    from sanlab.reproduce import robust_tuned
+
     report = reporter or (lambda *a: None)
     total = 1 + s.designs + (min(s.validate, s.designs) + 1) * len(s.seeds)
     done = [0]
@@ -150,6 +188,7 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
             body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
                                              top=s.top, ens=ens, seconds=seconds, backend=backend,
                                              prune_below=prune_below)
+            lib.add_design_score(design_id, body.round, body.index, seed, body.values, body.speeds[seed])
         done[0] += 1
         if seed == s.seed:
             best[0] = max(best[0], body.speed(seed))
@@ -180,7 +219,7 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     chosen = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
     note = _note(design, where, s, chosen, reference, len(bodies))
     out = design.text(text, chosen.values, note)
-    return DesignResult(s, [reference, *bodies], reference, chosen, out, time.perf_counter() - t0)
+    return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
 
 
 def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:

@@ -172,8 +172,10 @@ def test_a_version_2_library_is_upgraded_with_empty_audits_and_selections_tables
 
     path = tmp_path / "v2.db"
     con = sqlite3.connect(path)
-    for statement in _schema.DDL[:-2]:  # version 2: no audits table, no selections table
-        con.execute(statement)
+    later = (_schema.AUDITS_DDL, _schema.SELECTIONS_DDL, _schema.DESIGNS_DDL, _schema.DESIGNS_INDEX, _schema.DESIGN_SCORES_DDL)
+    for statement in _schema.DDL:  # version 2: no audits table, no selections table (and no designs)
+        if statement not in later:
+            con.execute(statement)
     con.execute(f"PRAGMA application_id = {_schema.APPLICATION_ID}")
     con.execute("PRAGMA user_version = 2")
     con.commit()
@@ -181,9 +183,10 @@ def test_a_version_2_library_is_upgraded_with_empty_audits_and_selections_tables
     with Library(path) as lib:
         assert lib.runs() == []
     con = sqlite3.connect(path)
-    assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 4
+    assert con.execute("PRAGMA user_version").fetchone()[0] == _schema.SCHEMA_VERSION == 5
     assert con.execute("SELECT count(*) FROM audits").fetchone()[0] == 0
     assert con.execute("SELECT count(*) FROM selections").fetchone()[0] == 0
+    assert con.execute("SELECT count(*) FROM designs").fetchone()[0] == 0
 
 
 # -- audited selection of a tuning run (issue 10: tuning learns the step; report what survives) ---

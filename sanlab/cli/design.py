@@ -97,6 +97,7 @@ def design(
     if render is not None and not render.lower().endswith(".png"):
         raise fail(f"design: --render: expected a .png file, got {render!r}")
     from sanlab.design import DesignSettings, run_design
+    from sanlab.library import LibraryError
 
     engine = backend_or_exit(backend, address, workers)
 
@@ -116,7 +117,7 @@ def design(
         typer.echo("interrupted; every finished run is in the library: run the same command again to continue",
                    err=True)
         raise typer.Exit(130) from None
-    except ValueError as e:
+    except (ValueError, LibraryError) as e:
         raise fail(f"design: {e}") from None
     target.write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
@@ -140,9 +141,10 @@ def design(
     for line in d.changes(ch.values):
         console.print(f"  {safe(line)}", soft_wrap=True)
     console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
-                  + (f" and {safe(render)}" if render else ""))
+                  + (f" and {safe(render)}" if render else "") + f"; stored as design {result.design_id}")
     gait = ch.speeds[s.seed]["gait"]
-    print_next(db, [f"sanlab render {gait}"] if gait else [], (f"sanlab check {target}",))  # check reads no library
+    print_next(db, [*([f"sanlab render {gait}"] if gait else []), "sanlab studio"],
+               (f"sanlab check {target}",))  # check reads no library
 
 
 def _render(lib, path: str, bodies: list[tuple[str, dict]], title: str) -> None:

@@ -41,7 +41,7 @@ MAX_IMPORT_BYTES = 64 << 20  # an exported gait is a few kB; a larger file is no
 
 
 def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
-    """List the runs in the gait library, newest first."""
+    """List the runs in the gait library, newest first (and its designs, in a line under them)."""
     from sanlab.library import LibraryError
 
     lib = open_library(db, readonly=True)
@@ -74,6 +74,11 @@ def runs(db: DbOpt = "sanlab.db", as_json: JsonOpt = False) -> None:
         table.add_row(safe(r["run_id"]), safe(r["kind"]), safe(r["creature"]), safe(r["status"]),
                       f"{done}/{'?' if planned is None else planned} {unit}", safe(created))
     console.print(table)
+    designs = library_call(lib.designs)  # `sanlab design`'s outer records: the studio draws them
+    if designs:
+        shown = ", ".join(f"{d.design_id} {d.creature} ({d.status}, {d.scores} score{'s' * (d.scores != 1)})" for d in designs[:5])
+        console.print(safe(f"{len(designs)} design{'s' * (len(designs) != 1)}: {shown}{', ...' if len(designs) > 5 else ''} "
+                           "(`sanlab studio` shows each as a scatter of its bodies)"), soft_wrap=True)
 
 
 def show(

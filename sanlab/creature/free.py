@@ -20,6 +20,7 @@ it at the defaults, so every command that only loads a file sees the creature th
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -227,6 +228,13 @@ class Design:
         return out
 
 
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Each free number's unit (in vector order), the one the format gives the field it is
+        written in (docs/creature-format.md): "m", "kg", "deg", "s", "N·m/deg" (an angular
+        actuator's ks), "N/m" (a linear one's) ...; "" for a field without a unit."""
+        return tuple(unit_of(self.template, f.path) for f in self.free)
+
     def _stated(self) -> Creature:
         """The creature at the defaults, before couplings (the reference sizes and strengths)."""
         return self.build(self.expand(self.data()))
@@ -295,6 +303,48 @@ def _is_number(v: Any) -> bool:
 
 def _err(shown: str, where: str, what: str, got: Any) -> CreatureError:
     return CreatureError(f"{shown}: {where or '(top level)'}: expected {what}, got {_show(got)}")
+
+
+# The unit of a field by its key (docs/creature-format.md); keys ending in _deg are degrees, and
+# ks, kd, stiffness, damping, min and max depend on the table they are in (see unit_of).
+UNITS = {"mass": "kg", "inertia": "kg·m²", "points": "m", "com": "m", "contacts": "m", "position": "m",
+         "anchor": "m", "at": "m", "rest": "m", "height": "m", "width": "m", "center": "m", "wavelength": "m",
+         "fell_com_height": "m", "fell_link_height": "m", "gravity": "m/s²", "speed": "m/s", "slip_speed": "m/s",
+         "water_drag": "N·s/m²", "delay_on": "s", "delay_off": "s", "seconds": "s", "dt": "s"}
+_PART = re.compile(r"\[(\d+)\]|([^.\[\]]+)")
+
+
+def unit_of(data: Any, path: str) -> str:
+    """The unit of the number at ``path`` (``actuators[0].ks``, as :class:`FreeNumber` writes
+    it) of the parsed file ``data``: a key's unit (:data:`UNITS`, ``*_deg``: deg); an actuator's
+    ``ks``/``kd`` by its type (angular: N·m/deg, N·m·s/deg; linear: N/m, N·s/m); ``stiffness``
+    and ``damping`` of a joint's ``spring`` or ``limit`` per degree, of a spring or the ground
+    per metre; ``min``/``max`` (a length sensor's, a linear actuator's) m. "" where the format
+    gives none or the path is not in ``data``."""
+    parts: list[str | int] = [int(i) if i else k for i, k in _PART.findall(path)]
+    keys = [k for k, p in enumerate(parts) if isinstance(p, str)]
+    if not keys:
+        return ""
+    key = str(parts[keys[-1]])
+    table: Any = data
+    try:
+        for p in parts[:keys[-1]]:
+            table = table[p]
+    except (KeyError, IndexError, TypeError):
+        return ""  # not a path of this file
+    angular = isinstance(table, dict) and table.get("type") == "angular"
+    per_deg = "spring" in parts or "limit" in parts
+    if key.endswith("_deg"):
+        return "deg"
+    if key in ("ks", "kd"):
+        return {("ks", True): "N·m/deg", ("kd", True): "N·m·s/deg", ("ks", False): "N/m",
+                ("kd", False): "N·s/m"}[key, angular]
+    if key in ("stiffness", "damping"):
+        return {("stiffness", True): "N·m/deg", ("damping", True): "N·m·s/deg", ("stiffness", False): "N/m",
+                ("damping", False): "N·s/m"}[key, per_deg]
+    if key in ("min", "max"):
+        return "m"
+    return UNITS.get(key, "")
 
 
 def _join(path: str, key: str | int) -> str:

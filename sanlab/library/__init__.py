@@ -5,8 +5,8 @@
         best = lib.gait("3fa1c2d0/1")           # its best evaluation (RUN/RANK or RUN#IDX)
 
 Modules: ``store`` (:class:`Library`, with its durability and concurrency contract), ``records``
-(the frozen :class:`Run`, :class:`Evaluation` and :class:`TracePoint` it returns, the rows
-it stores and the typed run settings), ``ids`` (the
+(the frozen :class:`Run`, :class:`Evaluation`, :class:`TracePoint`, :class:`DesignRecord` and
+:class:`DesignScore` it returns, the rows it stores and the typed run settings), ``ids`` (the
 gait-id grammar), ``exchange`` (the export/import format), ``errors`` (:class:`LibraryError` and
 how SQLite's errors map onto it), ``_schema`` (tables, header fields, migrations) and
 ``_values`` (column value checks).
@@ -18,6 +18,8 @@ from sanlab.library.exchange import GAIT_FORMAT, GAIT_FORMAT_VERSION
 from sanlab.library.ids import parse_gait_id
 from sanlab.library.records import (
     AuditRecord,
+    DesignRecord,
+    DesignScore,
     Evaluation,
     EvaluationRow,
     Run,
@@ -31,6 +33,6 @@ from sanlab.library.store import DEFAULT_PATH, Library
 
 __all__ = [
     "APPLICATION_ID", "DEFAULT_PATH", "GAIT_FORMAT", "GAIT_FORMAT_VERSION", "RUN_KINDS",
-    "RUN_STATUSES", "SCHEMA_VERSION", "AuditRecord", "Evaluation", "EvaluationRow", "Library", "LibraryError", "Run",
+    "RUN_STATUSES", "SCHEMA_VERSION", "AuditRecord", "DesignRecord", "DesignScore", "Evaluation", "EvaluationRow", "Library", "LibraryError", "Run",
     "RunSettings", "SearchSettings", "TracePoint", "TraceRow", "TuneSettings", "parse_gait_id",
 ]  # fmt: skip

@@ -9,7 +9,9 @@ read-only, an older file is read as it is (nothing is written).
 Version 2 adds ``runs.owner``: which process (host, pid, start time) writes a running run, so
 that a run whose process was killed outright reads as "interrupted", not "running" for ever; and
 ``fell`` to the rank index, which ranks a gait that stayed up before one that fell at equal scores.
-Version 3 adds ``audits`` and version 4 ``selections`` (``sanlab audit``).
+Version 3 adds ``audits`` and version 4 ``selections`` (``sanlab audit``). Version 5 adds
+``designs`` and ``design_scores`` (``sanlab design``: each design's outer record, its bodies'
+scores written as they are made; its inner searches and tunings are runs as before).
 """
 
 from __future__ import annotations
@@ -23,10 +25,11 @@ from sanlab.creature.files import NotRegularFile, read_regular_file
 from sanlab.library.errors import LibraryError
 
 APPLICATION_ID = 0x53414E4C  # "SANL": marks the file as a sanlab library (PRAGMA application_id)
-SCHEMA_VERSION = 4  # PRAGMA user_version
+SCHEMA_VERSION = 5  # PRAGMA user_version
 
 RUN_KINDS = ("search", "tune", "import")
 RUN_STATUSES = ("running", "done", "interrupted")
+DESIGN_STATUSES = RUN_STATUSES  # a design is running, done, or interrupted like a run
 
 RANK_INDEX = "CREATE INDEX evaluations_by_rank ON evaluations (run_id, nonfinite, score DESC, fell, idx)"
 
@@ -103,9 +106,45 @@ SELECTIONS_DDL = """
         result      TEXT NOT NULL               -- JSON object: settings and every audited rung
     ) WITHOUT ROWID
     """
-DDL = (*DDL, AUDITS_DDL, SELECTIONS_DDL)
-TABLES = ("runs", "evaluations", "trace", "audits", "selections")
-ADDED_IN = {"audits": 3, "selections": 4}  # tables an older file, read as it is (read-only), does not have yet
+# Version 5: designs (``sanlab design``). A design is found again by its creature file and
+# settings (``sanlab design`` made again continues it); each body's score on each seed is a row,
+# written as it is made, so that an interrupted design shows what it has.
+DESIGNS_DDL = """
+    CREATE TABLE designs (
+        design_id      TEXT PRIMARY KEY,        -- 8 hex digits (its own namespace, not a run id)
+        created        TEXT NOT NULL,           -- ISO 8601, UTC
+        updated        TEXT NOT NULL,           -- ISO 8601, UTC: its last score or status
+        creature       TEXT NOT NULL,           -- creature name
+        source         TEXT NOT NULL,           -- where the file was read (a path)
+        creature_text  TEXT NOT NULL,           -- the file with free numbers, verbatim
+        creature_hash  TEXT NOT NULL,           -- sha256 hex of creature_text (UTF-8)
+        settings       TEXT NOT NULL,           -- JSON object: sanlab.design.DesignSettings
+        free           TEXT NOT NULL,           -- JSON array: [{name, path, min, max, default, unit}]
+        status         TEXT NOT NULL CHECK (status IN ('running', 'done', 'interrupted')),
+        owner          TEXT,                    -- JSON {host, pid, start} of the process writing it
+        result         TEXT,                    -- JSON object once done: {chosen: {round, index}, seconds, text}
+        sanlab_version TEXT NOT NULL
+    )
+    """
+DESIGNS_INDEX = "CREATE INDEX designs_by_creature ON designs (creature_hash)"
+DESIGN_SCORES_DDL = """
+    CREATE TABLE design_scores (
+        design_id  TEXT NOT NULL REFERENCES designs (design_id) ON DELETE CASCADE,
+        round      INTEGER NOT NULL CHECK (round >= -1),   -- the strategy's round; -1: the reference
+        idx        INTEGER NOT NULL CHECK (idx >= 0),      -- the body's place in its round
+        seed       INTEGER NOT NULL,                       -- the search's seed or a validation seed
+        body       TEXT NOT NULL,                          -- JSON array [D]: the free values
+        speed_cm_s REAL,                                   -- robust tuned speed (0: none kept, or pruned)
+        gait       TEXT,                                   -- RUN#IDX of the robust gait, NULL: none
+        pruned     INTEGER NOT NULL CHECK (pruned IN (0, 1)),
+        record     TEXT NOT NULL,                          -- JSON object: sanlab.reproduce.robust_tuned's
+        PRIMARY KEY (design_id, round, idx, seed)
+    ) WITHOUT ROWID
+    """
+DDL = (*DDL, AUDITS_DDL, SELECTIONS_DDL, DESIGNS_DDL, DESIGNS_INDEX, DESIGN_SCORES_DDL)
+TABLES = ("runs", "evaluations", "trace", "audits", "selections", "designs", "design_scores")
+# tables an older file, read as it is (read-only), does not have yet
+ADDED_IN = {"audits": 3, "selections": 4, "designs": 5, "design_scores": 5}
 
 # MIGRATIONS[v] upgrades a version-v file to version v + 1 inside the open transaction; DDL
 # always creates the newest schema directly.
@@ -126,7 +165,12 @@ def _add_selections(conn: sqlite3.Connection) -> None:
     conn.execute(SELECTIONS_DDL)
 
 
-MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell, 2: _add_audits, 3: _add_selections}
+def _add_designs(conn: sqlite3.Connection) -> None:
+    for statement in (DESIGNS_DDL, DESIGNS_INDEX, DESIGN_SCORES_DDL):
+        conn.execute(statement)
+
+
+MIGRATIONS: dict[int, Migration] = {1: _owner_and_fell, 2: _add_audits, 3: _add_selections, 4: _add_designs}
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 

@@ -216,6 +216,52 @@ class AuditRecord:
 
 
 @dataclass(frozen=True)
+class DesignRecord:
+    """One design of a creature file's free numbers (``sanlab design``, ``sanlab.design``): its
+    outer record. Its bodies' scores are :class:`DesignScore` rows (``Library.design_scores``);
+    its inner searches and tunings are runs."""
+
+    design_id: str  # 8 lowercase hex characters
+    created: str  # ISO 8601 UTC
+    updated: str  # ISO 8601 UTC: its last score or status change
+    creature: str  # creature name
+    source: str  # where the file was read
+    creature_text: str = field(repr=False)  # the file with free numbers, verbatim
+    creature_hash: str = field(repr=False)  # sha256 hex of creature_text
+    settings: dict = field(repr=False)  # sanlab.design.DesignSettings as JSON (seconds None: the file's)
+    free: tuple[dict, ...] = field(repr=False)  # each free number {name, path, min, max, default, unit}
+    status: str  # "running", "done" or "interrupted" ("damaged": listed, not readable)
+    result: dict | None  # once done: {"chosen": {"round", "index"}, "seconds" (wall s), "text" (the chosen body's file)}
+    sanlab_version: str
+    scores: int = 0  # score rows stored (a body on one seed each)
+
+    @property
+    def chosen(self) -> tuple[int, int] | None:
+        """(round, index) of the chosen body once the design is done, else None."""
+        c = (self.result or {}).get("chosen")
+        if isinstance(c, dict) and isinstance(c.get("round"), int) and isinstance(c.get("index"), int):
+            return c["round"], c["index"]
+        return None
+
+
+@dataclass(frozen=True)
+class DesignScore:
+    """One body of a design scored on one seed: ``values`` [D] (the free values, in the file's
+    units), ``speed_cm_s`` (its robust tuned speed, cm/s; 0 where no chain kept a robust gait or
+    it was pruned), ``gait`` (the robust gait, RUN#IDX, or None), ``record`` (everything
+    ``sanlab.reproduce.robust_tuned`` returned: the phase-1 run, each chain)."""
+
+    round: int  # the strategy's round; -1: the reference (the file's defaults)
+    index: int  # the body's place in its round
+    seed: int
+    values: tuple[float, ...]
+    speed_cm_s: float  # NaN when unknown
+    gait: str | None
+    pruned: bool
+    record: dict
+
+
+@dataclass(frozen=True)
 class TracePoint:
     """One trial of a tuning run."""
 

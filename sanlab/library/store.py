@@ -8,6 +8,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import secrets
 import socket
 import sqlite3
@@ -35,7 +36,16 @@ from sanlab.library._values import (
 from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import export_record, validate_gait
 from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
-from sanlab.library.records import AuditRecord, Evaluation, EvaluationRow, Run, TracePoint, TraceRow
+from sanlab.library.records import (
+    AuditRecord,
+    DesignRecord,
+    DesignScore,
+    Evaluation,
+    EvaluationRow,
+    Run,
+    TracePoint,
+    TraceRow,
+)
 
 DEFAULT_PATH = "sanlab.db"
 
@@ -45,6 +55,10 @@ DEFAULT_PATH = "sanlab.db"
 _RANK_ORDER = "nonfinite ASC, score DESC, fell ASC, idx ASC"
 _RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id = r.run_id) AS n, "
                "(SELECT count(*) FROM trace t WHERE t.run_id = r.run_id) AS n_trials FROM runs r")
+
+_DESIGNS_QUERY = ("SELECT d.*, (SELECT count(*) FROM design_scores s WHERE s.design_id = d.design_id) AS n "
+                  "FROM designs d")
+_DESIGN_ID = re.compile(r"[0-9a-f]+")
 
 _SQL_INT_MAX = 2**63 - 1  # SQLite's largest INTEGER
 
@@ -166,6 +180,9 @@ class Library:
             return LibraryError(f"{self.path}: cannot write: the file or its folder is read-only ({e}); "
                                 "commands that only read it work, to write give --db a writable copy",
                                 sqlite_errorname=name)
+        if name.startswith("SQLITE_CORRUPT"):  # a page of its schema (sqlite_schema) overwritten
+            return LibraryError(f"{self.path}: damaged: SQLite cannot read its schema ({e}); rebuild it with "
+                                f"sqlite3 {self.path} .recover", sqlite_errorname=name)
         return LibraryError(f"{self.path}: not a usable database file ({e})",
                             sqlite_errorname=name or None)
 
@@ -688,6 +705,159 @@ class Library:
         except Damaged as e:
             raise self._damaged(f"the tuning trace of run {run_id}", e) from None
 
+    # -- designs ---------------------------------------------------------------------------------
+
+    def begin_design(self, creature: str, source: str, creature_text: str, settings: dict,
+                     free: Sequence[dict]) -> DesignRecord:
+        """Mark the design of ``creature_text`` (the file with free numbers, read from ``source``)
+        with ``settings`` (a JSON object; keys and values as ``sanlab.design.DesignSettings``)
+        "running", this process its owner, and return it: the design stored before with the same
+        file and settings (made again, it continues: its scores and result stay until replaced),
+        else a new one. ``free``: each free number {name, path, min, max, default, unit}. Raises
+        LibraryError for a bad argument, or while another live process writes that design."""
+        text(creature_text, "creature_text")
+        if not isinstance(settings, dict):
+            raise LibraryError("design settings must be a dict")
+        if not all(isinstance(f, dict) for f in free):
+            raise LibraryError("free numbers must be dicts")
+        key = to_json(settings, "design settings", finite=True)
+        free_text = to_json(list(free), "free numbers", finite=True)
+        now = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        with self._write() as conn:
+            rows = conn.execute("SELECT design_id, creature_text, settings, status, owner FROM designs "
+                                "WHERE creature_hash = ? ORDER BY created", (sha256(creature_text),)).fetchall()
+            same = [r for r in rows if r["creature_text"] == creature_text and r["settings"] == key]
+            if same:
+                row = same[0]
+                other = _parse_owner(row["owner"])
+                if row["status"] == "running" and other is not None and other != _me() and _alive(other):
+                    raise LibraryError(f"{self.path}: design {row['design_id']} is being written by process "
+                                       f"{other.get('pid')} on {other.get('host')}; wait for it to finish, or stop it first")
+                design_id = row["design_id"]
+                conn.execute("UPDATE designs SET status = 'running', owner = ?, updated = ? WHERE design_id = ?",
+                             (_owner(), now, design_id))
+            else:
+                design_id = secrets.token_hex(4)
+                while conn.execute("SELECT 1 FROM designs WHERE design_id = ?", (design_id,)).fetchone():
+                    design_id = secrets.token_hex(4)  # 1 in 4 billion per design: draw another
+                conn.execute(
+                    "INSERT INTO designs (design_id, created, updated, creature, source, creature_text, creature_hash, "
+                    "settings, free, status, owner, result, sanlab_version) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, "
+                    "NULL, ?)", (design_id, now, now, text(str(creature), "creature"), text(str(source), "source"),
+                                 creature_text, sha256(creature_text), key, free_text, _owner(), __version__))
+        return self.get_design(design_id)
+
+    def add_design_score(self, design_id: str, round: int, place: int, seed: int, values: Sequence[float],
+                         record: dict) -> None:
+        """Store one body of a design scored on one seed (replacing an earlier score of the same
+        body and seed): ``round`` (-1: the reference) and ``place`` (its index in the round),
+        ``values`` [D] (its free values), ``record`` (``sanlab.reproduce.robust_tuned``'s: its
+        "speed" in cm/s, its "gait" RUN#IDX or None, "pruned" when so). Raises LibraryError for an
+        unknown design or a bad value."""
+        r = integer(round, "design score: round")
+        if r < -1:
+            raise LibraryError(f"design score: round must be >= -1, not {r}")
+        i = index(place, "design score: place")
+        sd = integer(seed, "design score: seed")
+        if not isinstance(record, dict):
+            raise LibraryError("design score: record must be a dict")
+        body = [real(v, "design score: values") for v in values]
+        if any(v is None or not math.isfinite(v) for v in body):
+            raise LibraryError(f"design score: values must be finite numbers, not {list(values)[:8]}")
+        gait = record.get("gait")
+        gait = gait.strip().lower() if isinstance(gait, str) else gait  # ids are case-insensitive, stored in lower case
+        if gait is not None and not is_permanent(gait):
+            raise LibraryError(f"design score: gait must be a gait id 'RUN#IDX' or None, not {gait!r}")
+        row = (design_id, r, i, sd, to_json(body, "design score: values"), real(record.get("speed"), "design score: speed"),
+               gait, int(bool(record.get("pruned"))), to_json(record, "design score: record"))
+        now = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        with self._write() as conn:
+            if conn.execute("UPDATE designs SET updated = ? WHERE design_id = ?", (now, design_id)).rowcount == 0:
+                raise LibraryError(f"no design {design_id!r} in {self.path}")
+            conn.execute("INSERT OR REPLACE INTO design_scores (design_id, round, idx, seed, body, speed_cm_s, gait, "
+                         "pruned, record) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", row)
+
+    def end_design(self, design_id: str, status: str, result: dict | None = None) -> None:
+        """Mark a design "done" (with its ``result``: {"chosen": {"round", "index"}, "seconds",
+        "text"}) or "interrupted" (its result, if any, kept). Raises LibraryError for an unknown
+        design or status."""
+        if status not in ("done", "interrupted"):
+            raise LibraryError(f"a design ends 'done' or 'interrupted', not {status!r}")
+        if status == "done" and not isinstance(result, dict):
+            raise LibraryError("a design done needs its result (a dict)")
+        result_text = None if result is None else to_json(result, "design result")
+        now = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        with self._write() as conn:
+            n = conn.execute("UPDATE designs SET status = ?, updated = ?, result = coalesce(?, result) WHERE design_id = ?",
+                             (status, now, result_text, design_id)).rowcount
+            if n == 0:
+                raise LibraryError(f"no design {design_id!r} in {self.path}")
+
+    def designs(self) -> list[DesignRecord]:
+        """Every design, newest first; a damaged one with status "damaged" (what of it could
+        be read). An older library opened read-only has none."""
+        with self._sql() as conn:
+            if not _schema._has_table(conn, "designs"):
+                return []
+            rows = conn.execute(_DESIGNS_QUERY + " ORDER BY d.created DESC, d.design_id").fetchall()
+        out = []
+        for r in rows:
+            try:
+                out.append(_design(r))
+            except Damaged:
+                out.append(_design(r, strict=False))
+        return out
+
+    def get_design(self, ref: str) -> DesignRecord:
+        """The design with this id or unambiguous id prefix (LibraryError: none, several, or
+        damaged)."""
+        design_id = self._resolve_design(ref)
+        with self._sql() as conn:
+            row = conn.execute(_DESIGNS_QUERY + " WHERE d.design_id = ?", (design_id,)).fetchone()
+        try:
+            return _design(row)
+        except Damaged as e:
+            raise self._damaged(f"design {design_id}", e) from None
+
+    def design_scores(self, ref: str) -> list[DesignScore]:
+        """A design's scores: every body on every seed scored so far, by round (the reference,
+        -1, first), place in the round and seed."""
+        design_id = self._resolve_design(ref)
+        with self._sql() as conn:
+            rows = conn.execute("SELECT * FROM design_scores WHERE design_id = ? ORDER BY round, idx, seed",
+                                (design_id,)).fetchall()
+        out = []
+        for r in rows:
+            try:
+                values = _cell(r, "body", lambda v: from_json(v, list))
+                if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in values):
+                    raise Damaged("its body: numbers were expected")
+                out.append(DesignScore(round=_cell(r, "round", _int), index=_cell(r, "idx", _int), seed=_cell(r, "seed", _int),
+                                       values=tuple(float(x) for x in values),
+                                       speed_cm_s=_cell(r, "speed_cm_s", as_float),
+                                       gait=_cell(r, "gait", _optional(from_text)), pruned=bool(r["pruned"]),
+                                       record=_cell(r, "record", from_json)))
+            except Damaged as e:
+                raise self._damaged(f"design {design_id}'s score of body {r['round']}.{r['idx']} on seed {r['seed']}",
+                                    e) from None
+        return out
+
+    def _resolve_design(self, ref: str) -> str:
+        key = str(ref).strip().lower()
+        with self._sql() as conn:
+            if not _DESIGN_ID.fullmatch(key) or not _schema._has_table(conn, "designs"):
+                raise LibraryError(f"no design {ref!r} in {self.path}")
+            ids = [r[0] for r in conn.execute("SELECT design_id FROM designs WHERE design_id GLOB ? "
+                                              "ORDER BY design_id LIMIT 6", (key + "*",))]
+        if key in ids:
+            return key
+        if not ids:
+            raise LibraryError(f"no design {ref!r} in {self.path}")
+        if len(ids) > 1:
+            shown = ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "")
+            raise LibraryError(f"design id {ref!r} is ambiguous in {self.path}: it matches {shown}")
+        return ids[0]
+
     # -- exchange --------------------------------------------------------------------------------
 
     def export_gait(self, gait_id: str) -> dict:
@@ -804,6 +974,28 @@ def _run(row: sqlite3.Row, strict: bool = True) -> Run:
                device=_cell(row, "device", _optional(from_text)), dtype=_cell(row, "dtype", _optional(from_text)),
                status=status, parent_gait=_cell(row, "parent_gait", _optional(from_text)),
                total=_cell(row, "total", _int), count=row["n"], trials=row["n_trials"])
+
+
+def _design(row: sqlite3.Row, strict: bool = True) -> DesignRecord:
+    """The DesignRecord of a ``designs`` row; ``strict=False``: what can be read, status "damaged"."""
+    if not strict:
+        lenient = lambda v: v if isinstance(v, str) else "" if v is None else repr(v)
+        return DesignRecord(design_id=lenient(row["design_id"]), created=lenient(row["created"]),
+                            updated=lenient(row["updated"]), creature=lenient(row["creature"]) or "?",
+                            source=lenient(row["source"]), creature_text="", creature_hash="", settings={}, free=(),
+                            status="damaged", result=None, sanlab_version=lenient(row["sanlab_version"]), scores=row["n"])
+    status = _cell(row, "status", from_text)
+    if status == "running" and _stale(row["owner"]):
+        status = "interrupted"  # its process is gone: it was killed before it could say so
+    free = _cell(row, "free", lambda v: from_json(v, list))
+    if not all(isinstance(f, dict) for f in free):
+        raise Damaged("its free: objects were expected")
+    return DesignRecord(design_id=_cell(row, "design_id", from_text), created=_cell(row, "created", from_text),
+                        updated=_cell(row, "updated", from_text), creature=_cell(row, "creature", from_text),
+                        source=_cell(row, "source", from_text), creature_text=_cell(row, "creature_text", from_text),
+                        creature_hash=_cell(row, "creature_hash", from_text), settings=_cell(row, "settings", from_json),
+                        free=tuple(free), status=status, result=_cell(row, "result", _optional(from_json)),
+                        sanlab_version=_cell(row, "sanlab_version", from_text), scores=row["n"])
 
 
 def _int(v: Any) -> int:

@@ -13,7 +13,8 @@ A message without an id is a notification (e.g. the follow point, 60 times a sec
 answered only if it fails. Requests are served concurrently; replies may come in any order. The
 server also pushes:
 
-    {"type": "library", "runs": [[run_id, status, count], ...]}    the library changed
+    {"type": "library", "runs": [[run_id, status, count, trials], ...],
+     "designs": [[design_id, status, scores], ...]}                 the library changed
     {"type": "job", "job": {...}}                                   a search or tuning progressed
     {"type": "live.frames", ...} / {"type": "live.stats", ...} / {"type": "live.reset", ...}
 
@@ -86,6 +87,8 @@ OPS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
     "top": {"run": ((str,), True), "n": ((int,), False)},
     "modes": {"run": ((str,), True), "n": ((int,), False)},
     "archive": {"run": ((str,), True)},
+    "designs": {},
+    "design": {"design": ((str,), True)},
     "playback": {"gait": ((str,), True)},
     "render": {"gait": ((str,), True), "kind": ((str,), True)},
     "check": {"text": ((str,), True), "filename": ((str,), False)},
@@ -343,14 +346,16 @@ class Studio:
 
     async def watch(self) -> None:
         """Poll the library (a short read, never a lock the writer waits on) and push a change
-        to every page: a `sanlab search` running in another process shows up as it commits."""
+        to every page: a `sanlab search` or `sanlab design` running in another process shows up
+        as it commits."""
         loop = asyncio.get_running_loop()
         while True:
             try:
-                fp = await loop.run_in_executor(self.read_pool, self.service.fingerprint)
+                fp = await loop.run_in_executor(
+                    self.read_pool, lambda: (self.service.fingerprint(), self.service.design_fingerprint()))
                 if fp != self._fingerprint:
                     self._fingerprint = fp
-                    await self.broadcast({"type": "library", "runs": fp})
+                    await self.broadcast({"type": "library", "runs": fp[0], "designs": fp[1]})
             except StudioError as e:
                 log.warning("cannot read the library: %s", e)
             await asyncio.sleep(self.poll)
@@ -399,6 +404,10 @@ class Studio:
             return await read(svc.modes, a["run"], a.get("n", 12))
         if op == "archive":
             return await read(svc.archive, a["run"])
+        if op == "designs":
+            return await read(svc.designs)
+        if op == "design":
+            return await read(svc.design, a["design"])
         if op == "playback":
             return await compute(svc.playback, a["gait"])
         if op == "render":

@@ -248,6 +248,108 @@ class Service:
             "ranges": [[lo, hi] for lo, hi in grid.ranges], "best": best.tolist(), "elites": v["elites"],
             "progress": v["progress"], "stats": stats})
 
+    # -- designs (`sanlab design`) --------------------------------------------------------------
+
+    def design_fingerprint(self) -> list:
+        """[[design_id, status, scores], ...]: changes whenever a design scores a body or changes
+        status (polled beside :meth:`fingerprint`)."""
+        with self._lib() as lib:
+            return [[d.design_id, d.status, d.scores] for d in lib.designs()]
+
+    def designs(self) -> list[dict]:
+        """Every design (``sanlab design``), newest first: design_id, creature, source, status,
+        created, updated (ISO 8601 UTC), free (the free numbers' names), bodies (bodies of the
+        search scored, the reference not counted), planned (bodies the search asks), best_speed_cm_s
+        (the best robust tuned speed of the search, cm/s; None before any), reference_cm_s (the
+        reference's on the search's seed), chosen (a body was chosen: the design is done). A
+        damaged design is listed with status "damaged" and what of it could be read."""
+        out = []
+        with self._lib() as lib:
+            for d in lib.designs():
+                seed = d.settings.get("seed", 0)
+                try:
+                    scores = [x for x in lib.design_scores(d.design_id) if x.seed == seed] if d.status != "damaged" else []
+                except LibraryError:
+                    scores, d = [], dataclasses.replace(d, status="damaged")
+                search = [x.speed_cm_s for x in scores if x.round >= 0]
+                ref = [x.speed_cm_s for x in scores if x.round < 0]
+                out.append({"design_id": d.design_id, "creature": d.creature, "source": d.source, "status": d.status,
+                            "created": d.created, "updated": d.updated, "free": [f.get("name") for f in d.free],
+                            "bodies": len(search), "planned": d.settings.get("designs"),
+                            "best_speed_cm_s": _num(max(search)) if search else None,
+                            "reference_cm_s": _num(ref[0]) if ref else None, "chosen": d.chosen is not None})
+        return _strict(out)
+
+    def design(self, design_id: str) -> dict:
+        """One design, for its scatter: {design_id, creature, source, status, created, updated,
+        settings (``sanlab.design.DesignSettings``'s fields), seed (the search's), seeds (the
+        validation's), free [{name, path, min, max, default, unit}] (the file's units), chosen
+        {round, index} or None (not done yet), seconds (wall time of the run that finished it, s,
+        or None), points}. ``points``: each body scored so far, the reference first, then by
+        round and place: {body ("reference" or "ROUND.INDEX"), round (-1: the reference), index,
+        values [D] (its free values, in the order of ``free``), score (its robust tuned speed on
+        the search's seed, cm/s; None not yet scored), pruned (phase 2 skipped: score 0), gait
+        (its robust gait RUN#IDX, None where no rung kept its speed), open and open_kind (the gait
+        a click shows: the robust gait, else its best chain's "tuned" gait, else its phase-1
+        search's best, "phase 1"; None where none is in this library), validation {seed: cm/s}
+        (validated bodies and the reference), validation_mean (cm/s or None), reference, chosen
+        (bools)}. A design not in this library, or damaged: StudioError."""
+        if not isinstance(design_id, str):
+            raise StudioError(f"expected a design id (8 hex digits), got {design_id!r}")
+        with self._lib() as lib:
+            d = lib.get_design(design_id)
+            rows = lib.design_scores(d.design_id)
+            seed = d.settings.get("seed", 0)
+            seeds = [int(x) for x in d.settings.get("seeds") or []]
+            bodies: dict[tuple[int, int], list] = {}
+            for x in rows:
+                bodies.setdefault((x.round, x.index), []).append(x)
+            points = []
+            for (rnd, idx), scored in bodies.items():
+                by_seed = {x.seed: x for x in scored}
+                mine = by_seed.get(seed)
+                valid = {str(k): _num(x.speed_cm_s) for k, x in by_seed.items() if k != seed}
+                means = [by_seed[k].speed_cm_s for k in seeds if k in by_seed]
+                opened, kind = self._design_gait(lib, [x for x in (mine, *(by_seed.get(k) for k in seeds)) if x is not None])
+                points.append({
+                    "body": "reference" if rnd < 0 else f"{rnd}.{idx}", "round": rnd, "index": idx,
+                    "values": list(scored[0].values), "score": None if mine is None else _num(mine.speed_cm_s),
+                    "pruned": bool(mine is not None and mine.pruned), "gait": None if mine is None else mine.gait,
+                    "open": opened, "open_kind": kind, "validation": valid,
+                    "validation_mean": _num(float(np.mean(means))) if seeds and len(means) == len(seeds) else None,
+                    "reference": rnd < 0, "chosen": d.chosen == (rnd, idx)})
+        return _strict({
+            "design_id": d.design_id, "creature": d.creature, "source": d.source, "status": d.status,
+            "created": d.created, "updated": d.updated, "settings": d.settings, "seed": seed, "seeds": seeds,
+            "free": [dict(f) for f in d.free],
+            "chosen": None if d.chosen is None else {"round": d.chosen[0], "index": d.chosen[1]},
+            "seconds": _num((d.result or {}).get("seconds")), "points": points})
+
+    @staticmethod
+    def _design_gait(lib, scores) -> tuple[str | None, str | None]:
+        """The gait a body's point opens, from its scores (the search's seed first): its robust
+        gait; else its best chain's tuned gait; else the best of its phase-1 search; (None, None)
+        where none is in the library."""
+        for x in scores:
+            if x.gait:
+                return x.gait, "robust"
+        for x in scores:
+            chains = [c for c in x.record.get("chains") or [] if isinstance(c, dict) and isinstance(c.get("tuned"), str)]
+            if chains:
+                speed = lambda c: float(c["tuned_cm_s"]) if isinstance(c.get("tuned_cm_s"), (int, float)) else -math.inf
+                best = max(chains, key=speed)
+                return best["tuned"], "tuned"
+        for x in scores:
+            search = x.record.get("search")
+            if isinstance(search, str):
+                try:
+                    top = lib.top(search, 1)
+                except LibraryError:
+                    continue
+                if top:
+                    return top[0].gait_id, "phase 1"
+        return None, None
+
     def export(self, gait_id: str) -> dict:
         """The gait as `sanlab export` writes it."""
         with self._lib() as lib:

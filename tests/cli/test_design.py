@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from sanlab.cli import _schemas, app
 from sanlab.creature import load_design, loads
+from sanlab.library import Library
 from sanlab.search.bodies import BodyProblem, make_bodies
 from tests.helpers import DATA, ROOT
 
@@ -92,6 +93,23 @@ def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
     assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
 
 
+def test_each_free_number_has_the_unit_of_the_field_it_is_written_in():
+    units = lambda name: dict(zip(load_design(str(ROOT / "experiments" / f"{name}_design.toml"))[0].names,
+                                  load_design(str(ROOT / "experiments" / f"{name}_design.toml"))[0].units))
+    crawler, fish = units("crawler"), units("fish")
+    assert crawler["delay"] == "s" and crawler["length"] == "m" and crawler["eye"] == "deg"
+    assert crawler["short"] == crawler["short_on"] == "m"  # a linear actuator's and a length sensor's min
+    assert fish["ks1"] == "N·m/deg" and fish["range1"] == "deg" and fish["head"] == "m"
+    from sanlab.creature.free import unit_of
+
+    data = {"actuators": [{"type": "linear", "ks": 1.0, "kd": 0.1}], "springs": [{"stiffness": 1.0}],
+            "links": [{"spring": {"stiffness": 1.0, "damping": 0.1}, "inertia": 0.1}]}
+    assert [unit_of(data, p) for p in ("actuators[0].ks", "actuators[0].kd", "springs[0].stiffness",
+                                        "links[0].spring.stiffness", "links[0].spring.damping", "links[0].inertia",
+                                        "links[0].friction.forward", "nowhere[3].ks")] == \
+        ["N/m", "N·s/m", "N/m", "N·m/deg", "N·m·s/deg", "kg·m²", "", ""]
+
+
 def test_a_body_of_a_file_with_repeats_is_written_out():
     text = """name = "chain"
 [[links]]
@@ -157,19 +175,20 @@ def _fake_scores(monkeypatch, calls):
         if prune_below is not None and p1 < prune_below:
             return {"speed": 0.0, "gait": None, "search": "s", "phase1_cm_s": p1, "chains": [], "pruned": True}
         speed = 20 * mass if seed == 0 else 20 * (2 - mass)
-        return {"speed": speed, "gait": f"g{mass:.3f}", "search": "s", "phase1_cm_s": p1, "chains": []}
+        return {"speed": speed, "gait": f"{round(mass * 1e6):08x}#{seed}", "search": "s", "phase1_cm_s": p1, "chains": []}
 
     monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
 
 
-def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(monkeypatch):
+def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(monkeypatch, tmp_path):
     from sanlab.design import DesignSettings, run_design
 
     calls: list = []
     _fake_scores(monkeypatch, calls)
     design, _ = load_design(str(HOPPER))
     s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=3, seeds=(1, 2))
-    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
     search = sorted((b for b in r.bodies if b.round >= 0), key=lambda b: -b.speed(0))
     assert r.chosen in search[:3] and r.chosen is not search[0]  # the lightest of the three heaviest
     assert r.chosen.mean((1, 2)) == max(b.mean((1, 2)) for b in search[:3])
@@ -178,20 +197,65 @@ def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(mon
     assert sorted(seed for _, seed, _ in calls[9:]) == [1] * 4 + [2] * 4
 
 
-def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_validation(monkeypatch):
+def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_validation(monkeypatch, tmp_path):
     from sanlab.design import DesignSettings, run_design
 
     calls: list = []
     _fake_scores(monkeypatch, calls)
     design, _ = load_design(str(HOPPER))
     s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=2, seeds=(1,), prune=0.9)
-    r = run_design(None, design, HOPPER.read_text(), "hopper.toml", s)  # type: ignore[arg-type]
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
     assert calls[0][2] is None  # the reference is never pruned
     assert all(p == pytest.approx(9.0) for _, seed, p in calls[1:9])  # 0.9 x the reference's phase 1 (10 cm/s)
     assert all(p is None for _, seed, p in calls[9:])  # validation scores in full
     pruned = [b for b in r.bodies if b.speeds[0].get("pruned")]
     assert pruned and all(b.values[0] < 0.9 and b.speed(0) == 0.0 for b in pruned)
     assert not r.chosen.speeds[1].get("pruned")
+
+
+def test_a_design_is_stored_as_its_bodies_are_scored_and_made_again_continues(monkeypatch, tmp_path):
+    """The design's outer record in the library: each score as it is made, so that an interrupted
+    design shows what it has; made again, the same record is continued and completed."""
+    import sanlab.reproduce
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    fake = sanlab.reproduce.robust_tuned
+
+    def stop_at_fifth(*a, **k):
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return fake(*a, **k)
+
+    monkeypatch.setattr(sanlab.reproduce, "robust_tuned", stop_at_fifth)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=2, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        with pytest.raises(KeyboardInterrupt):
+            run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+        (d,) = lib.designs()
+        assert (d.status, d.scores, d.creature, d.source, d.chosen) == ("interrupted", 4, "hopper", "hopper.toml", None)
+        assert [(f["name"], f["unit"], f["min"], f["max"]) for f in d.free] == [
+            ("links[0].mass", "kg", 0.5, 1.5), ("front", "m", -0.35, -0.2), ("back", "m", -0.35, -0.2),
+            ("actuators[0].ks", "N·m/deg", 0.01, 0.03)]
+        rows = lib.design_scores(d.design_id)
+        assert [(r.round, r.index, r.seed) for r in rows] == [(-1, 0, 0), (0, 0, 0), (0, 1, 0), (0, 2, 0)]
+        assert rows[0].values == (1.0, -0.275, -0.275, 0.02) and rows[0].speed_cm_s == pytest.approx(20.0)
+        assert all(r.speed_cm_s == pytest.approx(20 * r.values[0], rel=1e-5) for r in rows)
+        assert rows[1].gait == f"{round(rows[1].values[0] * 1e6):08x}#0" and not rows[1].pruned
+        monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)  # made again: continued
+        (d,) = lib.designs()
+        assert r.design_id == d.design_id == r.to_json()["design"] and d.status == "done"
+        assert d.scores == 1 + 8 + 3  # the reference, 8 bodies, and 2 of them and the reference on seed 1
+        assert d.chosen == (r.chosen.round, r.chosen.index) and d.result is not None and d.result["text"] == r.text
+        stored = {(x.round, x.index, x.seed): x.speed_cm_s for x in lib.design_scores(d.design_id)}
+        assert stored == {(b.round, b.index, seed): pytest.approx(v["speed"]) for b in r.bodies for seed, v in b.speeds.items()}
+        # other settings are another design
+        run_design(lib, design, HOPPER.read_text(), "hopper.toml", DesignSettings(designs=4, generation=4, strategy="random"))
+        assert len(lib.designs()) == 2
 
 
 def test_cma_es_started_at_the_ends_of_many_ranges_asks_quietly():

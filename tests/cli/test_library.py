@@ -82,3 +82,17 @@ def test_an_imported_audit_is_named_and_left_behind(tmp_path):
                         f"`sanlab audit {gid}` audits the gait here\n")
     with Library(db) as lib:
         assert lib.audits(lib.gait(gid).run_id) == {}
+
+
+def test_runs_names_the_librarys_designs_in_a_line_and_not_in_its_json(tmp_path):
+    db = str(tmp_path / "g.db")
+    with Library(db) as lib:
+        run = lib.create_run("search", "cart", "name = 'cart'", {"metric": "distance"}, seed=0, total=1)
+        assert "design" not in runner.invoke(app, ["runs", "--db", db]).stdout  # none yet: no line
+        d = lib.begin_design("hopper", "hopper.toml", 'name = "hopper"\n', {"designs": 3}, [])
+        lib.add_design_score(d.design_id, -1, 0, 0, [1.0], {"speed": 20.0, "gait": None})
+        lib.end_design(d.design_id, "interrupted")
+    r = runner.invoke(app, ["runs", "--db", db])
+    assert r.exit_code == 0 and f"1 design: {d.design_id} hopper (interrupted, 1 score)" in r.stdout
+    listed = json.loads(runner.invoke(app, ["runs", "--db", db, "--json"]).stdout)
+    assert [x["run_id"] for x in listed] == [run.run_id]  # the JSON lists runs only, as before

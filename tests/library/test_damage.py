@@ -289,8 +289,9 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
     path = tmp_path / "v1.db"
     con = sqlite3.connect(path)
     con.execute(V1_RUNS)
-    for ddl in _schema.DDL[1:]:  # version 1's rank index had no fell, and it had no audits nor selections
-        if ddl in (_schema.AUDITS_DDL, _schema.SELECTIONS_DDL):
+    for ddl in _schema.DDL[1:]:  # version 1's rank index had no fell, and it had no audits, selections nor designs
+        if ddl in (_schema.AUDITS_DDL, _schema.SELECTIONS_DDL, _schema.DESIGNS_DDL, _schema.DESIGNS_INDEX,
+                   _schema.DESIGN_SCORES_DDL):
             continue
         con.execute(ddl.replace("score DESC, fell, idx", "score DESC, idx"))
     con.execute("INSERT INTO runs VALUES ('abcd1234', 'search', '2024-01-01T00:00:00', 'cart', 'x', 'h', '{}', 1, "
@@ -303,8 +304,8 @@ def test_a_version_1_library_is_read_as_it_is_and_upgraded_when_written(tmp_path
         assert lib.runs()[0].status == "running"  # no owner recorded: nothing to tell
     assert sqlite3.connect(path).execute("PRAGMA user_version").fetchone()[0] == 1
     with Library(path) as lib:
-        assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 4
-        assert lib.audits("abcd1234") == {} and lib.selection("abcd1234") is None
+        assert lib._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 5
+        assert lib.audits("abcd1234") == {} and lib.selection("abcd1234") is None and lib.designs() == []
         assert lib.runs()[0].run_id == "abcd1234"
         lib.set_status("abcd1234", "running")
         owner = json.loads(lib._conn.execute("SELECT owner FROM runs").fetchone()[0])
@@ -485,7 +486,10 @@ def test_a_library_failing_the_quick_check_is_refused_for_writing_and_left_as_it
     DAMAGED_SEEN.append(data)
     with pytest.raises(LibraryError) as err:
         Library(path).check_intact()
-    assert_one_line(err, f"{path}: damaged: SQLite's quick check fails (", "sqlite3 ", " .recover")
+    # the quick check's line, or, where a page of the schema (past the first since schema 5) is
+    # what was overwritten, the open's
+    assert_one_line(err, f"{path}: damaged: ", "sqlite3 ", " .recover")
+    assert "SQLite's quick check fails (" in str(err.value) or "SQLite cannot read its schema (" in str(err.value)
     assert _digest(path) == before  # nothing written: not a page, not a -wal to fold back in later
 
 

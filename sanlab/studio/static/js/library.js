@@ -1,4 +1,5 @@
-// The library view: every run, filterable; and a form to start a phase-1 search.
+// The library view: every run, filterable; the designs (`sanlab design`), when there are any;
+// and a form to start a phase-1 search.
 
 import { attempt, fmt, fmtDate, h, progress, showError } from "./util.js";
 
@@ -6,6 +7,7 @@ export class LibraryView {
   constructor(app) {
     this.app = app;
     this.runs = [];
+    this.designs = [];
     this.filter = { text: "", kind: "" };
   }
 
@@ -25,16 +27,48 @@ export class LibraryView {
         h("table", { id: "runs", class: "grid-table" },
           h("thead", {}, h("tr", {}, ...["run", "kind", "creature", "seed", "progress", "best score", "best speed (cm/s)", "date (UTC)", "parent", "status"].map((c) => h("th", {}, c)))),
           this.table)),
+      this.designsSection(),
       this.searchForm());
     await this.refresh();
     this.app.loaded("library");
   }
 
   async refresh() {
-    const runs = await attempt(() => this.app.api.request("runs"));
+    const [runs, designs] = await Promise.all([attempt(() => this.app.api.request("runs")),
+      attempt(() => this.app.api.request("designs"))]);
+    if (designs) {
+      this.designs = designs;
+      this.renderDesigns();
+    }
     if (!runs) return;
     this.runs = runs;
     this.renderRows();
+  }
+
+  designsSection() {
+    this.designTable = h("tbody");
+    this.designsBox = h("section", { id: "designs-box", hidden: true },
+      h("h2", {}, "Designs"),
+      h("p", { class: "muted" }, "Free numbers of a creature file searched with its controllers (`sanlab design`, §6.3); a design's bodies as a scatter."),
+      h("table", { id: "designs", class: "grid-table" },
+        h("thead", {}, h("tr", {}, ...["design", "creature", "file", "free numbers", "bodies", "best (cm/s)", "reference (cm/s)", "date (UTC)", "status"].map((c) => h("th", {}, c)))),
+        this.designTable));
+    return this.designsBox;
+  }
+
+  renderDesigns() {
+    this.designsBox.hidden = this.designs.length === 0;
+    this.designTable.replaceChildren(...this.designs.map((d) => h("tr", { class: "design-row", dataset: { design: d.design_id },
+      onclick: () => (location.hash = `#/design/${d.design_id}`) },
+    h("td", {}, h("a", { href: `#/design/${d.design_id}` }, d.design_id)),
+    h("td", {}, d.creature),
+    h("td", { class: "mono" }, d.source),
+    h("td", {}, d.free.join(", ")),
+    h("td", {}, `${d.bodies}/${d.planned ?? "?"}`),
+    h("td", {}, fmt(d.best_speed_cm_s)),
+    h("td", {}, fmt(d.reference_cm_s)),
+    h("td", {}, fmtDate(d.created)),
+    h("td", { class: `status-${d.status}` }, d.status))));
   }
 
   onLibrary() {

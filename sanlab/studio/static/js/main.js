@@ -1,7 +1,8 @@
-// The studio page: routes (#/, #/run/ID, #/gait/ID, #/live/ID), the jobs panel, the one
+// The studio page: routes (#/, #/run/ID, #/gait/ID, #/live/ID, #/design/ID), the jobs panel, the one
 // animation loop, and `window.studio` (the views and the API, for tests and the console).
 
 import { Api } from "./api.js";
+import { DesignView } from "./design.js";
 import { GaitView } from "./gait.js";
 import { LibraryView } from "./library.js";
 import { LiveView } from "./live.js";
@@ -95,6 +96,7 @@ class App {
     if (kind === "run" && arg) this.view = new RunView(this, arg);
     else if (kind === "gait" && arg) this.view = new GaitView(this, arg);
     else if (kind === "live" && arg) this.view = new LiveView(this, arg);
+    else if (kind === "design" && arg) this.view = new DesignView(this, arg);
     else this.view = new LibraryView(this);
     window.studio.view = this.view;
     this.view.mount(this.root);

@@ -1,6 +1,7 @@
 // Plots on canvas: a run's sorted scores (the paper's long tail, §5.2), a tuning run's score
-// per trial, the SAN raster (which sensors and nodes are on when), and a search's MAP-Elites
-// archive (a heat map of its cells, and its coverage and QD-score as it grew).
+// per trial, the SAN raster (which sensors and nodes are on when), a search's MAP-Elites
+// archive (a heat map of its cells, and its coverage and QD-score as it grew), and a design's
+// bodies (a scatter of two free numbers, coloured by score).
 
 import { COLORS, fitCanvas } from "./draw.js";
 
@@ -301,3 +302,115 @@ export function drawProgress(canvas, progress) {
   ctx.fillStyle = COLORS.root; ctx.fillText("coverage", pad.l + 6, 14);
   ctx.fillStyle = COLORS.actuator; ctx.fillText("QD-score", pad.l + 70, 14);
 }
+
+// A design's bodies as a scatter (sanlab design): each body a point at two of its numbers
+// (free numbers in the file's units, or the score), filled by its score (viridis, from the lowest
+// score to the highest; grey: not scored), the reference (the file's defaults) a navy square,
+// the chosen body ringed in red, a pruned body a hollow circle. set({x, y, points}): x and y
+// {label, lo, hi}; points [{x, y, score, reference, chosen, pruned}] (x, y in the axes' units).
+export class Scatter {
+  constructor(canvas) {
+    this.canvas = canvas;
+    this.pad = { l: 56, r: 78, t: 14, b: 36 };
+    this.data = null;
+  }
+
+  set(data) {
+    this.data = data;
+  }
+
+  layout() {
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight, p = this.pad;
+    return { w, h, x0: p.l, y0: p.t, pw: Math.max(1, w - p.l - p.r), ph: Math.max(1, h - p.t - p.b) };
+  }
+
+  // Point i's centre, CSS px from the canvas's top left.
+  px(i) {
+    const L = this.layout(), { x, y, points } = this.data, q = points[i];
+    const f = (v, a) => (a.hi > a.lo ? (v - a.lo) / (a.hi - a.lo) : 0.5);
+    return [L.x0 + f(q.x, x) * L.pw, L.y0 + L.ph - f(q.y, y) * L.ph];
+  }
+
+  // The index of the point nearest (u, v) CSS px within 10 px, or -1; the chosen body and the
+  // reference win ties (they are drawn on top).
+  pointAt(u, v) {
+    if (!this.data) return -1;
+    let best = -1, bestD = 100;
+    this.data.points.forEach((q, i) => {
+      const [a, b] = this.px(i);
+      const d = (a - u) ** 2 + (b - v) ** 2 - (q.chosen || q.reference ? 1 : 0);
+      if (d <= bestD) { best = i; bestD = d; }
+    });
+    return best;
+  }
+
+  draw() {
+    const { ctx, w, h } = fitCanvas(this.canvas);
+    this.drawnW = w;
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, w, h);
+    if (!this.data) return;
+    const L = this.layout(), { x, y, points } = this.data;
+    ctx.strokeStyle = COLORS.gridAxis; ctx.lineWidth = 1;
+    ctx.strokeRect(L.x0 - 0.5, L.y0 - 0.5, L.pw + 1, L.ph + 1);
+    ctx.fillStyle = COLORS.muted;
+    ctx.font = "10px system-ui, sans-serif";
+    ctx.fillText(fmtNum(x.lo), L.x0, L.y0 + L.ph + 12);
+    const xh = fmtNum(x.hi);
+    ctx.fillText(xh, L.x0 + L.pw - ctx.measureText(xh).width, L.y0 + L.ph + 12);
+    const right = (text, v) => ctx.fillText(text, L.x0 - 3 - ctx.measureText(text).width, v);
+    right(fmtNum(y.hi), L.y0 + 8);
+    right(fmtNum(y.lo), L.y0 + L.ph);
+    ctx.fillStyle = COLORS.text;
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.fillText(x.label, L.x0 + (L.pw - ctx.measureText(x.label).width) / 2, h - 6);
+    ctx.save();
+    ctx.translate(14, L.y0 + (L.ph + ctx.measureText(y.label).width) / 2);
+    ctx.rotate(-Math.PI / 2);
+    ctx.fillText(y.label, 0, 0);
+    ctx.restore();
+    let lo = Infinity, hi = -Infinity;
+    for (const q of points) if (q.score !== null) { lo = Math.min(lo, q.score); hi = Math.max(hi, q.score); }
+    this.scoreRange = hi >= lo ? [lo, hi] : null;
+    const fill = (q) => (q.score === null ? COLORS.contactOff : viridis(hi > lo ? (q.score - lo) / (hi - lo) : 1));
+    // ordinary bodies first, then the reference and the chosen body on top
+    const order = points.map((q, i) => i).sort((a, b) => rankOf(points[a]) - rankOf(points[b]));
+    for (const i of order) {
+      const q = points[i], [u, v] = this.px(i);
+      ctx.lineWidth = 1;
+      if (q.reference) {
+        ctx.fillStyle = fill(q);
+        ctx.fillRect(u - 6, v - 6, 12, 12);
+        ctx.strokeStyle = COLORS.root; ctx.lineWidth = 2.5;
+        ctx.strokeRect(u - 6, v - 6, 12, 12);
+      } else {
+        ctx.beginPath(); ctx.arc(u, v, 5, 0, 2 * Math.PI);
+        if (q.pruned) { ctx.strokeStyle = COLORS.muted; ctx.stroke(); }
+        else { ctx.fillStyle = fill(q); ctx.fill(); ctx.strokeStyle = "rgba(40,40,40,0.6)"; ctx.stroke(); }
+      }
+      if (q.chosen) {
+        ctx.beginPath(); ctx.arc(u, v, 10, 0, 2 * Math.PI);
+        ctx.strokeStyle = COLORS.follow; ctx.lineWidth = 2.5; ctx.stroke();
+      }
+    }
+    // the colour scale: robust tuned speed
+    const sx = L.x0 + L.pw + 12, sw = 10;
+    for (let k = 0; k < L.ph; k++) {
+      ctx.fillStyle = viridis(1 - k / L.ph);
+      ctx.fillRect(sx, L.y0 + k, sw, 1.5);
+    }
+    ctx.fillStyle = COLORS.muted;
+    ctx.font = "10px system-ui, sans-serif";
+    if (this.scoreRange) {
+      ctx.fillText(fmtNum(hi), sx + sw + 3, L.y0 + 8);
+      ctx.fillText(fmtNum(lo), sx + sw + 3, L.y0 + L.ph);
+    }
+    ctx.save(); ctx.translate(sx + sw + 12, L.y0 + L.ph / 2 + 40); ctx.rotate(-Math.PI / 2); ctx.fillText("speed (cm/s)", 0, 0); ctx.restore();
+    if (!points.length) {
+      ctx.fillStyle = COLORS.muted; ctx.font = "11px system-ui, sans-serif";
+      ctx.fillText("no body scored yet", L.x0 + 8, L.y0 + 16);
+    }
+  }
+}
+
+const rankOf = (q) => (q.chosen ? 2 : q.reference ? 1 : 0);
