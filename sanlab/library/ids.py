@@ -56,16 +56,26 @@ def is_permanent(gait_id: Any) -> bool:
 def resolve_run(conn: sqlite3.Connection, ref: str, path: str) -> str:
     """The full run id in the library at ``path`` (for messages) for an exact run id or an
     unambiguous prefix. Raises LibraryError if there is none or several."""
+    return resolve_id(conn, "run", ref, path)
+
+
+_ID_COLUMNS = {"run": ("runs", "run_id"), "design": ("designs", "design_id")}
+
+
+def resolve_id(conn: sqlite3.Connection, kind: str, ref: str, path: str) -> str:
+    """The full id of a ``kind`` ("run" or "design") in the library at ``path`` for an exact id
+    or an unambiguous prefix (hex digits). Raises LibraryError if there is none or several."""
+    table, column = _ID_COLUMNS[kind]
     key = str(ref).strip().lower()
     if not _RUN_REF.fullmatch(key):
-        raise LibraryError(f"no run {ref!r} in {path}")
+        raise LibraryError(f"no {kind} {ref!r} in {path}")
     ids = [r[0] for r in conn.execute(
-        "SELECT run_id FROM runs WHERE run_id GLOB ? ORDER BY run_id LIMIT 6", (key + "*",))]
+        f"SELECT {column} FROM {table} WHERE {column} GLOB ? ORDER BY {column} LIMIT 6", (key + "*",))]
     if key in ids:
         return key
     if not ids:
-        raise LibraryError(f"no run {ref!r} in {path}")
+        raise LibraryError(f"no {kind} {ref!r} in {path}")
     if len(ids) > 1:
         shown = ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "")
-        raise LibraryError(f"run id {ref!r} is ambiguous in {path}: it matches {shown}")
+        raise LibraryError(f"{kind} id {ref!r} is ambiguous in {path}: it matches {shown}")
     return ids[0]

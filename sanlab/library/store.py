@@ -8,7 +8,6 @@ import json
 import math
 import os
 import pathlib
-import re
 import secrets
 import socket
 import sqlite3
@@ -35,7 +34,7 @@ from sanlab.library._values import (
 )
 from sanlab.library.errors import LibraryError
 from sanlab.library.exchange import export_record, validate_gait
-from sanlab.library.ids import is_permanent, parse_gait_id, resolve_run
+from sanlab.library.ids import is_permanent, parse_gait_id, resolve_id, resolve_run
 from sanlab.library.records import (
     AuditRecord,
     DesignRecord,
@@ -58,7 +57,6 @@ _RUNS_QUERY = ("SELECT r.*, (SELECT count(*) FROM evaluations e WHERE e.run_id =
 
 _DESIGNS_QUERY = ("SELECT d.*, (SELECT count(*) FROM design_scores s WHERE s.design_id = d.design_id) AS n "
                   "FROM designs d")
-_DESIGN_ID = re.compile(r"[0-9a-f]+")
 
 _SQL_INT_MAX = 2**63 - 1  # SQLite's largest INTEGER
 
@@ -843,20 +841,10 @@ class Library:
         return out
 
     def _resolve_design(self, ref: str) -> str:
-        key = str(ref).strip().lower()
         with self._sql() as conn:
-            if not _DESIGN_ID.fullmatch(key) or not _schema._has_table(conn, "designs"):
+            if not _schema._has_table(conn, "designs"):
                 raise LibraryError(f"no design {ref!r} in {self.path}")
-            ids = [r[0] for r in conn.execute("SELECT design_id FROM designs WHERE design_id GLOB ? "
-                                              "ORDER BY design_id LIMIT 6", (key + "*",))]
-        if key in ids:
-            return key
-        if not ids:
-            raise LibraryError(f"no design {ref!r} in {self.path}")
-        if len(ids) > 1:
-            shown = ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "")
-            raise LibraryError(f"design id {ref!r} is ambiguous in {self.path}: it matches {shown}")
-        return ids[0]
+            return resolve_id(conn, "design", ref, self.path)
 
     # -- exchange --------------------------------------------------------------------------------
 

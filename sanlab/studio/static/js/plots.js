@@ -232,24 +232,29 @@ export class HeatMap {
     ctx.rotate(-Math.PI / 2);
     ctx.fillText(yl, 0, 0);
     ctx.restore();
-    // the colour scale
-    const sx = L.x0 + L.pw + 12, sw = 10;
-    for (let k = 0; k < L.ph; k++) {
-      ctx.fillStyle = viridis(1 - k / L.ph);
-      ctx.fillRect(sx, L.y0 + k, sw, 1.5);
-    }
-    ctx.fillStyle = COLORS.muted;
-    ctx.font = "10px system-ui, sans-serif";
-    if (this.scoreRange) {
-      ctx.fillText(fmtNum(hi), sx + sw + 3, L.y0 + 8);
-      ctx.fillText(fmtNum(lo), sx + sw + 3, L.y0 + L.ph);
-    }
-    ctx.save(); ctx.translate(sx + sw + 12, L.y0 + L.ph / 2 + 14); ctx.rotate(-Math.PI / 2); ctx.fillText("score", 0, 0); ctx.restore();
+    colourScale(ctx, L, this.scoreRange, "score", 14);
     if (!this.scoreRange) {
       ctx.fillStyle = COLORS.muted; ctx.font = "11px system-ui, sans-serif";
       ctx.fillText("no cell filled yet", L.x0 + 8, L.y0 + 16);
     }
   }
+}
+
+// A viridis bar right of the plot area of layout L, its ends labelled with range [lo, hi] (none:
+// nothing scored yet) and its side with `name`, centred `shift` px below the bar's middle.
+function colourScale(ctx, L, range, name, shift) {
+  const sx = L.x0 + L.pw + 12, sw = 10;
+  for (let k = 0; k < L.ph; k++) {
+    ctx.fillStyle = viridis(1 - k / L.ph);
+    ctx.fillRect(sx, L.y0 + k, sw, 1.5);
+  }
+  ctx.fillStyle = COLORS.muted;
+  ctx.font = "10px system-ui, sans-serif";
+  if (range) {
+    ctx.fillText(fmtNum(range[1]), sx + sw + 3, L.y0 + 8);
+    ctx.fillText(fmtNum(range[0]), sx + sw + 3, L.y0 + L.ph);
+  }
+  ctx.save(); ctx.translate(sx + sw + 12, L.y0 + L.ph / 2 + shift); ctx.rotate(-Math.PI / 2); ctx.fillText(name, 0, 0); ctx.restore();
 }
 
 function fmtNum(x) {
@@ -393,19 +398,7 @@ export class Scatter {
         ctx.strokeStyle = COLORS.follow; ctx.lineWidth = 2.5; ctx.stroke();
       }
     }
-    // the colour scale: robust tuned speed
-    const sx = L.x0 + L.pw + 12, sw = 10;
-    for (let k = 0; k < L.ph; k++) {
-      ctx.fillStyle = viridis(1 - k / L.ph);
-      ctx.fillRect(sx, L.y0 + k, sw, 1.5);
-    }
-    ctx.fillStyle = COLORS.muted;
-    ctx.font = "10px system-ui, sans-serif";
-    if (this.scoreRange) {
-      ctx.fillText(fmtNum(hi), sx + sw + 3, L.y0 + 8);
-      ctx.fillText(fmtNum(lo), sx + sw + 3, L.y0 + L.ph);
-    }
-    ctx.save(); ctx.translate(sx + sw + 12, L.y0 + L.ph / 2 + 40); ctx.rotate(-Math.PI / 2); ctx.fillText("speed (cm/s)", 0, 0); ctx.restore();
+    colourScale(ctx, L, this.scoreRange, "speed (cm/s)", 40);
     if (!points.length) {
       ctx.fillStyle = COLORS.muted; ctx.font = "11px system-ui, sans-serif";
       ctx.fillText("no body scored yet", L.x0 + 8, L.y0 + 16);
