@@ -22,7 +22,8 @@ or random). Then the ``validate`` best bodies, and the reference (the file's def
 scored again on ``seeds`` (other seeds than the search's: fresh SANs, fresh ensemble draws), and
 the chosen body is the one with the best mean robust tuned speed on those seeds: the search's
 own scores are biased up (the best of many noisy scores), the validation's are not. The
-reference is scored by the same rules beside it.
+reference is scored by the same rules beside it and is a contender: where no body beats its mean
+there, the chosen body is the reference (the file's defaults are kept).
 
 Every candidate shares the reference's structure (links, sensors, actuators), so a body that
 adds or drops a link is not possible: free numbers are numbers.
@@ -216,7 +217,10 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
     for seed in s.seeds:
         for b in [*picks, reference]:
             score(b, seed)
-    chosen = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
+    # the reference is a contender: a file is changed only for a body that beats its defaults on
+    # fresh seeds (ties and a better search score do not count: the defaults stay)
+    best = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
+    chosen = best if best.mean(s.seeds) > reference.mean(s.seeds) else reference
     note = _note(design, where, s, chosen, reference, len(bodies))
     out = design.text(text, chosen.values, note)
     return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
@@ -224,16 +228,19 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
 
 def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:
     seeds = ", ".join(str(x) for x in s.seeds)
+    which = (f"the body chosen among {n} ({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index})"
+             if chosen is not reference else
+             f"the file's defaults: none of {n} bodies searched ({s.strategy}, seed {s.seed}) beat them on the "
+             f"validation seeds")
     lines = [
-        f"Written by `sanlab design` (sanlab {__version__}) from {where}: the body chosen among {n} "
-        f"({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index}).",
+        f"Written by `sanlab design` (sanlab {__version__}) from {where}: {which}.",
         f"Scored by robust tuned speed: phase 1 ({s.controllers} random SANs), phase 2 ({s.top} chains x "
         f"{s.trials} trials), the audited selection.",
         f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
         f"mean on seeds {seeds} (validation); the reference (the file's defaults): "
         f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
-        "What changed (default -> chosen):",
-        *[f"  {line}" for line in design.changes(chosen.values)],
+        *(["What changed (default -> chosen):", *[f"  {line}" for line in design.changes(chosen.values)]]
+          if chosen is not reference else []),
     ]
     return "\n".join(lines)
 

@@ -55,7 +55,7 @@ def design(
     ensemble: EnsembleOpt = 8,
     seed: Annotated[int, typer.Option(help="Seed of the search (its SANs, draws and bodies).")] = 0,
     validate: Annotated[int, typer.Option(min=1, help="Best bodies scored again on --seeds; the chosen one is "
-                                                       "the best of them there.")] = 2,
+                                                       "the best of them there, if it beats the file's defaults.")] = 2,
     seeds: Annotated[str | None, typer.Option(help="Validation seeds, other than --seed (default: --seed + 1).")] = None,
     prune: Annotated[float, typer.Option(min=0.0, max=0.99, help=(
         "Skip phase 2 for a body whose best phase-1 speed is below this fraction of the reference's "
@@ -131,15 +131,19 @@ def design(
         return
     table = Table("body", "round", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait")
     for b in result.bodies:
-        name = "reference" if b.round < 0 else f"{b.round}.{b.index}" + (" (chosen)" if b is ch else "")
+        name = ("reference" if b.round < 0 else f"{b.round}.{b.index}") + (" (chosen)" if b is ch else "")
         table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
                       *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
                       "pruned (phase 1)" if b.speeds[s.seed].get("pruned") else safe(str(b.speeds[s.seed]["gait"] or "none")))
     console.print(table)
     console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
-    for line in d.changes(ch.values):
-        console.print(f"  {safe(line)}", soft_wrap=True)
+    if ch is ref:
+        console.print(f"no body beat the file's defaults on the validation seeds: {safe(str(target))} is the "
+                      "reference (raise --designs, --controllers or --trials, or widen the ranges)")
+    else:
+        for line in d.changes(ch.values):
+            console.print(f"  {safe(line)}", soft_wrap=True)
     console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
                   + (f" and {safe(render)}" if render else "") + f"; stored as design {result.design_id}")
     gait = ch.speeds[s.seed]["gait"]

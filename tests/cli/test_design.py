@@ -162,10 +162,11 @@ def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resume
     assert "reference" in again.stdout and "(chosen)" in again.stdout
 
 
-def _fake_scores(monkeypatch, calls):
+def _fake_scores(monkeypatch, calls, reference_handicap: float = 20.0):
     """robust_tuned replaced by a score of the body's mass: phase 1 = 10 x mass, the robust tuned
     speed 20 x mass on the search's seed 0 and 20 x (2 - mass) on any other (a search's winner
-    that does not hold on fresh seeds), honouring prune_below as the real one does."""
+    that does not hold on fresh seeds), less ``reference_handicap`` for the reference (mass 1)
+    there, honouring prune_below as the real one does."""
     import sanlab.reproduce
 
     def fake(lib, text, where, *, seed, prune_below=None, **kw):
@@ -174,7 +175,7 @@ def _fake_scores(monkeypatch, calls):
         p1 = 10 * mass
         if prune_below is not None and p1 < prune_below:
             return {"speed": 0.0, "gait": None, "search": "s", "phase1_cm_s": p1, "chains": [], "pruned": True}
-        speed = 20 * mass if seed == 0 else 20 * (2 - mass)
+        speed = 20 * mass if seed == 0 else 20 * (2 - mass) - (reference_handicap if mass == 1.0 else 0.0)
         return {"speed": speed, "gait": f"{round(mass * 1e6):08x}#{seed}", "search": "s", "phase1_cm_s": p1, "chains": []}
 
     monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
@@ -195,6 +196,25 @@ def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(mon
     assert set(r.reference.speeds) == {0, 1, 2} and r.reference.values == [1.0, -0.275, -0.275, 0.02]
     assert all(seed == 0 for m, seed, _ in calls[:9])  # the reference and the 8 bodies, then validation
     assert sorted(seed for _, seed, _ in calls[9:]) == [1] * 4 + [2] * 4
+
+
+def test_the_files_defaults_are_kept_where_no_body_beats_them_on_the_validation_seeds(monkeypatch, tmp_path):
+    """The walker's first design (2026-12-04): its best body scored 58.1 cm/s on the search's seed
+    and 31.1 on the validation seed, the file's defaults 53.1 and 36.7. The reference is a
+    contender: the chosen body is the reference, and the file written is the defaults."""
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls, reference_handicap=0.0)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=1, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+    best = max((b for b in r.bodies if b.round >= 0), key=lambda b: b.speed(0))
+    assert best.values[0] > 1.0 and best.mean((1,)) < r.reference.mean((1,))  # the case this test is for
+    assert r.chosen is r.reference
+    assert loads(r.text) == design.creature(r.reference.values)
+    assert "none of 8 bodies searched" in r.text
 
 
 def test_prune_skips_phase_2_of_bodies_far_behind_the_reference_and_never_the_validation(monkeypatch, tmp_path):
