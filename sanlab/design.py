@@ -5,7 +5,7 @@ A *body* is one vector of the file's free values (``sanlab.creature.free``; coup
 body's score is what a user will quote: its **robust tuned speed** (cm/s), measured as a Table 1
 row is (``sanlab.reproduce.robust_tuned``): phase 1 (``controllers`` random SANs), a short phase
 2 (``trials`` annealing trials on each of its ``top`` best SANs) and the audited selection of
-each chain (the best rung that keeps its speed at dt/2, dt/4 and in float64). Phase 1 only
+each chain (the best rung that keeps its speed at dt/2 and dt/4). Phase 1 only
 picks the SANs that phase 2 starts from: it never chooses a body, though it may prune one
 (``prune``: a body whose best phase-1 speed falls below a fraction of the reference's skips
 phase 2 and scores 0, which saves its tuning and audits). Every run is stored in the gait

@@ -12,7 +12,7 @@ run stayed finite, the creature did not fall, and it travelled at least 10 % of 
 (at least 2 cm/s); for the pursuit creatures, its pursuit score (the distance it closed on the
 follow point) is at least 10 % of the distance the follow point travelled.
 
-Every tuned gait is audited (:mod:`sanlab.audit`: dt/2, dt/4, float64) and the report prints the
+Every tuned gait is audited (:mod:`sanlab.audit`: dt/2, dt/4) and the report prints the
 audit beside its speed, then the audited selection of its tuning run (``sanlab.audit.select_robust``:
 the best-scoring rung of the chain's climb that keeps its speed under every nudge), the speed to quote.
 

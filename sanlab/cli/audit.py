@@ -31,11 +31,11 @@ def audit(
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
-    """Audit gaits for integrator artefacts (dt/2, dt/4, float64).
+    """Audit gaits for integrator artefacts (dt/2, dt/4; the kernel steps in float64).
 
     Each gait is simulated from --members perturbed starts of its own at its step and under each
     nudge, and the relative change of the mean speed is bootstrapped (a 95 % interval over the
-    three nudges together): robust when every interval lies inside the band (--threshold),
+    two nudges together): robust when every interval lies inside the band (--threshold),
     resolution-dependent when one lies outside it, undecided otherwise (not a pass). An
     undecided gait is looked at again, on as many starts as would likely decide it (at least
     twice as many, up to --max-members); if that still does not decide it, it names the

@@ -45,7 +45,7 @@ def reproduce(
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
     dt_factors: DtFactorsOpt = None,
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
-    audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4, float64) and print the audit beside its speed.")] = True,
+    audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4) and print the audit beside its speed.")] = True,
     ledger: Annotated[str | None, typer.Option(help="JSON-lines file of finished rows: a row it holds is reused, a new one appended.")] = None,
     db: DbOpt = "sanlab.db",
 ) -> None:

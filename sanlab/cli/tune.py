@@ -67,7 +67,7 @@ def tune(
     workers: WorkersOpt = None,
     select: Annotated[bool, typer.Option("--select", help=(
         "Then audit each chain's climb and store its best-scoring gait that keeps its speed within 10 % "
-        "(--threshold) at dt/2, dt/4 and in float64 as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
+        "(--threshold) at dt/2 and dt/4 as RUN#1 (as `sanlab audit RUN --select`)."))] = False,
     threshold: Annotated[float | None, typer.Option(min=0.0, help=(
         "With --select: the largest relative speed change a nudge may cause (default 0.10 = 10 %)."))] = None,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the tuned gaits' GIFs and strobes here.")] = None,
@@ -188,7 +188,7 @@ def tune(
         n = len(sel["candidates"])
         if sel["robust_gait"] is None:
             console.print(f"{r.run_id}: no rung of its climb ({n} audited) keeps its speed within {100 * limit:g} % at "
-                          "dt/2, dt/4 and in float64: no robust tuned gait")
+                          "dt/2 and dt/4: no robust tuned gait")
         else:
             console.print(f"{r.run_id}: robust tuned gait {sel['robust_gait']}, {sel['speed_cm_s']:.1f} cm/s "
                           f"({rung_name(sel['trial'])}, worst change {100 * sel['worst']:.0f} % of {n} rungs audited)")
