@@ -26,7 +26,8 @@ def _sizes(c: Creature) -> dict[str, int]:
 
 def _summary(c: Creature, where: str) -> dict:
     counts = lambda items: dict(Counter(x.kind for x in items))
-    return record("check", {"ok": True, "name": c.name, "description": c.description, "source": where, "plane": c.world.plane,
+    return record("check", {"ok": True, "name": c.name, "description": c.description, "history": list(c.history),
+            "source": where, "plane": c.world.plane,
             "links": len(c.links), "dofs": c.dofs, "sensors": counts(c.sensors), "actuators": counts(c.actuators),
             "springs": len(c.springs), "hidden": c.n_hidden, "dt": c.dt, "metric": c.evaluation.metric,
             "metric_direction": c.evaluation.direction, "seconds": c.evaluation.seconds})
@@ -85,6 +86,11 @@ def check(
     about = f": {safe(c.description)}" if c.description else ""
     console.print(f"[green]ok[/green] [bold]{safe(c.name)}[/bold]{about}")
     console.print(grid)
+    if c.history:
+        n = len(c.history)
+        console.print(f"[bold]history[/bold]: {n} change{'s' * (n != 1)} to the file, oldest first")
+        for line in c.history:
+            console.print(f"  {safe(line)}", soft_wrap=True)
     if findings:
         n = sum(f.warning for f in findings)
         head = "[bold]simulated[/bold] (two seconds, servos at mid targets, then sweeping)" if simulate \

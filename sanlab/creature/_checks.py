@@ -4,8 +4,10 @@ raises :class:`_Bad` saying what was expected (the table reader turns that into 
 
 from __future__ import annotations
 
+import datetime
 import difflib
 import math
+import re
 from collections.abc import Callable, Iterable
 from typing import Any
 
@@ -142,6 +144,30 @@ def text(limit: int) -> Check:
     def check(v: Any) -> str:
         if not isinstance(v, str) or len(v) > limit or not v.isprintable():
             raise _Bad(f"one line of printable text, at most {limit} characters")
+        return v
+
+    return check
+
+
+_DATED = re.compile(r"([0-9]{4}-[0-9]{2}-[0-9]{2}): (.*\S.*)")
+
+
+def dated(limit: int) -> Check:
+    """One line of printable text of at most ``limit`` characters that opens with a real date,
+    a colon and a space, and says something after them: "2026-12-04: shin 2 cm longer; faster"
+    (a history entry; the date is compared with a ledger's, so it must be a date)."""
+    what = f'one line "YYYY-MM-DD: what changed; why" (a date, then printable text; at most {limit} characters)'
+
+    def check(v: Any) -> str:
+        if not isinstance(v, str) or len(v) > limit or not v.isprintable():
+            raise _Bad(what)
+        m = _DATED.fullmatch(v)
+        try:
+            if m is None:
+                raise ValueError
+            datetime.date.fromisoformat(m.group(1))
+        except ValueError:  # no date, or none that exists (2026-02-30)
+            raise _Bad(what) from None
         return v
 
     return check

@@ -153,7 +153,7 @@ def radians_field(t: _Table, key: str, check: Check, default: float) -> float:
 # -- the field schema: the keys each table accepts ----------------------------------------------
 
 TOP = {
-    "name", "description", "dt", "world", "san", "evaluation", "links", "sensors", "actuators",
+    "name", "description", "history", "dt", "world", "san", "evaluation", "links", "sensors", "actuators",
     "springs",
 }  # fmt: skip
 WORLD = {"plane", "gravity", "water_drag", "water_tangential", "ground", "terrain", "follow"}

@@ -22,6 +22,7 @@ from ._checks import (
     _Bad,
     _num,
     boolean,
+    dated,
     integer,
     list_of,
     nonempty,
@@ -60,6 +61,8 @@ from .spec import (
     MAX_FILE_BYTES,
     MAX_GROUND_STIFFNESS_RATIO,
     MAX_HIDDEN,
+    MAX_HISTORY,
+    MAX_HISTORY_ENTRY,
     MAX_POINTS,
     MAX_SENSORS,
     MAX_SPRINGS,
@@ -249,6 +252,9 @@ def _creature(t: _Table, default_name: str) -> Creature:
     creature = Creature(
         name=t.get("name", nonempty, default_name),
         description=t.get("description", text(MAX_DESCRIPTION), spec_default(Creature, "description")),
+        history=t.get("history", list_of(dated(MAX_HISTORY_ENTRY), f'an array of at most {MAX_HISTORY} strings, '
+                                         'oldest first, each "YYYY-MM-DD: what changed; why"', 0, MAX_HISTORY),
+                      spec_default(Creature, "history")),
         dt=dt,
         links=links,
         sensors=sensors,

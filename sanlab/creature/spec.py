@@ -42,6 +42,8 @@ MAX_KEY_PARTS = 16
 MAX_KEY_PARTS_TOTAL = 20_000
 MAX_NAME = 64  # characters in a name (links, sensors, actuators, springs, the creature)
 MAX_DESCRIPTION = 500  # characters in the description
+MAX_HISTORY = 1000  # entries in the history (a design writes one per run: far more than a file meets)
+MAX_HISTORY_ENTRY = 500  # characters in one history entry, as in the description
 MAX_LINKS = 32
 MAX_POINTS = 64  # in one outline, one contact list or the follow path
 MAX_CONTACTS = 128  # contact points, all links together
@@ -406,6 +408,9 @@ class Creature:
     evaluation: Evaluation = field(default_factory=Evaluation)
     dt: float = 1.0e-3  # s
     description: str = ""
+    # the file's changes, oldest first, each one line "YYYY-MM-DD: what changed; why" (no physics:
+    # what a report says of a changed file, docs/creature-format.md, "History")
+    history: tuple[str, ...] = ()
     # the file's free numbers (``free.Design``) when it has any, else None: what tuning with
     # --morphology moves (``sanlab.search.space``); not part of the creature's identity
     design: Any = field(default=None, compare=False, repr=False)

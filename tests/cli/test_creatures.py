@@ -29,6 +29,25 @@ def test_check_file_shows_counts():
     assert "horizontal" in r.stdout and "linear 1" in r.stdout and "eye 2" in r.stdout
 
 
+def test_check_prints_the_files_history(tmp_path):
+    from sanlab.cli import _schemas
+
+    lines = ["2026-12-04: shin 2 cm longer; faster on every seed", "2026-12-09: [bold]hip[/bold] x 1.5; robust at dt/4"]
+    path = tmp_path / "hist.toml"
+    path.write_text("history = [\n" + "".join(f'    "{line}",\n' for line in lines) + "]\n" + BASE)
+    r = runner.invoke(app, ["check", str(path)], terminal_width=200)
+    assert r.exit_code == 0, r.output
+    assert "history: 2 changes to the file, oldest first" in r.stdout
+    assert [ln.strip() for ln in r.stdout.splitlines() if ln.startswith("  2026-")] == lines  # markup printed as text
+    r = runner.invoke(app, ["check", str(path), "--json"])
+    out = json.loads(r.stdout)
+    assert out["history"] == lines
+    _schemas.validate(out, "check")
+    r = runner.invoke(app, ["check", "cart", "--json"])
+    assert json.loads(r.stdout)["history"] == []
+    assert "history" not in runner.invoke(app, ["check", "cart"]).stdout
+
+
 def _cli(*args, cwd):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     return subprocess.run(

@@ -270,6 +270,17 @@ BAD = [
     ("unknown direction", BASE + '[evaluation]\ndirection = "up"\n', "evaluation.direction", "got 'up'"),
     ("joint without inertia", sub('parent = "L1"', 'parent = "L1"\ninertia = 0\ncom = [0, 0]'), "links[1].inertia",
      "got 0.0"),
+    ("history not an array", 'history = "2026-12-04: longer legs"\n' + BASE,
+     'history: expected an array of at most 1000 strings, oldest first, each "YYYY-MM-DD: what changed; why"',
+     "got '2026-12-04: longer legs'"),
+    ("history without a date", 'history = ["2026-12-04: ok", "longer legs"]\n' + BASE,
+     'history[1]: expected one line "YYYY-MM-DD: what changed; why" (a date, then printable text; at most 500 '
+     "characters)", "got 'longer legs'"),
+    ("history of no date", 'history = ["2026-02-30: longer legs"]\n' + BASE, "history[0]", "got '2026-02-30: longer legs'"),
+    ("history saying nothing", 'history = ["2026-12-04:  "]\n' + BASE, "history[0]", "got '2026-12-04:  '"),
+    ("history of two lines", 'history = ["2026-12-04: a\\nb"]\n' + BASE, "history[0]", "got '2026-12-04: a\\nb'"),
+    ("history too long", 'history = ["2026-12-04: ' + "x" * 490 + '"]\n' + BASE, "history[0]", "at most 500 characters"),
+    ("history entry not a string", "history = [20261204]\n" + BASE, "history[0]", "got 20261204"),
 ]
 # fmt: on
 
@@ -286,6 +297,16 @@ def test_malformed(text, path, got):
 
 def test_base_is_valid():
     assert loads(BASE).name == "unnamed"
+
+
+def test_a_files_history_is_kept_oldest_first_and_is_no_physics():
+    import dataclasses
+
+    lines = ["2026-12-04: shin 2 cm longer; the design search's body was faster", "2026-12-09: hip gains x 1.5; robust at dt/4"]
+    c = loads("history = [\n" + "".join(f'    "{line}",\n' for line in lines) + "]\n" + BASE)
+    assert c.history == tuple(lines)
+    assert loads(BASE).history == () and loads("history = []\n" + BASE).history == ()
+    assert dataclasses.replace(c, history=()) == loads(BASE)  # the same creature but for its history
 
 
 def test_error_names_the_file(tmp_path):
