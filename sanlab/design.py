@@ -23,7 +23,9 @@ scored again on ``seeds`` (other seeds than the search's: fresh SANs, fresh ense
 the chosen body is the one with the best mean robust tuned speed on those seeds: the search's
 own scores are biased up (the best of many noisy scores), the validation's are not. The
 reference is scored by the same rules beside it and is a contender: where no body beats its mean
-there, the chosen body is the reference (the file's defaults are kept).
+there, the chosen body is the reference (the file's defaults are kept). The chosen body's file
+keeps the source's ``history`` and adds one entry (:func:`history_entry`: the date, the source
+and design, what changed most, the speeds it was chosen by), none when the defaults are kept.
 
 Every candidate shares the reference's structure (links, sensors, actuators), so a body that
 adds or drops a link is not possible: free numbers are numbers.
@@ -34,11 +36,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
 
 import numpy as np
 
 from sanlab import __version__
+from sanlab.creature import printable
 from sanlab.creature.free import Design
+from sanlab.creature.spec import MAX_HISTORY, MAX_HISTORY_ENTRY
 from sanlab.evaluate.ensemble import default_ensemble
 from sanlab.library import Library, LibraryError
 from sanlab.search.bodies import BodyProblem, make_bodies
@@ -154,6 +160,9 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     t0 = time.perf_counter()
     ens = default_ensemble(s.ensemble)
     stated = design.creature()
+    if len(stated.history) >= MAX_HISTORY:  # the chosen body's file could not add its entry
+        raise ValueError(f"{where}: history: expected fewer than {MAX_HISTORY} entries (a design adds one), "
+                         f"got {len(stated.history)}")
     seconds = s.seconds if s.seconds is not None else stated.evaluation.seconds
     design_id = lib.begin_design(stated.name, where, text, settings_json(s), free_json(design)).design_id
     try:
@@ -222,7 +231,7 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
     best = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
     chosen = best if best.mean(s.seeds) > reference.mean(s.seeds) else reference
     note = _note(design, where, s, chosen, reference, len(bodies))
-    out = design.text(text, chosen.values, note)
+    out = design.text(text, chosen.values, note, history_entry(design, where, design_id, s, chosen, reference))
     return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
 
 
@@ -245,4 +254,57 @@ def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference
     return "\n".join(lines)
 
 
-__all__ = ["Body", "DesignResult", "DesignSettings", "run_design"]
+def history_entry(design: Design, where: str, design_id: str, s: DesignSettings, chosen: Body, reference: Body,
+                  day: str | None = None) -> str:
+    """The line the chosen body's file adds to its ``history`` (docs/creature-format.md, "History"):
+    "YYYY-MM-DD: body chosen by `sanlab design` from FILE (design ID): the largest changes; the
+    robust tuned speeds (cm/s) of the chosen body and the reference on the search's seed and their
+    means on the validation seeds". ``day``: the date (default today, UTC). FILE is ``where``
+    relative to the working folder, or its name (no machine's folders in a file that travels).
+    At most :data:`MAX_HISTORY_ENTRY` characters (cut with "..."); "" when the chosen body is the
+    reference: the file's defaults are kept and nothing changed."""
+    if chosen is reference:
+        return ""
+    day = day or datetime.now(timezone.utc).date().isoformat()
+    seeds = ", ".join(str(x) for x in s.seeds)
+    about = f" (design {design_id})" if design_id else ""
+    line = (f"{day}: body chosen by `sanlab design` from {_file(where)}{about}: {_largest(design, chosen.values)}; "
+            f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s on the search's seed {s.seed} and "
+            f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against the "
+            f"defaults' {reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}")
+    return line if len(line) <= MAX_HISTORY_ENTRY else line[:MAX_HISTORY_ENTRY - 3] + "..."
+
+
+def _file(where: str) -> str:
+    """``where`` (a resolved path, or "builtin:NAME") as a history entry names it."""
+    if where.startswith("builtin:") or where.startswith("<"):
+        return printable(where)
+    path = Path(where)
+    try:
+        shown = str(path.resolve().relative_to(Path.cwd().resolve()))
+    except (ValueError, OSError):
+        shown = path.name
+    return printable(shown)
+
+
+def _largest(design: Design, values, n: int = 3) -> str:
+    """The ``n`` free numbers of ``values`` that moved most from their defaults, relative to the
+    default's magnitude (to the range's width for a default of 0): "largest of 5 changes: shin
+    0.15 -> 0.18 m (+20 %), ...", or "changes: ..." when they are all."""
+    v = design.project(values)
+    moved = []
+    for f, x, unit in zip(design.free, v, design.units, strict=True):
+        if abs(x - f.default) <= 1e-12 * max(1.0, abs(f.default)):
+            continue
+        rel = (x - f.default) / abs(f.default) if f.default else None
+        size = abs(rel) if rel is not None else abs(x - f.default) / (f.max - f.min)
+        shown = f"{printable(f.name)} {f.default:.4g} -> {x:.4g}{f' {unit}' if unit else ''}"
+        moved.append((size, shown + (f" ({100 * rel:+.0f} %)" if rel is not None else "")))
+    if not moved:
+        return "no free number moved from its default"
+    moved.sort(key=lambda m: -round(m[0], 9))  # stable: equal changes (a total's two numbers) in file order
+    head = "changes" if len(moved) <= n else f"largest of {len(moved)} changes"
+    return f"{head}: " + ", ".join(m[1] for m in moved[:n])
+
+
+__all__ = ["Body", "DesignResult", "DesignSettings", "history_entry", "run_design"]

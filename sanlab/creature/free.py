@@ -185,14 +185,17 @@ class Design:
                 links[i]["inertia"] = links[i]["inertia"] * float(m) / old  # written inertia follows the mass
         return self.build(data)
 
-    def text(self, text: str, values: Sequence[float] | np.ndarray, note: str = "") -> str:
+    def text(self, text: str, values: Sequence[float] | np.ndarray, note: str = "", history: str = "") -> str:
         """The creature file of one body: ``text`` (the file with free numbers) with each free
         number and each use of one replaced by its value (projected), the masses the couplings
         give written into the links, and no ``[design]`` table; ``note`` (lines) as a comment
-        block on top. Comments and layout are kept; a file with ``[[repeat]]`` tables is written
-        out (one table per part), as ``sanlab export --toml`` does. The result loads as
-        ``self.creature(values)``; raises CreatureError where that is no valid creature."""
+        block on top, and ``history`` (one "YYYY-MM-DD: ..." line; docs/creature-format.md,
+        "History"), when given, appended to the file's ``history`` array after its own entries.
+        Comments and layout are kept; a file with ``[[repeat]]`` tables is written out (one table
+        per part), as ``sanlab export --toml`` does. The result loads as ``self.creature(values)``
+        (its history aside); raises CreatureError where that is no valid creature."""
         import tomlkit
+        from tomlkit.items import Array
 
         v = self.project(values)
         creature = self.creature(v)
@@ -209,6 +212,13 @@ class Design:
                 table["mass"] = float(link.mass)  # exact (repr), so the file loads as the body
                 if "inertia" in table:
                     table["inertia"] = float(link.inertia)
+        if history:
+            if "history" not in doc:
+                doc["history"] = tomlkit.array()  # placed after the file's last top-level value
+            entries = doc["history"]
+            assert isinstance(entries, Array)  # the loader took it for an array of strings
+            entries.append(history)
+            entries.multiline(True)  # one entry a line: each is a sentence
         head = "".join(f"# {line}".rstrip() + "\n" for line in note.splitlines())
         return (head + "\n" if head else "") + tomlkit.dumps(doc)
 

@@ -3,7 +3,10 @@ each body scored by its robust tuned speed; the body strategies; the chosen body
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import re
+from datetime import datetime, timezone
 
 import numpy as np
 import pytest
@@ -91,6 +94,34 @@ def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
     assert loads(out) == design.creature(v) and "[design]" not in out and "min =" not in out
     assert design.changes(v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (-9 %)"]
     assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
+
+
+def test_the_chosen_bodys_file_keeps_its_history_and_adds_what_changed_and_why(tmp_path, monkeypatch):
+    from sanlab.creature.loader import loads_design
+    from sanlab.design import Body, DesignSettings, history_entry
+
+    old = "2026-12-01: legs of the paper's length; the first version"
+    text = f'history = ["{old}"]\n' + HOPPER.read_text()
+    design, _ = loads_design(text, "hopper.toml")
+    v = [0.7, -0.32, -0.23, 0.025]  # front and back keep their total, -0.55 m
+    chosen = Body(v, 2, 1, {0: {"speed": 50.0}, 1: {"speed": 40.0}, 2: {"speed": 41.0}})
+    reference = Body(design.defaults.tolist(), -1, 0, {0: {"speed": 45.0}, 1: {"speed": 38.0}, 2: {"speed": 39.0}})
+    monkeypatch.chdir(tmp_path)
+    where = str(tmp_path / "sub" / "hopper.toml")
+    entry = history_entry(design, where, "abcd1234", DesignSettings(seeds=(1, 2)), chosen, reference, day="2026-12-05")
+    assert entry == ("2026-12-05: body chosen by `sanlab design` from sub/hopper.toml (design abcd1234): largest of 4 "
+                     "changes: links[0].mass 1 -> 0.7 kg (-30 %), actuators[0].ks 0.02 -> 0.025 N·m/deg (+25 %), front "
+                     "-0.275 -> -0.32 m (-16 %); robust tuned speed 50.0 cm/s on the search's seed 0 and 40.5 mean on "
+                     "validation seeds 1, 2, against the defaults' 45.0 and 38.5")
+    out = design.text(text, v, "a note", entry)
+    assert out.startswith("# a note\n") and loads(out).history == (old, entry)  # the file's own entries first
+    assert dataclasses.replace(loads(out), history=(old,)) == loads(design.text(text, v))  # nothing else changed
+    fresh, _ = load_design(str(HOPPER))  # a file without a history gets one
+    assert loads(fresh.text(HOPPER.read_text(), v, "", entry)).history == (entry,)
+    assert history_entry(design, str(tmp_path.parent / "x.toml"), "", DesignSettings(), chosen, reference,
+                         day="2026-12-05").startswith("2026-12-05: body chosen by `sanlab design` from x.toml: ")
+    # the defaults kept: nothing changed, no entry
+    assert history_entry(design, where, "abcd1234", DesignSettings(), reference, reference) == ""
 
 
 def test_each_free_number_has_the_unit_of_the_field_it_is_written_in():
@@ -196,6 +227,12 @@ def test_the_chosen_body_is_the_best_on_the_validation_seeds_not_the_searchs(mon
     assert set(r.reference.speeds) == {0, 1, 2} and r.reference.values == [1.0, -0.275, -0.275, 0.02]
     assert all(seed == 0 for m, seed, _ in calls[:9])  # the reference and the 8 bodies, then validation
     assert sorted(seed for _, seed, _ in calls[9:]) == [1] * 4 + [2] * 4
+    [entry] = loads(r.text).history  # the chosen body's file says what changed and why
+    today = datetime.now(timezone.utc).date().isoformat()
+    assert re.fullmatch(rf"{today}: body chosen by `sanlab design` from hopper\.toml \(design {r.design_id}\): "
+                        rf"largest of 4 changes: .*; robust tuned speed {r.chosen.speed(0):.1f} cm/s on the search's "
+                        rf"seed 0 and {r.chosen.mean((1, 2)):.1f} mean on validation seeds 1, 2, against the "
+                        rf"defaults' 20\.0 and 0\.0", entry), entry
 
 
 def test_the_files_defaults_are_kept_where_no_body_beats_them_on_the_validation_seeds(monkeypatch, tmp_path):
@@ -213,7 +250,7 @@ def test_the_files_defaults_are_kept_where_no_body_beats_them_on_the_validation_
     best = max((b for b in r.bodies if b.round >= 0), key=lambda b: b.speed(0))
     assert best.values[0] > 1.0 and best.mean((1,)) < r.reference.mean((1,))  # the case this test is for
     assert r.chosen is r.reference
-    assert loads(r.text) == design.creature(r.reference.values)
+    assert loads(r.text) == design.creature(r.reference.values) and loads(r.text).history == ()  # no entry
     assert "none of 8 bodies searched" in r.text
 
 
