@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sanlab.creature import load, read_source
+from sanlab.creature import load, loads, read_source
 from sanlab.creature.spec import Terrain
 from sanlab.creature.table1 import TABLE1
 from sanlab.evaluate.ensemble import Ensemble, default_ensemble
@@ -286,14 +286,54 @@ def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens:
             "engine": ENGINE}
 
 
+# What a key of the same creature's rows on another file may also differ in: the simulator (a file
+# changed since the XLA engine's rows, whose keys have no engine, changed before issue 46)
+_FILE_FIELDS = ("creature_sha256", "engine")
+
+
+def _budget(key: dict) -> str:
+    """``key`` without its file and simulator (:data:`_FILE_FIELDS`): the creature, seed and budget."""
+    return json.dumps({k: v for k, v in key.items() if k not in _FILE_FIELDS}, sort_keys=True)
+
+
+@dataclass(frozen=True)
+class LedgerEntry:
+    """One line of a ledger: its ``key`` (:func:`row_key`), ``row`` and when it was ``made`` (UTC,
+    "YYYY-MM-DDTHH:MM:SSZ"; "" where the line does not say)."""
+
+    key: dict
+    row: Row
+    made: str
+
+
+@dataclass(frozen=True)
+class FileRows:
+    """A ledger's rows of one creature file (:meth:`Ledger.files`): the ``sha256`` of its text,
+    its ``rows`` (one a key), and when the ``first`` and the ``last`` of them were made (UTC
+    "YYYY-MM-DDTHH:MM:SSZ", "" where not said)."""
+
+    sha256: str
+    rows: tuple[Row, ...]
+    first: str
+    last: str
+
+    @property
+    def median_cm_s(self) -> float:
+        """The median of the rows' robust tuned speeds (cm/s; a row without a robust gait counts 0)."""
+        return float(np.median([r.robust_speed for r in self.rows]))
+
+
 class Ledger:
     """Finished rows, one JSON object a line: {"key": :func:`row_key`, "row": the :class:`Row`,
     "sanlab": version, "made": UTC time}. Reading raises ValueError naming the file and line of
-    a line that is not such an object; a later line for the same key wins."""
+    a line that is not such an object; a later line for the same key wins (:meth:`get`), and
+    every line is kept (``entries``, in file order), so the rows of a creature's earlier files
+    can be found (:meth:`files`)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
         self.rows: dict[str, Row] = {}
+        self.entries: list[LedgerEntry] = []
         if not self.path.exists():
             return
         fields = set(Row.__dataclass_fields__)
@@ -306,7 +346,11 @@ class Ledger:
                 if set(row) - fields:
                     raise ValueError(f"unknown row fields {sorted(set(row) - fields)}")
                 row["counts"] = tuple(row["counts"])
+                made = entry.get("made", "")
+                if not isinstance(key, dict) or not isinstance(made, str):
+                    raise TypeError("a key that is an object and a made time that is a string")
                 self.rows[self._id(key)] = Row(**row)
+                self.entries.append(LedgerEntry(key, self.rows[self._id(key)], made))
             except (ValueError, KeyError, TypeError, AttributeError) as e:
                 raise ValueError(f"{self.path}: line {n}: expected a ledger entry "
                                  f'{{"key": {{...}}, "row": {{...}}}} ({type(e).__name__}: {e})') from None
@@ -329,10 +373,101 @@ class Ledger:
         from sanlab import __version__
 
         self.rows[self._id(key)] = row
-        entry = {"key": key, "row": {**asdict(row), "ledger": False}, "sanlab": __version__,
-                 "made": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")}
+        made = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+        self.entries.append(LedgerEntry(key, row, made))
+        entry = {"key": key, "row": {**asdict(row), "ledger": False}, "sanlab": __version__, "made": made}
         with self.path.open("a", encoding="utf-8") as f:
             f.write(json.dumps(entry, sort_keys=True) + "\n")
+
+    def files(self, keys: list[dict]) -> list[FileRows]:
+        """The rows of one creature's files: for ``keys`` (the creature's rows on one file, e.g. a
+        key per seed), every row whose key is one of them but for the creature file
+        (``creature_sha256``) and the simulator (``engine``), grouped by file (a later line of
+        the same key wins), ordered by when each file's last row was made (the newest last)."""
+        wanted = {_budget(k) for k in keys}
+        latest: dict[str, LedgerEntry] = {}
+        for e in self.entries:
+            if _budget(e.key) in wanted:
+                latest[self._id(e.key)] = e
+        by_file: dict[str, list[LedgerEntry]] = {}
+        for e in latest.values():
+            by_file.setdefault(str(e.key.get("creature_sha256", "")), []).append(e)
+        out = [FileRows(sha, tuple(e.row for e in es), min(e.made for e in es), max(e.made for e in es))
+               for sha, es in by_file.items()]
+        return sorted(out, key=lambda f: f.last)
+
+
+@dataclass(frozen=True)
+class CreatureFile:
+    """One creature of a report and its file: the ``sha256`` of the file's text, its ``history``
+    (the creature format's dated lines, oldest first), and ``files``: the ledger's rows of this
+    file and of the creature's other files for the report's seeds and budget (:meth:`Ledger.files`,
+    the newest last), None where the report had no ledger."""
+
+    creature: str
+    sha256: str
+    history: tuple[str, ...] = ()
+    files: list[FileRows] | None = None
+
+    @property
+    def earlier(self) -> list[FileRows]:
+        """The rows of the creature's other files (the newest last): it changed since them."""
+        return [f for f in self.files or [] if f.sha256 != self.sha256]
+
+    def changed(self) -> str:
+        """Whether the file changed, as the ledger tells: "changed: earlier file 71e52259449c (5
+        rows, made 2026-12-03, median 61.2 cm/s)", "unchanged since its first rows in the ledger
+        (2026-12-04)", or "no ledger"."""
+        if self.files is None:
+            return "no ledger"
+        if self.earlier:
+            f, older = self.earlier[-1], len(self.earlier) - 1
+            n = len(f.rows)
+            return (f"changed: earlier file {f.sha256[:12]} ({n} row{'s' * (n != 1)}, made {f.last[:10] or '?'}, "
+                    f"median {f.median_cm_s:.1f} cm/s)" + (f", and {older} older file{'s' * (older != 1)}" if older else ""))
+        mine = [f for f in self.files if f.sha256 == self.sha256]
+        if not mine:
+            return "no rows in the ledger yet"
+        return "unchanged since its first rows in the ledger" + (f" ({mine[0].first[:10]})" if mine[0].first else "")
+
+    def why(self) -> list[str]:
+        """The history entries that say why: those dated on or after the day the newest earlier
+        file's last row was made (an entry has a day, not a time), or all of them where there is
+        no earlier file."""
+        if not self.earlier or not self.earlier[-1].last:
+            return list(self.history)
+        since = self.earlier[-1].last[:10]
+        return [h for h in self.history if h[:10] >= since]
+
+
+def creature_files(book: Ledger | None, keys: dict[str, list[dict]], histories: dict[str, tuple[str, ...]]) -> list[CreatureFile]:
+    """A :class:`CreatureFile` per creature of ``keys`` (name -> its rows' :func:`row_key`, one per
+    seed, in the report's order), with its file's ``histories[name]``, the ledger's rows found in
+    ``book`` (None: no ledger)."""
+    return [CreatureFile(name, ks[-1]["creature_sha256"], histories.get(name, ()),
+                         None if book is None else book.files(ks)) for name, ks in keys.items()]
+
+
+def _cell(text: str) -> str:
+    """One line of text (a history entry) for a Markdown table cell: "|" escaped, which would
+    end the cell (inside a code span too)."""
+    return text.replace("|", "\\|")
+
+
+def files_section(files: list[CreatureFile]) -> list[str]:
+    """The report's "Creature files" section: per creature its file's SHA-256, whether it changed
+    since the ledger's earlier rows of the creature, and why (its history)."""
+    lines = ["## Creature files", "", "| creature | file (SHA-256) | changed | why (the file's history) |",
+             "|---|---|---|---|"]
+    for f in files:
+        why = " · ".join(_cell(h) for h in f.why()) or "-"
+        lines.append(f"| {f.creature} | `{f.sha256[:12]}` | {f.changed()} | {why} |")
+    return lines + [
+        "", "*Changed*: whether the ledger holds rows of another file of the creature (the same seeds and "
+        "budget, any simulator), which this report's rows replace: the newest such file, its rows, the day "
+        "the last of them was made and the median of their robust tuned speeds. *Why*: the file's `history` "
+        "(docs/creature-format.md), the entries dated on or after that day, or all of them where no earlier "
+        "file has rows.", ""]
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -391,10 +526,14 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
     rows: list[Row] = []
+    keys: dict[str, list[dict]] = {name: [] for name in creatures}
+    texts: dict[str, tuple[str, str]] = {}
     t_all = time.perf_counter()
     for sd in seeds:
         for name in creatures:
-            key = row_key(name, read_source(name)[0], sd, controllers, trials, ens, top, audit)
+            texts[name] = read_source(name)
+            key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit)
+            keys[name].append(key)
             row = book.get(key) if book is not None else None
             if row is None:
                 row = _creature(lib, name, sd, controllers, trials, ens, audit, top)
@@ -406,7 +545,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             rows.append(row)
             log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
                 f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
-    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command)
+    files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
+    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files)
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
@@ -595,10 +735,13 @@ def shortfalls(rows: list[Row], seeds: list[int]) -> list[str]:
 
 
 def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: int, total: float,
-             ensemble: int | Ensemble = 8, top: int = 1, command: str | None = None) -> str:
-    """The report: for several seeds the table over seeds first, then each seed's table, the
-    tracking (§6) and the bounder's robustness (§6.2) sections. ``total``: this call's wall
-    time (s); rows taken from a ledger add the wall times they were made in."""
+             ensemble: int | Ensemble = 8, top: int = 1, command: str | None = None,
+             files: list[CreatureFile] | None = None) -> str:
+    """The report: for several seeds the table over seeds first, then the creature files (``files``,
+    :func:`creature_files`: which changed since the ledger's earlier rows, and why; none when
+    None), then each seed's table, the tracking (§6) and the bounder's robustness (§6.2)
+    sections. ``total``: this call's wall time (s); rows taken from a ledger add the wall times
+    they were made in."""
 
     from sanlab import __version__
 
@@ -636,8 +779,10 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
             "", "The goal: the median of the robust tuned speed at least Table 1's; for the creatures that follow a "
             "point, a median tracking ratio below 1/3. What was tried on the creatures that fall short, and the "
             "evidence, is in docs/reproduce.md.", ""]
+    if files is not None:
+        lines += files_section(files)
     for sd in seeds:
-        if len(seeds) > 1:
+        if len(seeds) > 1 or files is not None:  # one seed's table gets a heading of its own after the files
             lines += [f"## Seed {sd}", ""]
         lines += _table([r for r in rows if r.seed == sd]) + [""]
     lines += ["Speeds are those of the centre of mass: net displacement over the evaluation time.",
@@ -678,4 +823,5 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["TABLE1", "DEFAULT_TOP", "reproduce", "markdown", "summary", "shortfalls", "parse_seeds", "chains"]
+__all__ = ["TABLE1", "DEFAULT_TOP", "CreatureFile", "Ledger", "creature_files", "reproduce", "markdown", "summary",
+           "shortfalls", "parse_seeds", "chains"]

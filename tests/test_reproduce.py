@@ -255,3 +255,72 @@ def test_a_table_made_in_pieces_is_the_table_made_at_once(tmp_path):
         reproduce(lib, ["twolink"], seeds=[0, 2], **kw)
         assert sorted(r.seed for r in lib.runs()) == [2, 2]
     assert len(ledger.read_text().splitlines()) == 5
+
+
+def test_the_report_says_which_creature_files_changed_and_why(tmp_path):
+    """Issue 47: a "Creature files" section, a row per creature: its file's SHA-256, whether the
+    ledger holds rows of an earlier file of it (same seeds and budget, any simulator), and the
+    file's history entries since those rows."""
+    import json
+    from dataclasses import asdict
+
+    from sanlab.creature import loads, read_source
+    from sanlab.evaluate.ensemble import default_ensemble
+    from sanlab.reproduce import Ledger, creature_files, markdown, row_key
+
+    ens = default_ensemble(8)
+    history = ("2026-11-01: the paper's chain; the first version", "2026-12-03: the heavy bar 5 % heavier; faster",
+               "2026-12-04: hip range +-100 deg | was +-90; robust at dt/4")
+    old = read_source("twolink")[0]
+    new = "history = [\n" + "".join(f'    "{h}",\n' for h in history) + "]\n" + old
+    assert loads(new).history == history
+
+    def keys(text, trials=1000, engine=True):
+        ks = [row_key("twolink", text, sd, 200, trials, ens, 4, True) for sd in (0, 1)]
+        return ks if engine else [{k: v for k, v in key.items() if k != "engine"} for key in ks]
+
+    oldest = old + "\n# the XLA engine's file\n"
+    path = tmp_path / "rows.jsonl"
+    lines = [(keys(oldest, engine=False)[0], _made_row(0, 30.0), "2026-11-20T09:00:00Z"),  # before issue 46
+             (keys(old)[0], _made_row(0, 14.0), "2026-12-03T10:00:00Z"),
+             (keys(old)[1], _made_row(1, 12.0), "2026-12-03T11:00:00Z"),
+             (keys(old, trials=500)[0], _made_row(0, 99.0), "2026-12-04T09:00:00Z"),  # another budget: not counted
+             (keys(new)[0], _made_row(0, 20.0), "2026-12-05T10:00:00Z"),
+             (keys(new)[1], _made_row(1, 21.0), "2026-12-05T11:00:00Z"),
+             (keys(new)[1], _made_row(1, 22.0), "2026-12-06T11:00:00Z")]  # made again: the later line wins
+    path.write_text("".join(json.dumps({"key": k, "row": asdict(r), "sanlab": "0.1.0", "made": m}) + "\n"
+                            for k, r, m in lines))
+    book = Ledger(path)
+    assert len(book.entries) == 7 and book.get(keys(new)[1]).robust_speed == 22.0  # get as before: the later line
+    [before, earlier, now] = book.files(keys(new))
+    assert (before.sha256, len(before.rows), earlier.sha256) == (keys(oldest)[0]["creature_sha256"], 1,
+                                                                 keys(old)[0]["creature_sha256"])
+    assert [r.robust_speed for r in now.rows] == [20.0, 22.0] and (now.first, now.last) == (lines[4][2], lines[6][2])
+
+    [f] = creature_files(book, {"twolink": keys(new)}, {"twolink": history})
+    assert f.changed() == (f"changed: earlier file {earlier.sha256[:12]} (2 rows, made 2026-12-03, median 13.0 cm/s), "
+                           "and 1 older file")
+    assert f.why() == list(history[1:])  # made on or after the earlier rows' day
+    rows = [_made_row(0, 20.0), _made_row(1, 22.0)]
+    text = markdown(rows, [0, 1], 200, 1000, 0.0, files=[f])
+    section = text.split("## Creature files")[1].split("## Seed 0")[0]
+    assert text.index("### Where the goal is not met") < text.index("## Creature files") < text.index("## Seed 0")
+    [row] = [ln for ln in section.splitlines() if ln.startswith("| twolink |")]
+    cells = [c.strip() for c in row.strip("|").split(" | ")]
+    assert cells == ["twolink", f"`{now.sha256[:12]}`", f.changed(),
+                     f"{history[1]} · 2026-12-04: hip range +-100 deg \\| was +-90; robust at dt/4"]
+
+    # unchanged: its first rows' day, every entry; no ledger; a file without history
+    [same] = creature_files(Ledger(tmp_path / "fresh.jsonl"), {"twolink": keys(new)}, {"twolink": history})
+    assert same.changed() == "no rows in the ledger yet" and same.why() == list(history)
+    book = Ledger(tmp_path / "fresh.jsonl")
+    book.add(keys(new)[0], rows[0])
+    [same] = creature_files(book, {"twolink": keys(new)}, {"twolink": history})
+    assert re.fullmatch(r"unchanged since its first rows in the ledger \(\d{4}-\d\d-\d\d\)", same.changed())
+    [none] = creature_files(None, {"twolink": keys(old)}, {})
+    assert none.changed() == "no ledger" and none.why() == []
+    # one seed: the files first, then the seed's table under a heading of its own
+    one = markdown(rows[:1], 0, 200, 1000, 0.0, files=[none])
+    assert "| twolink | `" + keys(old)[0]["creature_sha256"][:12] + "` | no ledger | - |" in one
+    assert one.index("## Creature files") < one.index("## Seed 0") < one.index("| twolink | 2 | 6 |")
+    assert "## Creature files" not in markdown(rows[:1], 0, 200, 1000, 0.0)  # not given: as before
