@@ -614,7 +614,7 @@ def _gaits(r: Row) -> str:
 
 
 def _nudged(audit: dict | None) -> str:
-    """"dt/2 41.0 · dt/4 40.2 · float64 38.9" (cm/s; "-" where the speed was not finite)."""
+    """"dt/2 41.0 · dt/4 40.2" (cm/s, each nudge of the audit; "-" where the speed was not finite)."""
     if not audit:
         return "-"
     speeds = audit.get("speeds") or {}
@@ -785,10 +785,15 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         if len(seeds) > 1 or files is not None:  # one seed's table gets a heading of its own after the files
             lines += [f"## Seed {sd}", ""]
         lines += _table([r for r in rows if r.seed == sd]) + [""]
+    from sanlab.audit import LEVEL, MAX_MEMBERS, MEMBERS, NUDGES, THRESHOLD
+
+    nudges = " and ".join(name for name, _, _ in NUDGES)
     lines += ["Speeds are those of the centre of mass: net displacement over the evaluation time.",
-              "", "*Tuned gait nudged*: the mean speed of the audit's 32 perturbed starts with the step halved "
-              "and quartered and in float64 (`sanlab audit`). *Audit*: *robust* when, for every nudge, the bootstrap "
-              "interval (95 % over the three) of the relative change of the mean speed lies inside ±10 %; "
+              "", f"*Tuned gait nudged*: the mean speed of the audit's own perturbed starts ({MEMBERS}, and up to "
+              f"{MAX_MEMBERS} in further looks while it is undecided) with the step at {nudges} (`sanlab audit`); "
+              "every run is in float64, the simulator's precision, so precision is no nudge. *Audit*: *robust* when, "
+              f"for every nudge, the bootstrap interval ({100 * LEVEL:g} % over the {len(NUDGES)} nudges together) of "
+              f"the relative change of the mean speed lies inside ±{100 * THRESHOLD:g} %; "
               "*resolution-dependent* when one lies wholly outside it (the speed is an artefact of the integrator "
               "rather than a result); *undecided* otherwise (not a pass).",
               "", "*Robust tuned gait*: the audited selection (`sanlab audit RUN --select`): up to 16 rungs of the "

@@ -324,3 +324,13 @@ def test_the_report_says_which_creature_files_changed_and_why(tmp_path):
     assert "| twolink | `" + keys(old)[0]["creature_sha256"][:12] + "` | no ledger | - |" in one
     assert one.index("## Creature files") < one.index("## Seed 0") < one.index("| twolink | 2 | 6 |")
     assert "## Creature files" not in markdown(rows[:1], 0, 200, 1000, 0.0)  # not given: as before
+
+
+def test_the_reports_notes_say_the_audits_nudges_and_members():
+    from sanlab.audit import MAX_MEMBERS, MEMBERS, NUDGES
+    from sanlab.reproduce import markdown
+
+    [note] = [ln for ln in markdown([], [0], 200, 1000, 0.0).splitlines() if ln.startswith("*Tuned gait nudged*")]
+    assert [n for n, _, _ in NUDGES] == ["dt/2", "dt/4"] and "with the step at dt/2 and dt/4" in note
+    assert f"({MEMBERS}, and up to {MAX_MEMBERS} in further looks" in note and "over the 2 nudges together" in note
+    assert "32" not in note and "and in float64" not in note  # the XLA engine's audit: 32 starts, a float64 nudge
