@@ -193,7 +193,8 @@ class Design:
         "History"), when given, appended to the file's ``history`` array after its own entries.
         Comments and layout are kept; a file with ``[[repeat]]`` tables is written out (one table
         per part), as ``sanlab export --toml`` does. The result loads as ``self.creature(values)``
-        (its history aside); raises CreatureError where that is no valid creature."""
+        (equal: a history is no part of a creature's identity); raises CreatureError where that is
+        no valid creature."""
         import tomlkit
         from tomlkit.items import Array
 

@@ -408,9 +408,10 @@ class Creature:
     evaluation: Evaluation = field(default_factory=Evaluation)
     dt: float = 1.0e-3  # s
     description: str = ""
-    # the file's changes, oldest first, each one line "YYYY-MM-DD: what changed; why" (no physics:
-    # what a report says of a changed file, docs/creature-format.md, "History")
-    history: tuple[str, ...] = ()
+    # the file's changes, oldest first, each one line "YYYY-MM-DD: what changed; why" (what a report
+    # says of a changed file; docs/creature-format.md, "History"): the file's record, not part of the
+    # creature's identity, so a body `sanlab design` writes loads equal to ``design.creature(values)``
+    history: tuple[str, ...] = field(default=(), compare=False)
     # the file's free numbers (``free.Design``) when it has any, else None: what tuning with
     # --morphology moves (``sanlab.search.space``); not part of the creature's identity
     design: Any = field(default=None, compare=False, repr=False)
