@@ -286,8 +286,8 @@ def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens:
             "engine": ENGINE}
 
 
-# What a key of the same creature's rows on another file may also differ in: the simulator (a file
-# changed since the XLA engine's rows, whose keys have no engine, changed before issue 46)
+# What a key of the same creature's rows on another file may differ in besides the file: the
+# simulator (rows the XLA engine made before issue 46 have no engine in their keys)
 _FILE_FIELDS = ("creature_sha256", "engine")
 
 
@@ -416,8 +416,8 @@ class CreatureFile:
 
     def changed(self) -> str:
         """Whether the file changed, as the ledger tells: "changed: earlier file 71e52259449c (5
-        rows, made 2026-12-03, median 61.2 cm/s)", "unchanged since its first rows in the ledger
-        (2026-12-04)", or "no ledger"."""
+        rows, made 2026-12-03, median 61.2 cm/s)" (the newest earlier file), "unchanged since its
+        first rows in the ledger (2026-12-04)", "no rows in the ledger yet" or "no ledger"."""
         if self.files is None:
             return "no ledger"
         if self.earlier:
@@ -445,7 +445,7 @@ def creature_files(book: Ledger | None, keys: dict[str, list[dict]], histories: 
     seed, in the report's order), with its file's ``histories[name]``, the ledger's rows found in
     ``book`` (None: no ledger)."""
     return [CreatureFile(name, ks[-1]["creature_sha256"], histories.get(name, ()),
-                         None if book is None else book.files(ks)) for name, ks in keys.items()]
+                         None if book is None else book.files(ks)) for name, ks in keys.items() if ks]
 
 
 def _cell(text: str) -> str:
