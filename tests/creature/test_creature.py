@@ -74,7 +74,7 @@ def test_cart_matches_figure_11():
 
 def test_bounder_design():
     c = load("bounder")
-    assert sum(k.mass for k in c.links) == pytest.approx(4.0)
+    assert sum(k.mass for k in c.links) == pytest.approx(2.4 + 2 * (0.511434 + 0.445068))
     assert [s.kind for s in c.sensors] == ["touch"] * 2 + ["angle"] * 6
     for a in c.actuators:
         assert a.kind == "angular" and a.ks == pytest.approx(0.4 * PER_DEG)

@@ -26,7 +26,7 @@ import pytest
 from sanlab import creature, sim
 from sanlab.sim import kernel
 from tests.sim.test_kernel import DATA, chain, relative_error
-from tests.sim.test_kernel_reference import DETAILS
+from tests.sim.test_kernel_reference import DETAILS, stored
 
 B = 16  # rows
 STEPS = 1000
@@ -39,7 +39,7 @@ def load(name: str):
         return creature.load(str(DATA / "kitchen_sink.toml"))
     if name.startswith("chain"):
         return creature.loads(chain(int(name[5:])), source=name)
-    return creature.load(name)
+    return stored(name)
 
 
 def model(name: str):

@@ -43,6 +43,12 @@ DETAILS = np.load(DATA / "engine_details.npz")
 CASES = sorted({k.rsplit("/", 1)[0] for k in REFERENCE.files})
 
 
+def stored(name: str):
+    """The built-in ``name`` as the XLA engine's stored numbers were made on it: the bounder
+    changed after (issue 47), so its earlier file is kept in tests/data."""
+    return creature.load(str(DATA / "bounder_second.toml")) if name == "bounder" else creature.load(name)
+
+
 def spec_of(case: str):
     name, terrain = case.split("/")
     if name.startswith("chain"):
@@ -50,7 +56,7 @@ def spec_of(case: str):
     elif name == "kitchen_sink":
         spec = creature.load(str(DATA / "kitchen_sink.toml"))
     else:
-        spec = creature.load(name)
+        spec = stored(name)
     assert terrain in TERRAINS
     return _on(spec, terrain)
 
@@ -84,7 +90,7 @@ def test_the_first_steps_agree_with_the_engine_to_the_last_bits(name, rows, step
     # before any sensor can flip, every controller (0..rows-1 of a search seeded 0); the fish:
     # water, a passive spring, eyes on a follow path (a tile's scratch once overran into the
     # state of a creature without contacts, and only this caught it)
-    spec = creature.load(name)
+    spec = stored(name)
     san, sp = random_san_params(spec, rows, 0)
     k = run_san_from(sim.compile_creature(spec), san, sp, DETAILS[f"first/{name}/q0"], steps)
     assert relative_error(DETAILS[f"first/{name}/q"], k["q"]).max() < 1e-13
@@ -94,7 +100,7 @@ def test_the_first_steps_agree_with_the_engine_to_the_last_bits(name, rows, step
 def test_the_kernels_observers_accumulate_what_the_engines_did(name, kind):
     # the metric's ingredients and the descriptors over 200 steps (before chaos; the fish, which
     # starts to swim later and is not chaotic: 1000) of controllers 0..15 of a search seeded 4
-    spec = creature.load(name)
+    spec = stored(name)
     m = sim.compile_creature(spec)
     metric, desc = Metric.for_creature(spec, kind), descriptors.Descriptors.for_creature(m)
     ref = lambda f: DETAILS[f"observe/{name}/{metric.kind}/{f}"]
@@ -122,7 +128,7 @@ def test_the_kernels_observers_accumulate_what_the_engines_did(name, kind):
 def test_the_kernel_records_the_frames_the_engine_recorded():
     # controllers 0..15 of a search seeded 6 on the bounder, 305 steps, a frame every 10 steps:
     # 30 whole frames (the engine's of rows 0..5 stored)
-    spec = creature.load("bounder")
+    spec = stored("bounder")
     m = sim.compile_creature(spec)
     san, sp = random_san_params(spec, 16, 6)
     k = run_san_from(m, san, sp, DETAILS["frames/q0"], 305, every=10)
@@ -141,7 +147,7 @@ def test_the_kernel_seats_a_creature_and_anchors_it_as_the_engine_did(terrain):
     from sanlab.sim.model import assemble
 
     ref = lambda f: DETAILS[f"seat/{terrain}/{f}"]
-    raw = assemble(_on(creature.load("bounder"), terrain), "float64")  # where the file puts it
+    raw = assemble(_on(stored("bounder"), terrain), "float64")  # where the file puts it
     np.testing.assert_array_equal(raw.params.q0, ref("raw"))
     q0 = np.asarray(raw.params.q0)[None].repeat(3, 0)
     q0[1, 1] -= 0.05  # started inside the ground
@@ -174,7 +180,7 @@ def test_the_kernels_scores_agree_with_the_float32_engines_in_distribution(name)
     # chaotic runs part in the last bits (float64 against float32): the same 200 random SANs
     # (controllers 0..199 of a search seeded 0), each median within the other's 95 % bootstrap
     # interval (2,000 resamples)
-    a, b = DETAILS[f"scores32/{name}"], kernel_scores(creature.load(name), 200, 0)
+    a, b = DETAILS[f"scores32/{name}"], kernel_scores(stored(name), 200, 0)
     rng = np.random.default_rng(0)
     for x, y in ((a, b), (b, a)):
         boot = np.median(x[rng.integers(0, len(x), (2000, len(x)))], axis=1)
