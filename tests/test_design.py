@@ -18,7 +18,7 @@ import pytest
 
 from tests.helpers import ROOT
 
-DESIGN_FILES = ["bounder", "walker", "fish", "crawler", "fourlink", "cart"]
+DESIGN_FILES = ["bounder", "walker", "fish", "crawler", "fourlink", "cart", "luxo"]
 HISTORY = ROOT / "docs" / "design-history"
 
 
