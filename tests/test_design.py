@@ -232,7 +232,7 @@ def _rows(record: str) -> list[dict]:
 
 
 # built-ins that `sanlab design` has changed since: name -> its record (`sanlab design --json`)
-DESIGNED = {"bounder": "bounder_design_bc4dbc74", "luxo": "luxo_design_60d447c7"}
+DESIGNED = {"bounder": "bounder_design_bc4dbc74", "luxo": "luxo_design_60d447c7", "fish": "fish_design_c36d8afc"}
 
 
 @pytest.mark.parametrize("name", [n for n in SEARCHES if n not in DESIGNED])
