@@ -8,7 +8,9 @@ row is (``sanlab.reproduce.robust_tuned``): phase 1 (``controllers`` random SANs
 each chain (the best rung that keeps its speed at dt/2 and dt/4). Phase 1 only
 picks the SANs that phase 2 starts from: it never chooses a body, though it may prune one
 (``prune``: a body whose best phase-1 speed falls below a fraction of the reference's skips
-phase 2 and scores 0, which saves its tuning and audits). Every run is stored in the gait
+phase 2 and scores 0, which saves its tuning and audits). A body whose values make no valid
+creature (a range that reaches past valid creatures, which ``sanlab check`` warns of) scores 0
+too, unrun, its record saying why ("invalid"); it is never validated. Every run is stored in the gait
 library and found there again, keyed by the body's creature file (its text) and the settings,
 so a design made again on the same library asks the same bodies (the body strategies are
 deterministic given their seed and the scores told) and continues where it stopped; each search
@@ -42,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from sanlab import __version__
-from sanlab.creature import printable
+from sanlab.creature import CreatureError, printable
 from sanlab.creature.free import Design
 from sanlab.creature.spec import MAX_HISTORY, MAX_HISTORY_ENTRY
 from sanlab.evaluate.ensemble import default_ensemble
@@ -86,7 +88,7 @@ class Body:
     speeds: dict[int, dict] = field(default_factory=dict)
 
     def speed(self, seed: int) -> float:
-        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, or pruned)."""
+        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, pruned or invalid)."""
         return float(self.speeds[seed]["speed"])
 
     def mean(self, seeds) -> float:
@@ -194,10 +196,16 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
     def score(body: Body, seed: int, prune_below: float | None = None) -> None:
         if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
             report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
-            t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
-            body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
-                                             top=s.top, ens=ens, seconds=seconds, backend=backend,
-                                             prune_below=prune_below)
+            try:
+                t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
+            except CreatureError as e:
+                if body.round < 0:  # the file's defaults: the design has nothing to stand on
+                    raise
+                body.speeds[seed] = _invalid(design, e)
+            else:
+                body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers,
+                                                 trials=s.trials, top=s.top, ens=ens, seconds=seconds,
+                                                 backend=backend, prune_below=prune_below)
             lib.add_design_score(design_id, body.round, body.index, seed, body.values, body.speeds[seed])
         done[0] += 1
         if seed == s.seed:
@@ -219,8 +227,8 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
         rnd += 1
     ranked = sorted(bodies, key=lambda b: -b.speed(s.seed))
     picks = []
-    for b in ranked:  # distinct bodies: two rounds may ask the same one
-        if all(b.values != p.values for p in picks):
+    for b in ranked:  # distinct bodies: two rounds may ask the same one; an invalid body is no candidate
+        if not b.speeds[s.seed].get("invalid") and all(b.values != p.values for p in picks):
             picks.append(b)
     picks = picks[:max(1, s.validate)]
     for seed in s.seeds:
@@ -228,11 +236,20 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
             score(b, seed)
     # the reference is a contender: a file is changed only for a body that beats its defaults on
     # fresh seeds (ties and a better search score do not count: the defaults stay)
-    best = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
-    chosen = best if best.mean(s.seeds) > reference.mean(s.seeds) else reference
+    leader = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)), default=reference)
+    chosen = leader if leader.mean(s.seeds) > reference.mean(s.seeds) else reference
     note = _note(design, where, s, chosen, reference, len(bodies))
     out = design.text(text, chosen.values, note, history_entry(design, where, design_id, s, chosen, reference))
     return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
+
+
+def _invalid(design: Design, error: CreatureError) -> dict:
+    """The record of a body whose values make no valid creature (a range that reaches past valid
+    creatures: ``sanlab check`` warns of it): it scores 0 cm/s as a pruned body does, nothing is
+    run, and "invalid" says why (the loader's message without the file's name)."""
+    reason = str(error).removeprefix(f"{design.source}: ")
+    return {"speed": 0.0, "gait": None, "search": None, "phase1_cm_s": None, "chains": [], "pruned": True,
+            "invalid": reason}
 
 
 def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:

@@ -132,9 +132,11 @@ def design(
     table = Table("body", "round", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait")
     for b in result.bodies:
         name = ("reference" if b.round < 0 else f"{b.round}.{b.index}") + (" (chosen)" if b is ch else "")
+        rec = b.speeds[s.seed]
+        gait = (f"invalid: {safe(str(rec['invalid']))}" if rec.get("invalid") else
+                "pruned (phase 1)" if rec.get("pruned") else safe(str(rec["gait"] or "none")))
         table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
-                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
-                      "pruned (phase 1)" if b.speeds[s.seed].get("pruned") else safe(str(b.speeds[s.seed]["gait"] or "none")))
+                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds), gait)
     console.print(table)
     console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")

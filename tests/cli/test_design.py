@@ -343,3 +343,49 @@ def test_check_warns_of_a_free_range_that_reaches_past_valid_creatures():
     out = json.loads(runner.invoke(app, ["check", path, "--json"]).stdout)
     assert out["warnings"] == 1 and [(c["name"], c["end"]) for c in out["checks"] if c["check"] == "free"] == [("delay", "min")]
     assert runner.invoke(app, ["check", str(ROOT / "experiments" / "walker_design.toml"), "--strict"]).exit_code == 0
+
+
+def test_a_body_that_makes_no_valid_creature_scores_0_and_the_design_goes_on(monkeypatch, tmp_path):
+    """A range that reaches past valid creatures (``check`` warns of it): a body there is no
+    creature to run; it scores 0 cm/s, its record says why, the strategy is told 0, it is never
+    validated, and the design goes on (a newcomer's design stopped at the first such body)."""
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    text = HOPPER.read_text().replace("mass = { min = 0.5, max = 1.5 }", "mass = { min = -1.0, max = 1.5, default = 1.0 }")
+    src = tmp_path / "wide.toml"
+    src.write_text(text)
+    design, _ = load_design(str(src))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=8, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, text, str(src), s)
+        invalid = [b for b in r.bodies if b.speeds[0].get("invalid")]
+        assert invalid and len(invalid) < 8 and all(b.values[0] <= 0 for b in invalid)
+        for b in invalid:
+            assert b.speed(0) == 0.0 and b.speeds[0]["pruned"] and set(b.speeds) == {0}  # never validated
+            assert re.fullmatch(r"links\[0\]\.mass: expected a positive number \(kg\), got -[\d.e-]+",
+                                b.speeds[0]["invalid"]), b.speeds[0]["invalid"]
+        assert len(calls) == 1 + 8 - len(invalid) + 8 - len(invalid) + 1  # only valid bodies are run
+        stored = {(x.round, x.index): x for x in lib.design_scores(r.design_id) if x.seed == 0}
+        assert all(stored[b.round, b.index].pruned and stored[b.round, b.index].record["invalid"] for b in invalid)
+        calls.clear()
+        again = run_design(lib, design, text, str(src), s)  # made again: it resumes past them
+        assert again.design_id == r.design_id and again.text == r.text
+    # the command's table and --json say so
+    args = ["design", str(src), "--designs", "8", "--generation", "4", "--strategy", "random", "--validate", "8",
+            "--db", str(tmp_path / "c.db"), "-o", str(tmp_path / "out.toml")]
+    out = runner.invoke(app, args, env={"COLUMNS": "300"})
+    assert out.exit_code == 0, out.output
+    assert "invalid: links[0].mass: expected a positive number (kg), got -" in out.stdout
+    rec = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    _schemas.validate(rec, "design")
+    assert sum(bool(b["speeds"]["0"].get("invalid")) for b in rec["bodies"]) == len(invalid)
+
+
+def test_a_file_whose_defaults_make_no_valid_creature_is_still_an_error(tmp_path):
+    src = tmp_path / "bad.toml"
+    src.write_text(HOPPER.read_text().replace("mass = { min = 0.5, max = 1.5 }", "mass = { min = -1.0, max = 1.5, default = -0.5 }"))
+    r = runner.invoke(app, ["design", str(src), "--db", str(tmp_path / "x.db")])
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1
+    assert "links[0].mass: expected a positive number (kg), got -0.5" in r.output
