@@ -21,10 +21,12 @@ from sanlab.cli._common import (
     backend_or_exit,
     check_count,
     check_seed,
+    check_writable,
     console,
     dump_json,
     fail,
     open_library,
+    output_file,
     print_next,
     record,
     safe,
@@ -96,6 +98,10 @@ def design(
     target = out if out is not None else Path(f"{spec.name}-design.toml")
     if render is not None and not render.lower().endswith(".png"):
         raise fail(f"design: --render: expected a .png file, got {render!r}")
+    # both are written after the whole design (minutes to hours): a bad folder is told now
+    check_writable(str(target), "--out", "design")
+    if render is not None:
+        check_writable(render, "--render", "design")
     from sanlab.design import DesignSettings, run_design
     from sanlab.library import LibraryError
 
@@ -119,7 +125,8 @@ def design(
         raise typer.Exit(130) from None
     except (ValueError, LibraryError) as e:
         raise fail(f"design: {e}") from None
-    target.write_text(result.text, encoding="utf-8")
+    with output_file(str(target), "--out") as path:  # whole or not at all; a full disk is one line too
+        Path(path).write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
     if render is not None:
         rec = ch.speeds[s.seed] if not ch.speeds[s.seed].get("pruned") else ch.speeds[s.seeds[0]]

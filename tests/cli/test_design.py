@@ -389,3 +389,19 @@ def test_a_file_whose_defaults_make_no_valid_creature_is_still_an_error(tmp_path
     r = runner.invoke(app, ["design", str(src), "--db", str(tmp_path / "x.db")])
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1
     assert "links[0].mass: expected a positive number (kg), got -0.5" in r.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-o", "/nonexistent/dir/x.toml"], "design: --out /nonexistent/dir/x.toml: cannot write (no such folder /nonexistent/dir)"),
+    (["-o", "{tmp}"], "design: --out {tmp}: cannot write (it is a folder)"),
+    (["--render", "/nonexistent/dir/x.png"], "design: --render /nonexistent/dir/x.png: cannot write (no such folder"),
+])
+def test_an_unwritable_output_is_refused_before_any_work(tmp_path, args, message):
+    """The chosen body's file and the contact sheet are written after the whole design: a bad
+    path is one line and exit 2 at the start (it was a traceback at the end)."""
+    db = tmp_path / "x.db"
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    r = runner.invoke(app, ["design", str(HOPPER), *args, "--db", str(db)])
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert message.replace("{tmp}", str(tmp_path)) in r.output
+    assert not db.exists()  # nothing was run
