@@ -63,7 +63,9 @@ def design(
         "Skip phase 2 for a body whose best phase-1 speed is below this fraction of the reference's "
         "(it scores 0); 0: prune none. Phase 1 never chooses a body."))] = 0.0,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write the chosen body's creature file here "
-                                                                  "(default: NAME-design.toml).")] = None,
+                                                                  "(default: FILE-design.toml in the working folder, "
+                                                                  "FILE the source file's stem or the built-in's "
+                                                                  "name: b13.toml -> b13-design.toml).")] = None,
     render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
                                                                   "robust gaits side by side (a .png contact sheet).")] = None,
     backend: BackendOpt = "local",
@@ -95,7 +97,10 @@ def design(
     if not d.free:
         raise fail(f"{creature}: expected free numbers to design (a range in place of a number, e.g. "
                    "mass = { min = 0.1, max = 0.3 }: docs/creature-format.md), got none")
-    target = out if out is not None else Path(f"{spec.name}-design.toml")
+    # named after the file, not its creature's name: two files of one creature (a copy edited)
+    # would write over each other's result
+    stem = where.removeprefix("builtin:") if where.startswith("builtin:") else Path(where).stem
+    target = out if out is not None else Path(f"{stem}-design.toml")
     if render is not None and not render.lower().endswith(".png"):
         raise fail(f"design: --render: expected a .png file, got {render!r}")
     # both are written after the whole design (minutes to hours): a bad folder is told now

@@ -405,3 +405,17 @@ def test_an_unwritable_output_is_refused_before_any_work(tmp_path, args, message
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
     assert message.replace("{tmp}", str(tmp_path)) in r.output
     assert not db.exists()  # nothing was run
+
+
+def test_the_default_output_is_named_after_the_source_file_not_the_creature(monkeypatch, tmp_path):
+    """b13.toml of a creature named "flapper" wrote flapper-design.toml, over the result of
+    flapper.toml's design."""
+    _fake_scores(monkeypatch, [])
+    src = tmp_path / "b13.toml"
+    src.write_text(HOPPER.read_text())  # name = "hopper"
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["design", str(src), "--designs", "2", "--generation", "2", "--strategy", "random",
+                            "--validate", "1", "--db", "d.db", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["written"] == "b13-design.toml" and (tmp_path / "b13-design.toml").exists()
+    assert not (tmp_path / "hopper-design.toml").exists()
