@@ -252,18 +252,32 @@ def _invalid(design: Design, error: CreatureError) -> dict:
             "invalid": reason}
 
 
+def _count(n: int, word: str) -> str:
+    """"1 chain", "2 chains"."""
+    return f"{n} {word}{'s' * (n != 1)}"
+
+
+def _trials(design: Design, s: DesignSettings) -> str:
+    """" (2 s trials, the file's 6 s)" when the design evaluated over another time than the file
+    states (``--seconds``), else "": its speeds are not the file's evaluation's."""
+    stated = design.creature().evaluation.seconds
+    if s.seconds is None or s.seconds == stated:
+        return ""
+    return f" ({s.seconds:g} s trials, the file's {stated:g} s)"
+
+
 def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:
     seeds = ", ".join(str(x) for x in s.seeds)
     which = (f"the body chosen among {n} ({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index})"
              if chosen is not reference else
-             f"the file's defaults: none of {n} bodies searched ({s.strategy}, seed {s.seed}) beat them on the "
-             f"validation seeds")
+             f"the file's defaults: none of {n} {'body' if n == 1 else 'bodies'} searched "
+             f"({s.strategy}, seed {s.seed}) beat them on the validation seeds")
     lines = [
         f"Written by `sanlab design` (sanlab {__version__}) from {where}: {which}.",
-        f"Scored by robust tuned speed: phase 1 ({s.controllers} random SANs), phase 2 ({s.top} chains x "
-        f"{s.trials} trials), the audited selection.",
+        f"Scored by robust tuned speed{_trials(design, s)}: phase 1 ({_count(s.controllers, 'random SAN')}), "
+        f"phase 2 ({_count(s.top, 'chain')} x {_count(s.trials, 'trial')}), the audited selection.",
         f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
-        f"mean on seeds {seeds} (validation); the reference (the file's defaults): "
+        f"mean on seed{'s' * (len(s.seeds) > 1)} {seeds} (validation); the reference (the file's defaults): "
         f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
         *(["What changed (default -> chosen):", *[f"  {line}" for line in design.changes(chosen.values)]]
           if chosen is not reference else []),
@@ -276,7 +290,8 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     """The line the chosen body's file adds to its ``history`` (docs/creature-format.md, "History"):
     "YYYY-MM-DD: body chosen by `sanlab design` from FILE (design ID): the largest changes; the
     robust tuned speeds (cm/s) of the chosen body and the reference on the search's seed and their
-    means on the validation seeds". ``day``: the date (default today, UTC). FILE is ``where``
+    means on the validation seeds", the trials' length after the first speed when it is not the
+    file's ("(2 s trials, the file's 6 s)"). ``day``: the date (default today, UTC). FILE is ``where``
     relative to the working folder, or its name (no machine's folders in a file that travels).
     At most :data:`MAX_HISTORY_ENTRY` characters (cut with "..."); "" when the chosen body is the
     reference: the file's defaults are kept and nothing changed."""
@@ -286,7 +301,7 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     seeds = ", ".join(str(x) for x in s.seeds)
     about = f" (design {design_id})" if design_id else ""
     line = (f"{day}: body chosen by `sanlab design` from {_file(where)}{about}: {_largest(design, chosen.values)}; "
-            f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s on the search's seed {s.seed} and "
+            f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s{_trials(design, s)} on the search's seed {s.seed} and "
             f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against the "
             f"defaults' {reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}")
     return line if len(line) <= MAX_HISTORY_ENTRY else line[:MAX_HISTORY_ENTRY - 3] + "..."

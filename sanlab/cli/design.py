@@ -150,7 +150,7 @@ def design(
         table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
                       *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds), gait)
     console.print(table)
-    console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
+    console.print(f"robust tuned speed, mean on seed{'s' * (len(s.seeds) > 1)} {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
     if ch is ref:
         console.print(f"no body beat the file's defaults on the validation seeds: {safe(str(target))} is the "
@@ -158,7 +158,7 @@ def design(
     else:
         for line in d.changes(ch.values):
             console.print(f"  {safe(line)}", soft_wrap=True)
-    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
+    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bod{'y' if len(result.bodies) == 2 else 'ies'} in {result.seconds:.0f} s)"
                   + (f" and {safe(render)}" if render else "") + f"; stored as design {result.design_id}")
     gait = ch.speeds[s.seed]["gait"]
     print_next(db, [*([f"sanlab render {gait}"] if gait else []), "sanlab studio"],

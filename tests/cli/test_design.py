@@ -180,7 +180,7 @@ def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resume
     text = out.read_text()
     design, _ = load_design(str(HOPPER))
     assert loads(text) == design.creature(chosen["values"])
-    assert "mean on seeds 1 (validation); the reference (the file's defaults)" in text
+    assert "mean on seed 1 (validation); the reference (the file's defaults)" in text
     runs = runner.invoke(app, ["runs", "--db", db, "--json"]).stdout
     png = tmp_path / "beside.png"
     again = runner.invoke(app, [*args, "--render", str(png)])  # made again: every body's runs are in the library
@@ -419,3 +419,22 @@ def test_the_default_output_is_named_after_the_source_file_not_the_creature(monk
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["written"] == "b13-design.toml" and (tmp_path / "b13-design.toml").exists()
     assert not (tmp_path / "hopper-design.toml").exists()
+
+
+def test_the_written_file_says_the_trials_length_when_it_is_not_the_files(monkeypatch, tmp_path):
+    """Speeds of 2 s trials read as the file's 6 s ones unless the file says so; and "1 chain"."""
+    from sanlab.design import DesignSettings, run_design
+
+    _fake_scores(monkeypatch, [])
+    design, spec = load_design(str(HOPPER))
+    stated = spec.evaluation.seconds
+    assert stated != 2.0
+    with Library(tmp_path / "d.db") as lib:
+        for seconds, said in [(2.0, f" (2 s trials, the file's {stated:g} s)"), (None, ""), (stated, "")]:
+            s = DesignSettings(designs=4, generation=4, strategy="random", top=1, validate=1, seconds=seconds)
+            r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+            assert r.chosen is not r.reference  # the fake's heaviest body wins: the file has its history entry
+            assert f"# Scored by robust tuned speed{said}: phase 1 (200 random SANs), phase 2 (1 chain x 100 " \
+                   "trials)" in r.text
+            [entry] = loads(r.text).history
+            assert f"robust tuned speed {r.chosen.speed(0):.1f} cm/s{said} on the search's seed 0" in entry
