@@ -47,7 +47,7 @@ DtFactorsOpt = Annotated[str | None, typer.Option(
 DtJitterOpt = Annotated[float, typer.Option(
     "--dt-jitter", min=0.0, help="Scale each member's step by 1 + U(-D, D) as well (D < 0.5; default 0: off).")]
 BackendOpt = Annotated[str, typer.Option(
-    "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
+    "--backend", help="Where evaluations run: local (this machine's cores) or ray (Ray workers; needs "
                       "pip install 'sanlab\\[cluster]').")]
 AddressOpt = Annotated[str | None, typer.Option(
     "--address", help="With --backend ray: the cluster (auto, or ray://HOST:PORT); default: start one here.")]
