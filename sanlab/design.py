@@ -154,6 +154,8 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     s = settings
     if s.seed in s.seeds:
         raise ValueError(f"seeds: expected seeds other than the search's own ({s.seed}), got {list(s.seeds)}")
+    if len(set(s.seeds)) < len(s.seeds):
+        raise ValueError(f"seeds: expected different seeds, got {list(s.seeds)}")
     if not 0 <= s.prune < 1:
         raise ValueError(f"prune: expected a fraction in [0, 1), got {s.prune}")
     for name in ("designs", "generation", "controllers", "trials", "top", "ensemble"):

@@ -42,6 +42,10 @@ def _seeds(text: str) -> tuple[int, ...]:
         raise fail(f"design: --seeds: expected at least one seed, got {text!r}")
     for x in seeds:
         check_seed(x, "--seeds")
+    twice = sorted({x for x in seeds if seeds.count(x) > 1})
+    if twice:  # a seed counted twice in the mean would only weigh its draws more
+        raise fail(f"design: --seeds: expected different seeds, got {text!r} "
+                   f"({', '.join(map(str, twice))} more than once)")
     return seeds
 
 

@@ -42,6 +42,7 @@ def test_a_file_without_free_numbers_is_refused_in_one_line(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--seeds", "0"], "--seeds: expected seeds other than --seed 0"),
     (["--seeds", "a"], "--seeds: expected seeds separated by commas"),
+    (["--seeds", "1,2,1"], "--seeds: expected different seeds, got '1,2,1' (1 more than once)"),
     (["--strategy", "cma"], "--strategy: expected cma-es or random, got 'cma'"),
     (["--render", "x.gif"], "--render: expected a .png file, got 'x.gif'"),
 ])
