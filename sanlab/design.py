@@ -8,7 +8,9 @@ row is (``sanlab.reproduce.robust_tuned``): phase 1 (``controllers`` random SANs
 each chain (the best rung that keeps its speed at dt/2 and dt/4). Phase 1 only
 picks the SANs that phase 2 starts from: it never chooses a body, though it may prune one
 (``prune``: a body whose best phase-1 speed falls below a fraction of the reference's skips
-phase 2 and scores 0, which saves its tuning and audits). Every run is stored in the gait
+phase 2 and scores 0, which saves its tuning and audits). A body whose values make no valid
+creature (a range that reaches past valid creatures, which ``sanlab check`` warns of) scores 0
+too, unrun, its record saying why ("invalid"); it is never validated. Every run is stored in the gait
 library and found there again, keyed by the body's creature file (its text) and the settings,
 so a design made again on the same library asks the same bodies (the body strategies are
 deterministic given their seed and the scores told) and continues where it stopped; each search
@@ -42,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from sanlab import __version__
-from sanlab.creature import printable
+from sanlab.creature import CreatureError, printable
 from sanlab.creature.free import Design
 from sanlab.creature.spec import MAX_HISTORY, MAX_HISTORY_ENTRY
 from sanlab.evaluate.ensemble import default_ensemble
@@ -86,7 +88,7 @@ class Body:
     speeds: dict[int, dict] = field(default_factory=dict)
 
     def speed(self, seed: int) -> float:
-        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, or pruned)."""
+        """The robust tuned speed (cm/s) on ``seed`` (0 where no chain kept a robust gait, pruned or invalid)."""
         return float(self.speeds[seed]["speed"])
 
     def mean(self, seeds) -> float:
@@ -152,6 +154,8 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     s = settings
     if s.seed in s.seeds:
         raise ValueError(f"seeds: expected seeds other than the search's own ({s.seed}), got {list(s.seeds)}")
+    if len(set(s.seeds)) < len(s.seeds):
+        raise ValueError(f"seeds: expected different seeds, got {list(s.seeds)}")
     if not 0 <= s.prune < 1:
         raise ValueError(f"prune: expected a fraction in [0, 1), got {s.prune}")
     for name in ("designs", "generation", "controllers", "trials", "top", "ensemble"):
@@ -194,10 +198,16 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
     def score(body: Body, seed: int, prune_below: float | None = None) -> None:
         if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
             report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
-            t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
-            body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers, trials=s.trials,
-                                             top=s.top, ens=ens, seconds=seconds, backend=backend,
-                                             prune_below=prune_below)
+            try:
+                t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
+            except CreatureError as e:
+                if body.round < 0:  # the file's defaults: the design has nothing to stand on
+                    raise
+                body.speeds[seed] = _invalid(design, e)
+            else:
+                body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers,
+                                                 trials=s.trials, top=s.top, ens=ens, seconds=seconds,
+                                                 backend=backend, prune_below=prune_below)
             lib.add_design_score(design_id, body.round, body.index, seed, body.values, body.speeds[seed])
         done[0] += 1
         if seed == s.seed:
@@ -219,8 +229,8 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
         rnd += 1
     ranked = sorted(bodies, key=lambda b: -b.speed(s.seed))
     picks = []
-    for b in ranked:  # distinct bodies: two rounds may ask the same one
-        if all(b.values != p.values for p in picks):
+    for b in ranked:  # distinct bodies: two rounds may ask the same one; an invalid body is no candidate
+        if not b.speeds[s.seed].get("invalid") and all(b.values != p.values for p in picks):
             picks.append(b)
     picks = picks[:max(1, s.validate)]
     for seed in s.seeds:
@@ -228,25 +238,48 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
             score(b, seed)
     # the reference is a contender: a file is changed only for a body that beats its defaults on
     # fresh seeds (ties and a better search score do not count: the defaults stay)
-    best = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)))
-    chosen = best if best.mean(s.seeds) > reference.mean(s.seeds) else reference
+    leader = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)), default=reference)
+    chosen = leader if leader.mean(s.seeds) > reference.mean(s.seeds) else reference
     note = _note(design, where, s, chosen, reference, len(bodies))
     out = design.text(text, chosen.values, note, history_entry(design, where, design_id, s, chosen, reference))
     return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
+
+
+def _invalid(design: Design, error: CreatureError) -> dict:
+    """The record of a body whose values make no valid creature (a range that reaches past valid
+    creatures: ``sanlab check`` warns of it): it scores 0 cm/s as a pruned body does, nothing is
+    run, and "invalid" says why (the loader's message without the file's name)."""
+    reason = str(error).removeprefix(f"{design.source}: ")
+    return {"speed": 0.0, "gait": None, "search": None, "phase1_cm_s": None, "chains": [], "pruned": True,
+            "invalid": reason}
+
+
+def _count(n: int, word: str) -> str:
+    """"1 chain", "2 chains"."""
+    return f"{n} {word}{'s' * (n != 1)}"
+
+
+def _trials(design: Design, s: DesignSettings) -> str:
+    """" (2 s trials, the file's 6 s)" when the design evaluated over another time than the file
+    states (``--seconds``), else "": its speeds are not the file's evaluation's."""
+    stated = design.creature().evaluation.seconds
+    if s.seconds is None or s.seconds == stated:
+        return ""
+    return f" ({s.seconds:g} s trials, the file's {stated:g} s)"
 
 
 def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:
     seeds = ", ".join(str(x) for x in s.seeds)
     which = (f"the body chosen among {n} ({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index})"
              if chosen is not reference else
-             f"the file's defaults: none of {n} bodies searched ({s.strategy}, seed {s.seed}) beat them on the "
-             f"validation seeds")
+             f"the file's defaults: none of {n} {'body' if n == 1 else 'bodies'} searched "
+             f"({s.strategy}, seed {s.seed}) beat them on the validation seeds")
     lines = [
         f"Written by `sanlab design` (sanlab {__version__}) from {where}: {which}.",
-        f"Scored by robust tuned speed: phase 1 ({s.controllers} random SANs), phase 2 ({s.top} chains x "
-        f"{s.trials} trials), the audited selection.",
+        f"Scored by robust tuned speed{_trials(design, s)}: phase 1 ({_count(s.controllers, 'random SAN')}), "
+        f"phase 2 ({_count(s.top, 'chain')} x {_count(s.trials, 'trial')}), the audited selection.",
         f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
-        f"mean on seeds {seeds} (validation); the reference (the file's defaults): "
+        f"mean on seed{'s' * (len(s.seeds) > 1)} {seeds} (validation); the reference (the file's defaults): "
         f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
         *(["What changed (default -> chosen):", *[f"  {line}" for line in design.changes(chosen.values)]]
           if chosen is not reference else []),
@@ -259,7 +292,8 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     """The line the chosen body's file adds to its ``history`` (docs/creature-format.md, "History"):
     "YYYY-MM-DD: body chosen by `sanlab design` from FILE (design ID): the largest changes; the
     robust tuned speeds (cm/s) of the chosen body and the reference on the search's seed and their
-    means on the validation seeds". ``day``: the date (default today, UTC). FILE is ``where``
+    means on the validation seeds", the trials' length after the first speed when it is not the
+    file's ("(2 s trials, the file's 6 s)"). ``day``: the date (default today, UTC). FILE is ``where``
     relative to the working folder, or its name (no machine's folders in a file that travels).
     At most :data:`MAX_HISTORY_ENTRY` characters (cut with "..."); "" when the chosen body is the
     reference: the file's defaults are kept and nothing changed."""
@@ -269,7 +303,7 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     seeds = ", ".join(str(x) for x in s.seeds)
     about = f" (design {design_id})" if design_id else ""
     line = (f"{day}: body chosen by `sanlab design` from {_file(where)}{about}: {_largest(design, chosen.values)}; "
-            f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s on the search's seed {s.seed} and "
+            f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s{_trials(design, s)} on the search's seed {s.seed} and "
             f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against the "
             f"defaults' {reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}")
     return line if len(line) <= MAX_HISTORY_ENTRY else line[:MAX_HISTORY_ENTRY - 3] + "..."

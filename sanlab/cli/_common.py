@@ -47,7 +47,7 @@ DtFactorsOpt = Annotated[str | None, typer.Option(
 DtJitterOpt = Annotated[float, typer.Option(
     "--dt-jitter", min=0.0, help="Scale each member's step by 1 + U(-D, D) as well (D < 0.5; default 0: off).")]
 BackendOpt = Annotated[str, typer.Option(
-    "--backend", help="Where evaluations run: local (this machine's cores or GPU) or ray (Ray workers; needs "
+    "--backend", help="Where evaluations run: local (this machine's cores) or ray (Ray workers; needs "
                       "pip install 'sanlab\\[cluster]').")]
 AddressOpt = Annotated[str | None, typer.Option(
     "--address", help="With --backend ray: the cluster (auto, or ray://HOST:PORT); default: start one here.")]
@@ -295,6 +295,23 @@ def check_run_args(spec: Creature, *, controllers: int | None = None, seconds: f
 
 
 # -- output files ----------------------------------------------------------------------------------
+
+
+def check_writable(path: str, option: str, command: str) -> None:
+    """Exit 2 with one line naming ``command``, ``option`` and ``path`` unless ``path`` looks
+    writable: its folder exists, is a folder and may be written, and ``path`` is no folder. For a
+    command that writes only at its end (``sanlab design``): a mistyped folder is told before the
+    work, not after it. Writing may still fail (a full disk): the writer reports that itself."""
+    folder = os.path.dirname(os.path.abspath(path))
+    why = None
+    if not os.path.isdir(folder):
+        why = f"no such folder {folder}" if not os.path.exists(folder) else f"{folder} is not a folder"
+    elif os.path.isdir(path):
+        why = "it is a folder"
+    elif not os.access(folder, os.W_OK | os.X_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        why = "permission denied"
+    if why is not None:
+        raise fail(f"{command}: {option} {path}: cannot write ({why})")
 
 
 @contextlib.contextmanager

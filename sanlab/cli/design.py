@@ -21,10 +21,12 @@ from sanlab.cli._common import (
     backend_or_exit,
     check_count,
     check_seed,
+    check_writable,
     console,
     dump_json,
     fail,
     open_library,
+    output_file,
     print_next,
     record,
     safe,
@@ -40,6 +42,10 @@ def _seeds(text: str) -> tuple[int, ...]:
         raise fail(f"design: --seeds: expected at least one seed, got {text!r}")
     for x in seeds:
         check_seed(x, "--seeds")
+    twice = sorted({x for x in seeds if seeds.count(x) > 1})
+    if twice:  # a seed counted twice in the mean would only weigh its draws more
+        raise fail(f"design: --seeds: expected different seeds, got {text!r} "
+                   f"({', '.join(map(str, twice))} more than once)")
     return seeds
 
 
@@ -61,7 +67,9 @@ def design(
         "Skip phase 2 for a body whose best phase-1 speed is below this fraction of the reference's "
         "(it scores 0); 0: prune none. Phase 1 never chooses a body."))] = 0.0,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write the chosen body's creature file here "
-                                                                  "(default: NAME-design.toml).")] = None,
+                                                                  "(default: FILE-design.toml in the working folder, "
+                                                                  "FILE the source file's stem or the built-in's "
+                                                                  "name: b13.toml -> b13-design.toml).")] = None,
     render: Annotated[str | None, typer.Option("--render", help="Also draw the reference's and the chosen body's "
                                                                   "robust gaits side by side (a .png contact sheet).")] = None,
     backend: BackendOpt = "local",
@@ -93,9 +101,16 @@ def design(
     if not d.free:
         raise fail(f"{creature}: expected free numbers to design (a range in place of a number, e.g. "
                    "mass = { min = 0.1, max = 0.3 }: docs/creature-format.md), got none")
-    target = out if out is not None else Path(f"{spec.name}-design.toml")
+    # named after the file, not its creature's name: two files of one creature (a copy edited)
+    # would write over each other's result
+    stem = where.removeprefix("builtin:") if where.startswith("builtin:") else Path(where).stem
+    target = out if out is not None else Path(f"{stem}-design.toml")
     if render is not None and not render.lower().endswith(".png"):
         raise fail(f"design: --render: expected a .png file, got {render!r}")
+    # both are written after the whole design (minutes to hours): a bad folder is told now
+    check_writable(str(target), "--out", "design")
+    if render is not None:
+        check_writable(render, "--render", "design")
     from sanlab.design import DesignSettings, run_design
     from sanlab.library import LibraryError
 
@@ -119,7 +134,8 @@ def design(
         raise typer.Exit(130) from None
     except (ValueError, LibraryError) as e:
         raise fail(f"design: {e}") from None
-    target.write_text(result.text, encoding="utf-8")
+    with output_file(str(target), "--out") as path:  # whole or not at all; a full disk is one line too
+        Path(path).write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
     if render is not None:
         rec = ch.speeds[s.seed] if not ch.speeds[s.seed].get("pruned") else ch.speeds[s.seeds[0]]
@@ -132,11 +148,13 @@ def design(
     table = Table("body", "round", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait")
     for b in result.bodies:
         name = ("reference" if b.round < 0 else f"{b.round}.{b.index}") + (" (chosen)" if b is ch else "")
+        rec = b.speeds[s.seed]
+        gait = (f"invalid: {safe(str(rec['invalid']))}" if rec.get("invalid") else
+                "pruned (phase 1)" if rec.get("pruned") else safe(str(rec["gait"] or "none")))
         table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
-                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
-                      "pruned (phase 1)" if b.speeds[s.seed].get("pruned") else safe(str(b.speeds[s.seed]["gait"] or "none")))
+                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds), gait)
     console.print(table)
-    console.print(f"robust tuned speed, mean on seeds {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
+    console.print(f"robust tuned speed, mean on seed{'s' * (len(s.seeds) > 1)} {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
                   f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
     if ch is ref:
         console.print(f"no body beat the file's defaults on the validation seeds: {safe(str(target))} is the "
@@ -144,7 +162,7 @@ def design(
     else:
         for line in d.changes(ch.values):
             console.print(f"  {safe(line)}", soft_wrap=True)
-    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bodies in {result.seconds:.0f} s)"
+    console.print(f"wrote {safe(str(target))} ({len(result.bodies) - 1} bod{'y' if len(result.bodies) == 2 else 'ies'} in {result.seconds:.0f} s)"
                   + (f" and {safe(render)}" if render else "") + f"; stored as design {result.design_id}")
     gait = ch.speeds[s.seed]["gait"]
     print_next(db, [*([f"sanlab render {gait}"] if gait else []), "sanlab studio"],

@@ -55,8 +55,8 @@ def tune(
         "else link lengths (and so masses)."))] = False,
     terrain: Annotated[str, typer.Option(help="flat, or rough / hill: score each proposal over several terrains.")] = "flat",
     batch: Annotated[int | None, typer.Option(min=1, help=(
-        "Evaluations simulated together per round (default: 8 on the CPU, or one per chain if more; 128 on a GPU: "
-        "benchmarks/tune_batch.py measured it)."))] = None,
+        "Evaluations simulated together per round (default: 8, or one per chain if more, on the CPU's cores "
+        "where the kernel runs: benchmarks/tune_batch.py measured it)."))] = None,
     ensemble: EnsembleOpt = 8,
     dt_factors: DtFactorsOpt = None,
     dt_jitter: DtJitterOpt = 0.0,

@@ -19,6 +19,7 @@ it at the defaults, so every command that only loads a file sees the creature th
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from collections.abc import Callable, Sequence
@@ -382,6 +383,7 @@ def read_design(data: dict, shown: str, expand: Callable[[dict], dict], build: C
             if "free" in keys and keys <= SAME:
                 uses.append((path, v))
                 return ("use", path, v)
+            _not_quite(v, path, shown)
             return {k: walk(x, _join(path, k)) for k, x in v.items()}
         if isinstance(v, list):
             return [walk(x, _join(path, i)) for i, x in enumerate(v)]
@@ -426,6 +428,36 @@ def read_design(data: dict, shown: str, expand: Callable[[dict], dict], build: C
     numbers = tuple(FreeNumber(f["name"], f["path"], f["min"], f["max"], f["default"], tuple(f["uses"])) for f in free)
     coupling = _coupling(data.get("design"), shown, numbers, data)
     return Design(shown, numbers, coupling, template, expand, build)
+
+
+def _not_quite(v: dict, path: str, shown: str) -> None:
+    """Raise CreatureError for a table at ``path`` meant as a free number or a use of one but
+    neither (a key misspelt, ``max`` missing, keys of both): the loader would only say that it
+    expected a number there and got a table. A table is taken as meant so when its values are
+    plain (numbers, strings), it has a key ``min``, ``max``, ``default`` or ``free``, and each of
+    its keys is one of a free number's or a use's or close to one; other tables (a length
+    sensor's min and max beside its type and link) are the loader's to judge."""
+    keys = [k for k in v if isinstance(k, str)]
+    known = sorted(FREE | SAME)
+    if not keys or any(isinstance(x, dict | list) for x in v.values()) or not set(keys) & {"min", "max", "default", "free"}:
+        return
+    unknown = [k for k in keys if k not in FREE | SAME]
+    close = {k: difflib.get_close_matches(k, known, n=1, cutoff=0.75) for k in unknown if len(k) <= 100}
+    if len(close) < len(unknown) or not all(close.values()):
+        return  # a key unlike any of a free number's: some other table
+    if unknown:
+        k = unknown[0]
+        kind = "a use of a free number" if "free" in keys else "a free number"
+        fields = sorted(SAME) if "free" in keys else sorted(FREE)
+        raise CreatureError(f"{shown}: {_join(path, printable(k))}: unknown field of {kind}; did you mean "
+                            f"{close[k][0]!r}? expected one of {fields}")
+    if "free" in keys:
+        both = sorted(set(keys) & (FREE - {"name"}))
+        raise CreatureError(f"{shown}: {path}: expected a free number (min, max, default, name) or a use of one "
+                            f"(free, times, plus), got a table with keys of both ({', '.join(both)} and free)")
+    missing = " and ".join(k for k in ("min", "max") if k not in keys)
+    raise CreatureError(f"{shown}: {path}: expected a free number with min and max "
+                        f"(e.g. {{ min = 0.1, max = 0.3 }}), got a table without {missing}")
 
 
 def _write(node: Any, values: np.ndarray, slots: dict[str, _Slot]) -> None:

@@ -8,7 +8,7 @@ function of its controller and key, so a backend may finish requests in any orde
 a request again (after a worker died), without changing any result.
 
 - :class:`Local` (``--backend local``, the default): this process, the batch spread over this
-  machine's cores or its GPU (``sanlab.sim.rollout``).
+  machine's cores (``sanlab.sim.rollout``; the kernel has no GPU build).
 - ``sanlab.evaluate.ray_backend.RayBackend`` (``--backend ray``): Ray workers on a cluster.
 """
 

@@ -42,6 +42,7 @@ def test_a_file_without_free_numbers_is_refused_in_one_line(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--seeds", "0"], "--seeds: expected seeds other than --seed 0"),
     (["--seeds", "a"], "--seeds: expected seeds separated by commas"),
+    (["--seeds", "1,2,1"], "--seeds: expected different seeds, got '1,2,1' (1 more than once)"),
     (["--strategy", "cma"], "--strategy: expected cma-es or random, got 'cma'"),
     (["--render", "x.gif"], "--render: expected a .png file, got 'x.gif'"),
 ])
@@ -180,7 +181,7 @@ def test_a_small_design_chooses_a_validated_body_beside_the_reference_and_resume
     text = out.read_text()
     design, _ = load_design(str(HOPPER))
     assert loads(text) == design.creature(chosen["values"])
-    assert "mean on seeds 1 (validation); the reference (the file's defaults)" in text
+    assert "mean on seed 1 (validation); the reference (the file's defaults)" in text
     runs = runner.invoke(app, ["runs", "--db", db, "--json"]).stdout
     png = tmp_path / "beside.png"
     again = runner.invoke(app, [*args, "--render", str(png)])  # made again: every body's runs are in the library
@@ -343,3 +344,98 @@ def test_check_warns_of_a_free_range_that_reaches_past_valid_creatures():
     out = json.loads(runner.invoke(app, ["check", path, "--json"]).stdout)
     assert out["warnings"] == 1 and [(c["name"], c["end"]) for c in out["checks"] if c["check"] == "free"] == [("delay", "min")]
     assert runner.invoke(app, ["check", str(ROOT / "experiments" / "walker_design.toml"), "--strict"]).exit_code == 0
+
+
+def test_a_body_that_makes_no_valid_creature_scores_0_and_the_design_goes_on(monkeypatch, tmp_path):
+    """A range that reaches past valid creatures (``check`` warns of it): a body there is no
+    creature to run; it scores 0 cm/s, its record says why, the strategy is told 0, it is never
+    validated, and the design goes on (a newcomer's design stopped at the first such body)."""
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _fake_scores(monkeypatch, calls)
+    text = HOPPER.read_text().replace("mass = { min = 0.5, max = 1.5 }", "mass = { min = -1.0, max = 1.5, default = 1.0 }")
+    src = tmp_path / "wide.toml"
+    src.write_text(text)
+    design, _ = load_design(str(src))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=8, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, text, str(src), s)
+        invalid = [b for b in r.bodies if b.speeds[0].get("invalid")]
+        assert invalid and len(invalid) < 8 and all(b.values[0] <= 0 for b in invalid)
+        for b in invalid:
+            assert b.speed(0) == 0.0 and b.speeds[0]["pruned"] and set(b.speeds) == {0}  # never validated
+            assert re.fullmatch(r"links\[0\]\.mass: expected a positive number \(kg\), got -[\d.e-]+",
+                                b.speeds[0]["invalid"]), b.speeds[0]["invalid"]
+        assert len(calls) == 1 + 8 - len(invalid) + 8 - len(invalid) + 1  # only valid bodies are run
+        stored = {(x.round, x.index): x for x in lib.design_scores(r.design_id) if x.seed == 0}
+        assert all(stored[b.round, b.index].pruned and stored[b.round, b.index].record["invalid"] for b in invalid)
+        calls.clear()
+        again = run_design(lib, design, text, str(src), s)  # made again: it resumes past them
+        assert again.design_id == r.design_id and again.text == r.text
+    # the command's table and --json say so
+    args = ["design", str(src), "--designs", "8", "--generation", "4", "--strategy", "random", "--validate", "8",
+            "--db", str(tmp_path / "c.db"), "-o", str(tmp_path / "out.toml")]
+    out = runner.invoke(app, args, env={"COLUMNS": "300"})
+    assert out.exit_code == 0, out.output
+    assert "invalid: links[0].mass: expected a positive number (kg), got -" in out.stdout
+    rec = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    _schemas.validate(rec, "design")
+    assert sum(bool(b["speeds"]["0"].get("invalid")) for b in rec["bodies"]) == len(invalid)
+
+
+def test_a_file_whose_defaults_make_no_valid_creature_is_still_an_error(tmp_path):
+    src = tmp_path / "bad.toml"
+    src.write_text(HOPPER.read_text().replace("mass = { min = 0.5, max = 1.5 }", "mass = { min = -1.0, max = 1.5, default = -0.5 }"))
+    r = runner.invoke(app, ["design", str(src), "--db", str(tmp_path / "x.db")])
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1
+    assert "links[0].mass: expected a positive number (kg), got -0.5" in r.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-o", "/nonexistent/dir/x.toml"], "design: --out /nonexistent/dir/x.toml: cannot write (no such folder /nonexistent/dir)"),
+    (["-o", "{tmp}"], "design: --out {tmp}: cannot write (it is a folder)"),
+    (["--render", "/nonexistent/dir/x.png"], "design: --render /nonexistent/dir/x.png: cannot write (no such folder"),
+])
+def test_an_unwritable_output_is_refused_before_any_work(tmp_path, args, message):
+    """The chosen body's file and the contact sheet are written after the whole design: a bad
+    path is one line and exit 2 at the start (it was a traceback at the end)."""
+    db = tmp_path / "x.db"
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    r = runner.invoke(app, ["design", str(HOPPER), *args, "--db", str(db)])
+    assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1, r.output
+    assert message.replace("{tmp}", str(tmp_path)) in r.output
+    assert not db.exists()  # nothing was run
+
+
+def test_the_default_output_is_named_after_the_source_file_not_the_creature(monkeypatch, tmp_path):
+    """b13.toml of a creature named "flapper" wrote flapper-design.toml, over the result of
+    flapper.toml's design."""
+    _fake_scores(monkeypatch, [])
+    src = tmp_path / "b13.toml"
+    src.write_text(HOPPER.read_text())  # name = "hopper"
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["design", str(src), "--designs", "2", "--generation", "2", "--strategy", "random",
+                            "--validate", "1", "--db", "d.db", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["written"] == "b13-design.toml" and (tmp_path / "b13-design.toml").exists()
+    assert not (tmp_path / "hopper-design.toml").exists()
+
+
+def test_the_written_file_says_the_trials_length_when_it_is_not_the_files(monkeypatch, tmp_path):
+    """Speeds of 2 s trials read as the file's 6 s ones unless the file says so; and "1 chain"."""
+    from sanlab.design import DesignSettings, run_design
+
+    _fake_scores(monkeypatch, [])
+    design, spec = load_design(str(HOPPER))
+    stated = spec.evaluation.seconds
+    assert stated != 2.0
+    with Library(tmp_path / "d.db") as lib:
+        for seconds, said in [(2.0, f" (2 s trials, the file's {stated:g} s)"), (None, ""), (stated, "")]:
+            s = DesignSettings(designs=4, generation=4, strategy="random", top=1, validate=1, seconds=seconds)
+            r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+            assert r.chosen is not r.reference  # the fake's heaviest body wins: the file has its history entry
+            assert f"# Scored by robust tuned speed{said}: phase 1 (200 random SANs), phase 2 (1 chain x 100 " \
+                   "trials)" in r.text
+            [entry] = loads(r.text).history
+            assert f"robust tuned speed {r.chosen.speed(0):.1f} cm/s{said} on the search's seed 0" in entry

@@ -129,6 +129,18 @@ anchor = [-0.1, 0]
      "design.total[0].value: expected a number within [-0.7, -0.4] (the sum of the ranges), got -0.8"),
     ('mass = { min = 0.5, max = 1.5 }', "mass = { min = 0.5, max = 1.5, default = 0 }",
      "links[0].mass.default: expected a number within [0.5, 1.5]"),
+    # a table meant as a free number, or a use of one, but neither: said so, not "got a table"
+    ("mass = { min = 0.5, max = 1.5 }", "mass = { min = 0.5, max = 1.5, defualt = 1 }",
+     "links[0].mass.defualt: unknown field of a free number; did you mean 'default'? expected one of "
+     "['default', 'max', 'min', 'name']"),
+    ("mass = { min = 0.5, max = 1.5 }", "mass = { min = 0.5, default = 1 }",
+     "links[0].mass: expected a free number with min and max (e.g. { min = 0.1, max = 0.3 }), got a table "
+     "without max"),
+    ('{ free = "back" }', '{ free = "back", plsu = 0.1 }',
+     "links[2].contacts[0][1].plsu: unknown field of a use of a free number; did you mean 'plus'?"),
+    ("mass = { min = 0.5, max = 1.5 }", 'mass = { min = 0.5, max = 1.5, free = "back" }',
+     "links[0].mass: expected a free number (min, max, default, name) or a use of one (free, times, plus), got "
+     "a table with keys of both (max, min and free)"),
 ])
 def test_bad_free_numbers_and_couplings_are_one_line_errors(old, new, message):
     assert old in TEXT
