@@ -288,7 +288,8 @@ class Service:
         or None), points}. ``points``: each body scored so far, the reference first, then by
         round and place: {body ("reference" or "ROUND.INDEX"), round (-1: the reference), index,
         values [D] (its free values, in the order of ``free``), score (its robust tuned speed on
-        the search's seed, cm/s; None not yet scored), pruned (phase 2 skipped: score 0), gait
+        the search's seed, cm/s; None not yet scored), pruned (phase 2 skipped: score 0), invalid
+        (why the body could not be built, the loader's message, or None: an invalid body is pruned), gait
         (its robust gait RUN#IDX, None where no rung kept its speed), open and open_kind (the gait
         a click shows: the robust gait, else its best chain's "tuned" gait, else its phase-1
         search's best, "phase 1"; None where none is in this library), validation {seed: cm/s}
@@ -315,6 +316,7 @@ class Service:
                     "body": "reference" if rnd < 0 else f"{rnd}.{idx}", "round": rnd, "index": idx,
                     "values": list(scored[0].values), "score": None if mine is None else _num(mine.speed_cm_s),
                     "pruned": bool(mine is not None and mine.pruned), "gait": None if mine is None else mine.gait,
+                    "invalid": None if mine is None else mine.record.get("invalid"),
                     "open": opened, "open_kind": kind, "validation": valid,
                     "validation_mean": _num(float(np.mean(means))) if seeds and len(means) == len(seeds) else None,
                     "reference": rnd < 0, "chosen": d.chosen == (rnd, idx)})

@@ -29,10 +29,10 @@ SETTINGS = {"designs": 4, "generation": 2, "strategy": "random", "controllers": 
 
 @pytest.fixture
 def made(library, tmp_path) -> dict:
-    """A copy of the studio's library with a design written by hand, interrupted after three
-    bodies of four: the reference, a body with a robust gait (validated on seed 1 with the
-    reference), a pruned body (its phase-1 search is the cart's), and one whose chain kept no
-    robust gait (its tuned gait is opened)."""
+    """A copy of the studio's library with a design written by hand, its four bodies scored and
+    interrupted in its validation: the reference, a body with a robust gait (validated on seed 1
+    with the reference), a pruned body (its phase-1 search is the cart's), one whose chain kept no
+    robust gait (its tuned gait is opened), and an invalid body (scored 0, nothing run)."""
     db = str(tmp_path / "copy.db")
     shutil.copy(library["db"], db)  # the shared library stays as the other tests expect it
     cart = library["cart"]
@@ -43,6 +43,7 @@ def made(library, tmp_path) -> dict:
         lib.add_design_score(d, -1, 0, 0, [1.0, -0.275], rec(20.0, g[0]))
         lib.add_design_score(d, 0, 0, 0, [0.8, -0.3], rec(24.0, g[1]))
         lib.add_design_score(d, 0, 1, 0, [1.4, -0.21], rec(0.0, None, pruned=True))
+        lib.add_design_score(d, 1, 1, 0, [0.1, -0.34], rec(0.0, None, pruned=True, invalid="links[0]: mass too small"))
         lib.add_design_score(d, 1, 0, 0, [0.6, -0.34], rec(0.0, None, chains=[
             {"tuned": g[3], "tuned_cm_s": 15.0, "robust": None, "robust_cm_s": 0.0},
             {"tuned": g[2], "tuned_cm_s": 17.0, "robust": None, "robust_cm_s": 0.0}]))
@@ -58,20 +59,22 @@ def test_a_designs_points_are_its_bodies_and_open_their_best_gaits(made):
     d, g = made["design"], made["gaits"]
     [row] = svc.designs()
     assert row == {"design_id": d, "creature": "hopper", "source": "hopper.toml", "status": "interrupted",
-                   "created": row["created"], "updated": row["updated"], "free": ["mass", "front"], "bodies": 3,
+                   "created": row["created"], "updated": row["updated"], "free": ["mass", "front"], "bodies": 4,
                    "planned": 4, "best_speed_cm_s": 24.0, "reference_cm_s": 20.0, "chosen": False}
     out = svc.design(d[:5])  # an unambiguous prefix
     json.dumps(out, allow_nan=False)  # strict JSON
     assert (out["design_id"], out["status"], out["chosen"], out["seed"], out["seeds"]) == (d, "interrupted", None, 0, [1])
     assert [f["unit"] for f in out["free"]] == ["kg", "m"] and out["settings"] == SETTINGS
     pts = {p["body"]: p for p in out["points"]}
-    assert list(pts) == ["reference", "0.0", "0.1", "1.0"]  # the reference first, then by round and place
-    ref, best, pruned, tuned = pts.values()
+    assert list(pts) == ["reference", "0.0", "0.1", "1.0", "1.1"]  # the reference first, then by round and place
+    ref, best, pruned, tuned, invalid = pts.values()
     assert (ref["reference"], ref["values"], ref["score"], ref["validation"], ref["validation_mean"]) == \
         (True, [1.0, -0.275], 20.0, {"1": 19.0}, 19.0)
     assert (best["open"], best["open_kind"], best["gait"], best["validation_mean"]) == (g[1], "robust", g[1], 22.0)
     assert (pruned["pruned"], pruned["score"], pruned["gait"], pruned["validation_mean"]) == (True, 0.0, None, None)
     assert (pruned["open"], pruned["open_kind"]) == (made["best"], "phase 1")  # its phase-1 search's best
+    assert pruned["invalid"] is None and best["invalid"] is None
+    assert (invalid["pruned"], invalid["score"], invalid["invalid"]) == (True, 0.0, "links[0]: mass too small")
     assert (tuned["open"], tuned["open_kind"]) == (g[2], "tuned")  # the faster chain's tuned gait
     assert not any(p["chosen"] for p in out["points"])
     # done: the chosen body marked
@@ -80,7 +83,7 @@ def test_a_designs_points_are_its_bodies_and_open_their_best_gaits(made):
     out = svc.design(d)
     assert out["chosen"] == {"round": 0, "index": 0} and out["seconds"] == 12.5
     assert [p["body"] for p in out["points"] if p["chosen"]] == ["0.0"]
-    assert svc.designs()[0]["chosen"] is True and svc.design_fingerprint() == [[d, "done", 6]]
+    assert svc.designs()[0]["chosen"] is True and svc.design_fingerprint() == [[d, "done", 7]]
 
 
 @pytest.mark.parametrize("ref, needle", [("zz", "no design 'zz'"), ("0123abcd", "no design '0123abcd'"), (7, "expected a design id")])

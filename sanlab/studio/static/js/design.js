@@ -112,7 +112,8 @@ export class DesignView {
     const d = this.design;
     const values = d.free.map((f, k) => `${f.name} ${fmt(p.values[k], 4)}${f.unit ? ` ${f.unit}` : ""}`).join(", ");
     const mark = p.reference ? " (reference)" : p.chosen ? " (chosen)" : "";
-    return `body ${p.body}${mark}: ${fmt(p.score)} cm/s${p.pruned ? " (pruned)" : ""}` +
+    const why = p.invalid ? ` (invalid: ${p.invalid})` : p.pruned ? " (pruned)" : "";
+    return `body ${p.body}${mark}: ${fmt(p.score)} cm/s${why}` +
       (p.validation_mean !== null ? `, ${fmt(p.validation_mean)} on the validation seeds` : "") + `; ${values}` +
       (p.open ? ` (click to open ${p.open_kind === "robust" ? "its robust gait" : p.open_kind === "tuned" ? "its best tuned gait" : "its best phase-1 gait"} ${p.open})` : "");
   }
@@ -125,7 +126,7 @@ export class DesignView {
       onclick: () => p.open && (location.hash = gaitHref(p.open)) },
     h("td", {}, p.body + (p.chosen ? " (chosen)" : "")),
     ...p.values.map((v) => h("td", { class: "mono" }, fmt(v, 4))),
-    h("td", {}, p.pruned ? "0 (pruned)" : fmt(p.score)),
+    h("td", p.invalid ? { title: p.invalid } : {}, p.invalid ? "0 (invalid)" : p.pruned ? "0 (pruned)" : fmt(p.score)),
     h("td", {}, fmt(p.validation_mean)),
     h("td", {}, p.open ? h("a", { href: gaitHref(p.open), onclick: (e) => e.stopPropagation() }, p.open) : "–",
       p.open && p.open_kind !== "robust" ? h("span", { class: "muted" }, ` (${p.open_kind})`) : null)));
