@@ -325,20 +325,14 @@ def _largest(design: Design, values, n: int = 3) -> str:
     """The ``n`` free numbers of ``values`` that moved most from their defaults, relative to the
     default's magnitude (to the range's width for a default of 0): "largest of 5 changes: shin
     0.15 -> 0.18 m (+20 %), ...", or "changes: ..." when they are all."""
-    v = design.project(values)
-    moved = []
-    for f, x, unit in zip(design.free, v, design.units, strict=True):
-        if abs(x - f.default) <= 1e-12 * max(1.0, abs(f.default)):
-            continue
-        rel = (x - f.default) / abs(f.default) if f.default else None
-        size = abs(rel) if rel is not None else abs(x - f.default) / (f.max - f.min)
-        shown = f"{printable(f.name)} {f.default:.4g} -> {x:.4g}{f' {unit}' if unit else ''}"
-        moved.append((size, shown + (f" ({100 * rel:+.0f} %)" if rel is not None else "")))
+    moved = [m for m in design.moves(values) if m.moved]
     if not moved:
         return "no free number moved from its default"
-    moved.sort(key=lambda m: -round(m[0], 9))  # stable: equal changes (a total's two numbers) in file order
+    moved.sort(key=lambda m: -round(m.size, 9))  # stable: equal changes (a total's two numbers) in file order
     head = "changes" if len(moved) <= n else f"largest of {len(moved)} changes"
-    return f"{head}: " + ", ".join(m[1] for m in moved[:n])
+    return f"{head}: " + ", ".join(
+        f"{printable(m.name)} {m.default:.4g} -> {m.value:.4g}{f' {m.unit}' if m.unit else ''}"
+        + (f" ({100 * m.relative:+.0f} %)" if m.relative is not None else "") for m in moved[:n])
 
 
 __all__ = ["Body", "DesignResult", "DesignSettings", "history_entry", "run_design"]

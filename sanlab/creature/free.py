@@ -31,7 +31,7 @@ import numpy as np
 from ._checks import CreatureError, _show, printable
 from .spec import Creature
 
-__all__ = ["Coupling", "Design", "FreeNumber", "Total", "read_design"]
+__all__ = ["Coupling", "Design", "FreeNumber", "Move", "Total", "read_design"]
 
 FREE = {"min", "max", "default", "name"}  # the keys of a free number
 SAME = {"free", "times", "plus"}  # the keys of a use of a named free number
@@ -53,6 +53,26 @@ class FreeNumber:
     max: float
     default: float
     uses: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Move:
+    """One free number of a body against the file's default (:meth:`Design.moves`): ``value``
+    and ``default`` in ``unit`` (the file's), ``relative`` the change over the default's magnitude
+    (None for a default of 0), and ``size`` the change for ranking: ``|relative|``, or over the
+    range's width for a default of 0."""
+
+    name: str
+    default: float
+    value: float
+    unit: str
+    relative: float | None
+    size: float
+
+    @property
+    def moved(self) -> bool:
+        """Whether the value differs from the default (beyond rounding)."""
+        return abs(self.value - self.default) > 1e-12 * max(1.0, abs(self.default))
 
 
 @dataclass(frozen=True)
@@ -224,16 +244,24 @@ class Design:
         head = "".join(f"# {line}".rstrip() + "\n" for line in note.splitlines())
         return (head + "\n" if head else "") + tomlkit.dumps(doc)
 
+    def moves(self, values: Sequence[float] | np.ndarray) -> list[Move]:
+        """Each free number of the body at ``values`` (shape [len(free)], projected into the
+        ranges first) against its default, in vector order."""
+        out = []
+        for f, x, unit in zip(self.free, self.project(values), self.units, strict=True):
+            x = float(x)
+            rel = (x - f.default) / abs(f.default) if f.default else None
+            size = abs(rel) if rel is not None else abs(x - f.default) / (f.max - f.min)
+            out.append(Move(f.name, f.default, x, unit, rel, size))
+        return out
+
     def changes(self, values: Sequence[float] | np.ndarray) -> list[str]:
         """One line per free number (and per link mass the couplings change): its default, the
         body's value and the change relative to the default's magnitude."""
-        v = self.project(values)
-        out = []
-        for f, x in zip(self.free, v, strict=True):
-            rel = f" ({100 * (x - f.default) / abs(f.default):+.0f} %)" if f.default else ""
-            out.append(f"{f.name}: {f.default:.6g} -> {x:.6g}{rel}")
+        out = [f"{m.name}: {m.default:.6g} -> {m.value:.6g}"
+               + (f" ({100 * m.relative:+.0f} %)" if m.relative is not None else "") for m in self.moves(values)]
         if self.coupling.any:
-            for a, b in zip(self.creature().links, self.creature(v).links, strict=True):
+            for a, b in zip(self.creature().links, self.creature(self.project(values)).links, strict=True):
                 if abs(a.mass - b.mass) > 1e-12:
                     out.append(f"mass of {a.name}: {a.mass:.4g} -> {b.mass:.4g} kg "
                                f"({100 * (b.mass - a.mass) / a.mass:+.0f} %)")
