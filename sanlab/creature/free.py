@@ -58,9 +58,11 @@ class FreeNumber:
 @dataclass(frozen=True)
 class Move:
     """One free number of a body against the file's default (:meth:`Design.moves`): ``value``
-    and ``default`` in ``unit`` (the file's), ``relative`` the change over the default's magnitude
-    (None for a default of 0), and ``size`` the change for ranking: ``|relative|``, or over the
-    range's width for a default of 0."""
+    and ``default`` in ``unit`` (the file's), ``relative`` the change of magnitude over the
+    default's (a length written negative that shortens, or a knee fold of -139 deg that becomes
+    -103, is a negative change: the file's signs say a direction, not a size); where the sign
+    flips, the signed change over the default's magnitude; None for a default of 0. ``size``
+    ranks the changes: ``|relative|``, or the change over the range's width for a default of 0."""
 
     name: str
     default: float
@@ -250,14 +252,19 @@ class Design:
         out = []
         for f, x, unit in zip(self.free, self.project(values), self.units, strict=True):
             x = float(x)
-            rel = (x - f.default) / abs(f.default) if f.default else None
+            if not f.default:
+                rel = None
+            elif x * f.default > 0:
+                rel = (abs(x) - abs(f.default)) / abs(f.default)
+            else:
+                rel = (x - f.default) / abs(f.default)
             size = abs(rel) if rel is not None else abs(x - f.default) / (f.max - f.min)
             out.append(Move(f.name, f.default, x, unit, rel, size))
         return out
 
     def changes(self, values: Sequence[float] | np.ndarray) -> list[str]:
         """One line per free number (and per link mass the couplings change): its default, the
-        body's value and the change relative to the default's magnitude."""
+        body's value and the change of magnitude relative to the default's (:class:`Move`)."""
         out = [f"{m.name}: {m.default:.6g} -> {m.value:.6g}"
                + (f" ({100 * m.relative:+.0f} %)" if m.relative is not None else "") for m in self.moves(values)]
         if self.coupling.any:

@@ -92,7 +92,8 @@ def test_a_bodys_file_loads_as_that_body_and_says_what_changed():
     out = design.text(text, v, "a note\nof two lines")
     assert out.startswith("# a note\n# of two lines\n")
     assert loads(out) == design.creature(v) and "[design]" not in out and "min =" not in out
-    assert design.changes(v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (-9 %)"]
+    assert design.changes(v)[:2] == ["links[0].mass: 1 -> 0.7 (-30 %)", "front: -0.275 -> -0.3 (+9 %)"]  # a longer leg
+    assert design.changes([1.0, -0.25, -0.3, 0.02])[1] == "front: -0.275 -> -0.25 (-9 %)"  # a shorter one
     assert "mass of front: 0.1 -> 0.1191 kg (+19 %)" in design.changes(v)
 
 
@@ -111,7 +112,7 @@ def test_the_chosen_bodys_file_keeps_its_history_and_adds_what_changed_and_why(t
     entry = history_entry(design, where, "abcd1234", DesignSettings(seeds=(1, 2)), chosen, reference, day="2026-12-05")
     assert entry == ("2026-12-05: body chosen by `sanlab design` from sub/hopper.toml (design abcd1234): largest of 4 "
                      "changes: links[0].mass 1 -> 0.7 kg (-30 %), actuators[0].ks 0.02 -> 0.025 N·m/deg (+25 %), front "
-                     "-0.275 -> -0.32 m (-16 %); robust tuned speed 50.0 cm/s on the search's seed 0 and 40.5 mean on "
+                     "-0.275 -> -0.32 m (+16 %); robust tuned speed 50.0 cm/s on the search's seed 0 and 40.5 mean on "
                      "validation seeds 1, 2, against the defaults' 45.0 and 38.5")
     out = design.text(text, v, "a note", entry)
     assert out.startswith("# a note\n") and loads(out).history == (old, entry)  # the file's own entries first
