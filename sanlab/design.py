@@ -322,17 +322,17 @@ def _file(where: str) -> str:
 
 
 def _largest(design: Design, values, n: int = 3) -> str:
-    """The ``n`` free numbers of ``values`` that moved most from their defaults, relative to the
-    default's magnitude (to the range's width for a default of 0): "largest of 5 changes: shin
-    0.15 -> 0.18 m (+20 %), ...", or "changes: ..." when they are all."""
+    """The ``n`` free numbers of ``values`` that moved most from their defaults (``Move.size``:
+    the change of magnitude over the default's; over the range's width for a default of 0):
+    "largest of 5 changes: shin 0.15 -> 0.18 m (+20 %), ...", or "changes: ..." when they are
+    all."""
     moved = [m for m in design.moves(values) if m.moved]
     if not moved:
         return "no free number moved from its default"
     moved.sort(key=lambda m: -round(m.size, 9))  # stable: equal changes (a total's two numbers) in file order
     head = "changes" if len(moved) <= n else f"largest of {len(moved)} changes"
     return f"{head}: " + ", ".join(
-        f"{printable(m.name)} {m.default:.4g} -> {m.value:.4g}{f' {m.unit}' if m.unit else ''}"
-        + (f" ({100 * m.relative:+.0f} %)" if m.relative is not None else "") for m in moved[:n])
+        f"{printable(m.name)} {m.default:.4g} -> {m.value:.4g}{f' {m.unit}' if m.unit else ''}{m.percent}" for m in moved[:n])
 
 
 __all__ = ["Body", "DesignResult", "DesignSettings", "history_entry", "run_design"]

@@ -72,6 +72,11 @@ class Move:
     size: float
 
     @property
+    def percent(self) -> str:
+        """" (+31 %)", the relative change as a note shows it; "" where there is none."""
+        return f" ({100 * self.relative:+.0f} %)" if self.relative is not None else ""
+
+    @property
     def moved(self) -> bool:
         """Whether the value differs from the default (beyond rounding)."""
         return abs(self.value - self.default) > 1e-12 * max(1.0, abs(self.default))
@@ -265,8 +270,7 @@ class Design:
     def changes(self, values: Sequence[float] | np.ndarray) -> list[str]:
         """One line per free number (and per link mass the couplings change): its default, the
         body's value and the change of magnitude relative to the default's (:class:`Move`)."""
-        out = [f"{m.name}: {m.default:.6g} -> {m.value:.6g}"
-               + (f" ({100 * m.relative:+.0f} %)" if m.relative is not None else "") for m in self.moves(values)]
+        out = [f"{m.name}: {m.default:.6g} -> {m.value:.6g}{m.percent}" for m in self.moves(values)]
         if self.coupling.any:
             for a, b in zip(self.creature().links, self.creature(self.project(values)).links, strict=True):
                 if abs(a.mass - b.mass) > 1e-12:
