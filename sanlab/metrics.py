@@ -13,6 +13,12 @@ x(T) - x(0); ``backward``: x(0) - x(T), so moving the wrong way scores below zer
   measured above the starting height (so standing still scores nothing); 0 if it fell.
 - ``pursuit``: ∫ v · F dt, v the COM velocity and F the unit vector from the COM to the follow
   point: how well pursuit is maintained (m).
+- ``tracking``: g0 / ḡ, ḡ the mean distance from the COM to the follow point over the evaluation
+  and g0 that distance at the start: 1 for a creature that kept its starting distance on
+  average, 3 for one that kept a third of it (a ratio). Pursuit saturates once a creature keeps
+  pace with the point (closing the gap and falling behind again score the same); this scores how
+  close it keeps, which is what tracking asks (§6; the Table 1 report's tracking ratio is the
+  same mean distance, over a median random SAN's).
 
 Falling is what the creature file says (``Evaluation``): a fell link turned past ``fell_angle``
 from upright, or the COM (``fell_com_height``) or a fell link's COM (``fell_link_height``) came
@@ -49,6 +55,8 @@ class MetricAcc(NamedTuple):
     fell: Any  # bool: the fell link passed its limit at some step
     p: tuple[Any, Any]  # COM (x, y) at the end (m), set by finish
     deepest: Any  # the deepest any contact point went into the ground (m; vertical plane)
+    gap: Any = 0.0  # mean distance from the COM to the follow point so far (m; tracking)
+    gap0: Any = 0.0  # that distance at the start (m; tracking)
 
 
 @dataclass(frozen=True)
@@ -77,8 +85,8 @@ class Metric:
             shown = repr(kind) if isinstance(kind, str) and len(kind) < 40 else type(kind).__name__
             raise ValueError(f"metric: expected one of {list(METRICS)}, got {shown}")
         ev = spec.evaluation
-        if kind == "pursuit" and spec.world.follow is None:
-            raise ValueError("metric pursuit needs a follow point ([world.follow] in the creature file)")
+        if kind in ("pursuit", "tracking") and spec.world.follow is None:
+            raise ValueError(f"metric {kind} needs a follow point ([world.follow] in the creature file)")
         if kind == "distance_upright" and not ev.can_fall:
             raise ValueError("metric distance_upright needs a way to fall (evaluation.fell_link or "
                              "fell_com_height in the creature file)")
@@ -98,7 +106,7 @@ class Metric:
     def collect(self, c: dict) -> MetricAcc:
         """The accumulator from the kernel's columns (``sanlab.sim.rollout.columns``)."""
         return MetricAcc((c["p0x"], c["p0y"]), c["y0"], c["hop"], c["pursuit"], c["fell"] > 0, (c["px"], c["py"]),
-                         np.maximum(c["deepest"], 0.0))
+                         np.maximum(c["deepest"], 0.0), c["gap"] / np.maximum(c["steps"], 1.0), c["gap0"])
 
 
 def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -> dict[str, np.ndarray]:
@@ -124,8 +132,11 @@ def scores(metric: Metric, acc: MetricAcc, finite, seconds: float, plane: str) -
         score = np.where(fell, 0.0, disp)
     elif metric.kind == "hopping":
         score = np.where(fell, 0.0, disp + metric.hop_k * np.asarray(acc.hop))
-    else:
+    elif metric.kind == "pursuit":
         score = np.asarray(acc.pursuit)
+    else:
+        gap = np.asarray(acc.gap, float)
+        score = np.asarray(acc.gap0, float) / np.where(gap > 0.0, gap, np.inf)
     score = np.where(finite & np.isfinite(score), score, 0.0)
     return {
         "score": score.astype(float),

@@ -83,6 +83,32 @@ def test_pursuit_integrates_velocity_towards_the_follow_point():
     assert away["score"] == pytest.approx(-1.0, rel=1e-3)
 
 
+def test_tracking_is_the_start_distance_over_the_mean_distance_to_the_follow_point():
+    dot = Link("dot", 1.0, 0.0, (0.0, 0.0), Shape("point"), contacts=())
+
+    def spec(points, speed):
+        world = World(plane="horizontal", ground=Ground(friction=0.0), follow=Follow(points, speed))
+        return Creature("dot", (dot,), world=world, evaluation=Evaluation(metric="tracking"))
+
+    still = spec(((10.0, 0.0), (10.0, 1.0)), 0.0)
+    # 0.5 m/s straight at a still point 10 m away for 2 s: the distance falls from 10 to 9 m
+    towards = evaluate(still, None, qd0=[0.5, 0.0], seconds=2.0)
+    assert towards["score"] == pytest.approx(10.0 / 9.5, rel=1e-3)
+    away = evaluate(still, None, qd0=[-0.5, 0.0], seconds=2.0)
+    assert away["score"] == pytest.approx(10.0 / 10.5, rel=1e-3)
+    # across: the distance is hypot(10, 0.5 t), whose mean exceeds 10 by about 1/60 m
+    t = np.linspace(0.0, 2.0, 20001)
+    across = evaluate(still, None, qd0=[0.0, 0.5], seconds=2.0)
+    assert across["score"] == pytest.approx(10.0 / np.hypot(10.0, 0.5 * t).mean(), rel=1e-4)
+    # a still creature, the point leaving it at 0.5 m/s: 1 m at the start, 1.5 m on average
+    leaving = evaluate(spec(((1.0, 0.0), (3.0, 0.0)), 0.5), None, seconds=2.0)
+    assert leaving["score"] == pytest.approx(1.0 / 1.5, rel=1e-3)
+    # keeping pace with it keeps the start distance: 1
+    pace = evaluate(spec(((1.0, 0.0), (3.0, 0.0)), 0.5), None, qd0=[0.5, 0.0], seconds=2.0)
+    assert pace["score"] == pytest.approx(1.0, rel=1e-6)
+    assert pace["speed_cm_s"] == pytest.approx(50.0, rel=1e-6)
+
+
 def test_a_run_that_blows_up_scores_zero_and_is_flagged():
     spec = resting_box()
     m = sim.compile_creature(spec)
@@ -100,8 +126,9 @@ def test_unknown_metric_and_missing_follow_point_are_clear_errors():
     spec = creature.load("cart")
     with pytest.raises(ValueError, match="expected one of"):
         Metric.for_creature(spec, "speediness")
-    with pytest.raises(ValueError, match="follow point"):
-        Metric.for_creature(spec, "pursuit")
+    for kind in ("pursuit", "tracking"):
+        with pytest.raises(ValueError, match=f"metric {kind} needs a follow point"):
+            Metric.for_creature(spec, kind)
 
 
 def test_evaluator_scores_do_not_depend_on_batch_composition():

@@ -235,8 +235,8 @@ def _creature(t: _Table, default_name: str) -> Creature:
             if getattr(evaluation, key) is not None:
                 raise t.error(f"evaluation.{key}", "no height in a horizontal plane (seen from above there is no up)",
                               getattr(evaluation, key))
-    if evaluation.metric == "pursuit" and world.follow is None:
-        raise t.error("world.follow", "a follow path (evaluation.metric is 'pursuit')", _MISSING)
+    if evaluation.metric in ("pursuit", "tracking") and world.follow is None:
+        raise t.error("world.follow", f"a follow path (evaluation.metric is {evaluation.metric!r})", _MISSING)
     driven: dict[str, int] = {}
     for i, a in enumerate(actuators):
         if a.kind == "angular" and driven.setdefault(a.joint, i) != i:

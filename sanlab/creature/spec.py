@@ -21,7 +21,7 @@ Vec2 = tuple[float, float]
 ShapeKind = Literal["segment", "polygon", "point"]
 TerrainKind = Literal["flat", "slope", "hill", "rough"]
 Plane = Literal["vertical", "horizontal"]
-MetricName = Literal["distance", "distance_upright", "hopping", "pursuit"]
+MetricName = Literal["distance", "distance_upright", "hopping", "pursuit", "tracking"]
 Direction = Literal["either", "forward", "backward"]
 SHAPE_KINDS: tuple[ShapeKind, ...] = get_args(ShapeKind)
 TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
@@ -29,7 +29,8 @@ PLANES: tuple[Plane, ...] = get_args(Plane)
 METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
 DIRECTIONS: tuple[Direction, ...] = get_args(Direction)
 # The unit of each metric's score (hopping adds k times a height integral in m^2 s to metres).
-SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hopping": "m + k m^2 s", "pursuit": "m"}
+SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hopping": "m + k m^2 s", "pursuit": "m",
+                               "tracking": "ratio"}
 
 # Limits of the format (FORMAT.md, "Limits"): sizes that keep `sanlab check` within a second and a
 # network within memory, and numbers that keep a run meaningful in float32. Written once here;

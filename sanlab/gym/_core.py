@@ -272,7 +272,8 @@ class Core:
         finite = (np.isfinite(self._q).all(1) & (np.abs(self._qd) < VELOCITY_LIMIT).all(1) & np.isfinite(self._p).all(1))
         a = dict(zip(kernel.ACC, self._acc.T, strict=False))
         tail = np.stack([a["p0x"], a["p0y"], a["y0"], a["hop"], a["pursuit"], a["fell"], a["px"], a["py"],
-                         np.maximum(a["deepest"], 0.0), finite.astype(np.float64)], 1)
+                         np.maximum(a["deepest"], 0.0), finite.astype(np.float64),
+                         a["gap"] / np.maximum(a["steps"], 1.0), a["gap0"]], 1)
         return np.concatenate([bits, self._q, self._qd, tail], 1)
 
     # ---- unpacking on the host ------------------------------------------------------------
@@ -295,5 +296,6 @@ class Core:
         """``sanlab.metrics.scores`` of each row's episode so far: what an evaluation ending at
         this state would score (the same float32 arithmetic on the same numbers)."""
         a = out[:, self.n_sensors + 2 * self.ndof :]
-        acc = MetricAcc._make([(a[:, 0], a[:, 1]), a[:, 2], a[:, 3], a[:, 4], a[:, 5] > 0, (a[:, 6], a[:, 7]), a[:, 8]])
+        acc = MetricAcc._make([(a[:, 0], a[:, 1]), a[:, 2], a[:, 3], a[:, 4], a[:, 5] > 0, (a[:, 6], a[:, 7]), a[:, 8],
+                               a[:, 10], a[:, 11]])
         return scores(self.metric, acc, a[:, 9] > 0, self.seconds, self.spec.world.plane)

@@ -285,12 +285,13 @@ ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers 
 
 # what the observers accumulate per row (step.h, "observers"): the metric's ingredients (start
 # and end centre of mass (m), start height, hopping's integral (m^2 s), pursuit's (m), fell (0/1),
-# deepest contact (m)), then the descriptors' sums; then duty [touch sensors], the ring of sensor
-# words and their start times [EVENTS] each
+# deepest contact (m)), then the descriptors' sums, then tracking's (the sum over steps of the
+# distance to the follow point, and that distance at the first step, m); then duty [touch
+# sensors], the ring of sensor words and their start times [EVENTS] each
 ACC = ("p0x", "p0y", "y0", "hop", "pursuit", "fell", "deepest", "px", "py", "steps", "height", "height2", "turn",
-       "angle", "airborne", "joint_speed", "word", "candidate", "since", "changes")
+       "angle", "airborne", "joint_speed", "word", "candidate", "since", "changes", "gap", "gap0")
 EVENTS = 64
-METRIC_KINDS = ("distance", "distance_upright", "hopping", "pursuit")
+METRIC_KINDS = ("distance", "distance_upright", "hopping", "pursuit", "tracking")
 
 
 @dataclass(frozen=True)
@@ -299,7 +300,7 @@ class Observe:
     ``sanlab.metrics``) and the behaviour descriptors (``sanlab.descriptors``). Link, dof and sensor
     numbers index the model's; angles in rad, heights in m above the ground."""
 
-    kind: str = "distance"  # one of METRIC_KINDS: which integral to keep (hopping's, pursuit's)
+    kind: str = "distance"  # one of METRIC_KINDS: which integral to keep (hopping's, pursuit's, tracking's)
     fell_links: tuple[int, ...] = ()  # fallen once one turns past fell_angle from upright
     fell_angle: float = math.pi / 2
     fell_com_height: float | None = None  # fallen once the centre of mass comes closer to the ground
@@ -321,6 +322,8 @@ class Observe:
         L, S, D = pk.li.shape[0], pk.si.shape[0], pk.ndof
         if self.kind not in METRIC_KINDS:
             raise ValueError(f"observe.kind: expected one of {METRIC_KINDS}, got {self.kind!r}")
+        if self.kind in ("pursuit", "tracking") and not pk.wi[W_FOLLOW]:
+            raise ValueError(f"observe.kind: {self.kind} needs a follow path (the model has none)")
         for name, values, n in (("fell_links", self.fell_links, L), ("joints", self.joints, D),
                                 ("touch", self.touch, S), ("root", () if self.root == -1 else (self.root,), L)):
             bad = [v for v in values if not (isinstance(v, (int, np.integer)) and 0 <= v < n)]

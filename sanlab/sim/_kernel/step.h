@@ -1103,7 +1103,7 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
 // behaviour descriptors, per lane, updated before each step from its prepared tile. The host turns
 // them into scores with the same functions as before (metrics.scores, descriptors.values).
 //
-// Config oi: kind (0 distance, 1 distance_upright, 2 hopping, 3 pursuit), fell_com (0/1),
+// Config oi: kind (0 distance, 1 distance_upright, 2 hopping, 3 pursuit, 4 tracking), fell_com (0/1),
 // fell_link (0/1), depth (0/1: track the deepest contact), root (descriptors' rotating root, -1
 // none), sensors (descriptors' word: 0 = no word), n_fell, n_joints, n_touch, then the fell links,
 // the joints' dofs and the touch sensors' indices; of: fell angle (rad), fell COM height, fell link
@@ -1113,8 +1113,10 @@ constexpr int EVENTS = 64;
 constexpr double DEBOUNCE_S = 0.02;
 // accumulators, one V each: the metric's, then the descriptors' (duty [n_touch], words and times
 // [EVENTS] at the end)
+// (tracking's gap: the sum over steps of the distance from the centre of mass to the follow point,
+// and that distance at the first step)
 enum { A_P0X, A_P0Y, A_Y0, A_HOP, A_PURSUIT, A_FELL, A_DEEPEST, A_PX, A_PY, A_STEPS, A_HEIGHT, A_HEIGHT2, A_TURN,
-       A_ANGLE, A_AIRBORNE, A_JOINT_SPEED, A_WORD, A_CAND, A_SINCE, A_CHANGES, A_FIXED };
+       A_ANGLE, A_AIRBORNE, A_JOINT_SPEED, A_WORD, A_CAND, A_SINCE, A_CHANGES, A_GAP, A_GAP0, A_FIXED };
 
 inline int obs_values(const int32_t *oi) { return A_FIXED + oi[O_NTOUCH] + 2 * EVENTS; }
 
@@ -1258,6 +1260,13 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
     V dx = fx - px, dy = fy - py;
     V inv = 1.0 / Ls::max(Ls::sqrt(dx * dx + dy * dy), V{} + 1e-9);
     acc[A_PURSUIT] = acc[A_PURSUIT] + (vx * dx + vy * dy) * inv * dt;
+  } else if (oi[O_KIND] == 4) {
+    V fx, fy;
+    follow_point(m, t, time, fx, fy);
+    V dx = fx - px, dy = fy - py;
+    V gap = Ls::sqrt(dx * dx + dy * dy);
+    acc[A_GAP0] = Ls::sel(acc[A_STEPS] > 0.0, acc[A_GAP0], gap);
+    acc[A_GAP] = acc[A_GAP] + gap;
   }
   if (oi[O_DEPTH] && m.C) {
     V d = t.depth[0];
