@@ -164,6 +164,9 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     t0 = time.perf_counter()
     ens = default_ensemble(s.ensemble)
     stated = design.creature()
+    if stated.evaluation.metric == "tracking":  # a ratio: the body search compares speeds (cm/s)
+        raise ValueError(f"{where}: evaluation.metric: expected a metric a body can be scored by as a speed "
+                         "(distance, distance_upright, hopping or pursuit), got 'tracking'")
     if len(stated.history) >= MAX_HISTORY:  # the chosen body's file could not add its entry
         raise ValueError(f"{where}: history: expected fewer than {MAX_HISTORY} entries (a design adds one), "
                          f"got {len(stated.history)}")

@@ -334,3 +334,18 @@ def test_the_reports_notes_say_the_audits_nudges_and_members():
     assert [n for n, _, _ in NUDGES] == ["dt/2", "dt/4"] and "with the step at dt/2 and dt/4" in note
     assert f"({MEMBERS}, and up to {MAX_MEMBERS} in further looks" in note and "over the 2 nudges together" in note
     assert "32" not in note and "and in float64" not in note  # the XLA engine's audit: 32 starts, a float64 nudge
+
+
+def test_standing_still_tracks_as_the_kernel_scores_a_still_creature():
+    # "moved usefully" under tracking compares a SAN's score with standing still's, worked out on
+    # the host from the follow path: it must be the kernel's score of a creature that stays put
+    from sanlab.creature.spec import Creature, Evaluation, Follow, Ground, Link, Shape, World
+    from sanlab.reproduce import _still_tracking
+    from tests.test_metrics import evaluate
+
+    dot = Link("dot", 1.0, 0.0, (0.2, -0.1), Shape("point"), contacts=())
+    world = World(plane="horizontal", ground=Ground(friction=0.0), follow=Follow(((1.0, 0.0), (2.0, 1.0), (3.0, 0.0)), 0.4))
+    spec = Creature("dot", (dot,), world=world, evaluation=Evaluation(metric="tracking"))
+    still = evaluate(spec, None, seconds=3.0)["score"]
+    assert _still_tracking(spec, 3.0) == pytest.approx(still, rel=1e-9)
+    assert 0.3 < still < 0.9  # the point drew away from it

@@ -442,3 +442,16 @@ def test_the_written_file_says_the_trials_length_when_it_is_not_the_files(monkey
                    "trials)" in r.text
             [entry] = loads(r.text).history
             assert f"robust tuned speed {r.chosen.speed(0):.1f} cm/s{said} on the search's seed 0" in entry
+
+
+def test_a_file_scored_by_tracking_is_refused_in_one_line(tmp_path):
+    # a body is chosen by its robust tuned speed; tracking's score is a ratio, not a speed
+    text = (ROOT / "experiments" / "crawler_design.toml").read_text()
+    assert 'metric = "pursuit"' in text
+    path = tmp_path / "crawler_tracking.toml"
+    path.write_text(text.replace('metric = "pursuit"', 'metric = "tracking"', 1))
+    r = runner.invoke(app, ["design", str(path), "--db", str(tmp_path / "x.db")])
+    assert r.exit_code == 2 and "evaluation.metric: expected a metric a body can be scored by as a speed" in r.output
+    assert len(r.output.strip().splitlines()) == 1
+    with Library(str(tmp_path / "x.db")) as lib:
+        assert lib.designs() == []  # refused before anything was stored

@@ -189,6 +189,23 @@ def test_steps_are_a_rollouts_and_the_return_is_its_score(env):
     np.testing.assert_array_equal(core.q(e._out)[0], r["q"])
 
 
+def test_under_tracking_the_return_is_the_rollouts_score_too():
+    """The crawler scored by tracking (a ratio of the start distance to the follow point over the
+    mean distance so far, not an integral): the rewards still sum to the rollout's score exactly."""
+    e = gymnasium.make("sanlab/Crawler-v0", metric="tracking", seconds=0.5).unwrapped
+    core = e.core
+    U = activations(2, 500, core.n_actuators)
+    want = replay(core.model, U, Metric.for_creature(core.spec, "tracking"), core.seconds)["score"][0]
+    e.reset(seed=0)
+    total, info = 0.0, {}
+    for u in U:
+        _, reward, terminated, truncated, info = e.step(core.targets(u))
+        total += reward
+    e.close()
+    assert 0.5 < want < 2.0  # about its start distance: the point barely moved in 0.5 s
+    assert total == want == info["score"]
+
+
 def test_frame_skip_is_that_many_steps_and_falling_ends_it(tippy, tippy_file):
     """With frame_skip 5 an environment step is 5 simulator steps under one action (the same
     numbers as a rollout holding each activation 5 steps); the fall ends the episode
