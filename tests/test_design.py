@@ -55,6 +55,9 @@ def test_a_design_file_at_its_defaults_loads_as_the_built_in(name):
     from sanlab.sim.compiler import compile_creature
 
     a, b = loads(read_source(name)[0]), loads((ROOT / "experiments" / f"{name}_design.toml").read_text())
+    if name == "crawler":  # the built-in is scored by tracking, which a design cannot be (the file says why)
+        assert (a.evaluation.metric, b.evaluation.metric) == ("tracking", "pursuit")
+        b = dataclasses.replace(b, evaluation=dataclasses.replace(b.evaluation, metric="tracking"))
     _close(a, b, where=name)
     ma, mb = compile_creature(a, "float64"), compile_creature(b, "float64")
     assert ma.structure == mb.structure
