@@ -125,6 +125,7 @@ def tracking(lib, run_id: str, tuned_gait: str) -> dict:
 
     evs = lib.top(run_id, None)
     median = evs[len(evs) // 2]
+    metric = lib.get_run(run_id).metric or "pursuit"
     out = {}
     for label, gid in (("best", tuned_gait), ("median random", f"{run_id}#{median.idx}")):
         g = Gait.from_library(lib, gid)
@@ -134,7 +135,6 @@ def tracking(lib, run_id: str, tuned_gait: str) -> dict:
         com = sim.poses(model, frames.q[0])["com"]
         target = sim.follow_point(model, np.asarray(frames.t, np.float64))
         dist = np.linalg.norm(np.asarray(com) - np.asarray(target), axis=1)
-        metric = lib.get_run(run_id).metric or "pursuit"
         out[label] = {"gait": gid, "mean_distance_m": float(dist.mean()), metric: float(lib.gait(gid).score)}
     return out
 
