@@ -41,7 +41,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from sanlab.creature import geometry
-from sanlab.creature.spec import MAX_PENETRATION, METRICS, PENETRATION_FRACTION
+from sanlab.creature.spec import FOLLOW_METRICS, MAX_PENETRATION, METRICS, PENETRATION_FRACTION
 
 
 class MetricAcc(NamedTuple):
@@ -85,7 +85,7 @@ class Metric:
             shown = repr(kind) if isinstance(kind, str) and len(kind) < 40 else type(kind).__name__
             raise ValueError(f"metric: expected one of {list(METRICS)}, got {shown}")
         ev = spec.evaluation
-        if kind in ("pursuit", "tracking") and spec.world.follow is None:
+        if kind in FOLLOW_METRICS and spec.world.follow is None:
             raise ValueError(f"metric {kind} needs a follow point ([world.follow] in the creature file)")
         if kind == "distance_upright" and not ev.can_fall:
             raise ValueError("metric distance_upright needs a way to fall (evaluation.fell_link or "

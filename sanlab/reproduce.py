@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from sanlab.creature import load, loads, read_source
-from sanlab.creature.spec import Terrain
+from sanlab.creature.spec import FOLLOW_METRICS, Terrain
 from sanlab.creature.table1 import TABLE1
 from sanlab.evaluate.ensemble import Ensemble, default_ensemble
 from sanlab.library import Library, Run, SearchSettings, TuneSettings
@@ -598,7 +598,7 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     row = Row(name, counts, paper, run_id, best[0].speed_cm_s, tuned.speed_cm_s, tuned.gait_id,
               useful_fraction(lib, run_id, spec, seconds), 0.0, spec.evaluation.metric, report, stored, robust,
               seed=seed, chains=[c[0].speed_cm_s for c in chains])
-    if spec.evaluation.metric in ("pursuit", "tracking"):
+    if spec.evaluation.metric in FOLLOW_METRICS:
         shown = robust["gait"] if robust and robust["gait"] else tuned.gait_id
         row.tracking = tracking(lib, run_id, shown)
     from sanlab.evaluate.evaluator import describe_devices

@@ -55,6 +55,7 @@ from .spec import (
     DELAY_RANGE,
     DIRECTIONS,
     DT_RANGE,
+    FOLLOW_METRICS,
     MAX_ACTUATORS,
     MAX_CONTACTS,
     MAX_DESCRIPTION,
@@ -235,7 +236,7 @@ def _creature(t: _Table, default_name: str) -> Creature:
             if getattr(evaluation, key) is not None:
                 raise t.error(f"evaluation.{key}", "no height in a horizontal plane (seen from above there is no up)",
                               getattr(evaluation, key))
-    if evaluation.metric in ("pursuit", "tracking") and world.follow is None:
+    if evaluation.metric in FOLLOW_METRICS and world.follow is None:
         raise t.error("world.follow", f"a follow path (evaluation.metric is {evaluation.metric!r})", _MISSING)
     driven: dict[str, int] = {}
     for i, a in enumerate(actuators):

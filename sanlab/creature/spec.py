@@ -28,6 +28,7 @@ TERRAIN_KINDS: tuple[TerrainKind, ...] = get_args(TerrainKind)
 PLANES: tuple[Plane, ...] = get_args(Plane)
 METRICS: tuple[MetricName, ...] = get_args(MetricName)  # paper §5.1; see sanlab.metrics
 DIRECTIONS: tuple[Direction, ...] = get_args(Direction)
+FOLLOW_METRICS = ("pursuit", "tracking")  # the metrics that score following the point ([world.follow])
 # The unit of each metric's score (hopping adds k times a height integral in m^2 s to metres).
 SCORE_UNITS: dict[str, str] = {"distance": "m", "distance_upright": "m", "hopping": "m + k m^2 s", "pursuit": "m",
                                "tracking": "ratio"}
