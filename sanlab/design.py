@@ -46,7 +46,7 @@ import numpy as np
 from sanlab import __version__
 from sanlab.creature import CreatureError, printable
 from sanlab.creature.free import Design
-from sanlab.creature.spec import MAX_HISTORY, MAX_HISTORY_ENTRY
+from sanlab.creature.spec import MAX_HISTORY, MAX_HISTORY_ENTRY, METRICS
 from sanlab.evaluate.ensemble import default_ensemble
 from sanlab.library import Library, LibraryError
 from sanlab.search.bodies import BodyProblem, make_bodies
@@ -165,8 +165,9 @@ def run_design(lib: Library, design: Design, text: str, where: str, settings: De
     ens = default_ensemble(s.ensemble)
     stated = design.creature()
     if stated.evaluation.metric == "tracking":  # a ratio: the body search compares speeds (cm/s)
+        speeds = ", ".join(m for m in METRICS if m != "tracking")
         raise ValueError(f"{where}: evaluation.metric: expected a metric a body can be scored by as a speed "
-                         "(distance, distance_upright, hopping or pursuit), got 'tracking'")
+                         f"({speeds}), got 'tracking'")
     if len(stated.history) >= MAX_HISTORY:  # the chosen body's file could not add its entry
         raise ValueError(f"{where}: history: expected fewer than {MAX_HISTORY} entries (a design adds one), "
                          f"got {len(stated.history)}")

@@ -831,8 +831,8 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
               "", "*(resumed)*: an earlier call on the same library had stored some of this creature's work; "
               "the wall time counts this call only.",
               "", "A random SAN *moved usefully* when the run stayed finite, the creature did not fall, and it "
-              "travelled at least 10 % of its Table 1 speed (at least 2 cm/s); for a creature scored by pursuit "
-              "(the fish), when its pursuit score was at least 10 % of the distance the follow point travelled; by "
+              "travelled at least 10 % of its Table 1 speed (at least 2 cm/s); for a creature scored by pursuit, "
+              "when its pursuit score was at least 10 % of the distance the follow point travelled; by "
               "tracking, when its mean distance to the follow point was at least 10 % below that of the creature "
               "standing still at its start."]
     tracked = [r for r in rows if r.tracking]
