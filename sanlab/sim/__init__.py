@@ -14,6 +14,7 @@ from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.rollout import (
     ConstantController,
     Frames,
+    PatternController,
     ReflexController,
     Result,
     SineController,
@@ -43,6 +44,6 @@ __all__ = [
     "State", "SanState", "centre_of_mass", "energy", "follow_point", "poses", "initial_state", "make_state", "sense",
     "step", "terrain_height", "velocity", "wrap_angle", "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
-    "ConstantController", "Frames", "ReflexController", "Result", "SineController",
+    "ConstantController", "Frames", "PatternController", "ReflexController", "Result", "SineController",
     "batch_quantum", "devices", "rollout",
 ]

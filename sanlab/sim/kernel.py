@@ -466,7 +466,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     return res
 
 
-KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3}  # the kernel's controllers (kernel.cpp)
+KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3, "pattern": 4}  # the kernel's controllers (kernel.cpp)
 
 
 def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 0.0, rows: dict | None = None,
@@ -479,16 +479,20 @@ def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 
     - ``"sine"``: params [B, A + 1] = (phases (rad)..., f (Hz)): u_a = 0.5 + 0.5 sin(2 pi f t +
       phase_a), t the row's time before the step (s, from ``t0``; ``sim.SineController`` from 0);
     - ``"reflex"``: params (W [B, A, S], b [B, A]): u = clip(W bits + b, 0, 1) of the step's
-      sensor values (``sim.ReflexController``).
+      sensor values (``sim.ReflexController``);
+    - ``"pattern"``: params [B, 4 A + 1] = per actuator (phase, duty, low, high), then the period
+      T (s): u_a = high_a while frac(t / T - phase_a) < duty_a, else low_a (a square wave;
+      ``sim.PatternController``); phase and duty are fractions of the period, the levels
+      activations in [0, 1], T > 0.
 
     q, p [B, D], anchor [B, C, 2]; t0, rows, observe, acc, every and scalar as for
     :func:`run_san`. Returns what :func:`run_san` returns but the SAN's state: q, p, anchor, t,
     dmax, qd, with ``observe`` acc, with ``every`` frames_q, frames_qd [B, F, D], frames_bits
     [B, F, S], frames_u [B, F, A]. Raises ValueError naming the argument for an unknown kind,
-    parameters of the wrong shape, not finite or (hold) outside [0, 1], state arrays of the
+    parameters of the wrong shape, not finite, (hold) outside [0, 1] or (pattern) with a period <= 0 or levels outside [0, 1], state arrays of the
     wrong shape, a negative ``steps`` or ``every``, or a per-row table of the wrong shape."""
-    if kind not in ("hold", "sine", "reflex"):
-        raise ValueError(f"kind: expected 'hold', 'sine' or 'reflex', got {kind!r}")
+    if kind not in ("hold", "sine", "reflex", "pattern"):
+        raise ValueError(f"kind: expected 'hold', 'sine', 'reflex' or 'pattern', got {kind!r}")
     B = np.shape(q)[0]
     A, S = pk.ai.shape[0], pk.si.shape[0]
     if kind == "hold":
@@ -497,6 +501,11 @@ def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 
             raise ValueError("params: hold's activations must lie in [0, 1]")
     elif kind == "sine":
         par = _shaped("params", params, (B, A + 1))
+    elif kind == "pattern":
+        par = _shaped("params", params, (B, 4 * A + 1))
+        levels = par[:, :4 * A].reshape(B, A, 4)[:, :, 2:]
+        if not (np.all(par[:, -1] > 0) and np.all((levels >= 0.0) & (levels <= 1.0))):
+            raise ValueError("params: a pattern's period must be > 0 and its levels lie in [0, 1]")
     else:
         if not isinstance(params, (tuple, list)) or len(params) != 2:
             raise ValueError("params: reflex takes (W [B, A, S], b [B, A])")

@@ -10,7 +10,9 @@ A controller is one of the kinds the kernel runs, named by its ``kind``:
   [B, N, I] integers in [-2, 2], k1, k2 [B, N] in 1/s);
 - ``"hold"``: :class:`ConstantController`, activations [B, A] held;
 - ``"sine"``: :class:`SineController`, params [B, A + 1] (phases in rad, then f in Hz);
-- ``"reflex"``: :class:`ReflexController`, params (W [B, A, S], b [B, A]).
+- ``"reflex"``: :class:`ReflexController`, params (W [B, A, S], b [B, A]);
+- ``"pattern"``: :class:`PatternController`, params [B, 4 A + 1] (per actuator phase, duty, low
+  and high level, then the period in s): an open-loop square wave per actuator.
 
 An observer asks the kernel for accumulators and turns them into its own (``sanlab.metrics.Metric``
 and ``sanlab.descriptors.Descriptors`` are observers):
@@ -139,8 +141,8 @@ def rollout(
         spacing = 1.0 / (record_fps * dt) if record_fps * dt > 0 else math.inf
         every = steps + 1 if spacing >= steps + 1 else max(1, int(round(spacing)))
     kind = getattr(controller, "kind", None)
-    if kind not in ("san", "hold", "sine", "reflex"):
-        raise ValueError(f"controller: expected one of the kernel's kinds (san, hold, sine, reflex), got {controller!r}")
+    if kind not in kernel.KINDS:
+        raise ValueError(f"controller: expected one of the kernel's kinds ({', '.join(kernel.KINDS)}), got {controller!r}")
     hidden = int(controller.n_hidden) if kind == "san" else 0  # type: ignore[attr-defined]
     pk = packed(one, hidden)
     B = _batch(kind, cparams)
@@ -244,3 +246,14 @@ class ReflexController:
     """Closed loop through the sensors: u = clip(W @ bits + b, 0, 1); params (W [B, A, S], b [B, A])."""
 
     kind = "reflex"
+
+
+@dataclass(frozen=True)
+class PatternController:
+    """Open loop, a square wave per actuator: u_a = high_a while frac(t / T - phase_a) < duty_a,
+    else low_a; params [B, 4 A + 1] = per actuator (phase, duty, low, high), then the period T
+    (s). Phase and duty are fractions of the period, the levels activations in [0, 1]. The
+    actuators switch between set targets as a SAN's actuator nodes do, but on a clock instead
+    of the sensors (the pattern ceiling, ``sanlab.search.pattern``)."""
+
+    kind = "pattern"

@@ -340,3 +340,52 @@ def test_bad_arguments_to_the_inspectors_are_refused_by_name():
     with pytest.raises(ValueError, match=r"^rows\['lf'\]"):
         kernel.poses(pk, q, rows={"lf": pk.lf})
     assert kernel.sense(pk, q, 0.5).shape == (3, m.structure.n_sensors)  # one time for every row
+
+
+def pattern_params(m, rows: int = B, seed: int = 2) -> np.ndarray:
+    """``rows`` square-wave patterns for model ``m``: per actuator (phase, duty, low, high), then the period (s)."""
+    rng = np.random.default_rng(seed)
+    A = len(m.structure.actuators)
+    per = np.stack([rng.uniform(0, 1, (rows, A)), rng.uniform(0.1, 0.9, (rows, A)), rng.uniform(0, 0.5, (rows, A)),
+                    rng.uniform(0.5, 1, (rows, A))], 2).reshape(rows, 4 * A)
+    return np.concatenate([per, rng.uniform(0.2, 1.0, (rows, 1))], 1)
+
+
+def test_a_pattern_switches_each_actuator_on_its_own_clock():
+    m = model("bounder")
+    par = pattern_params(m)
+    A = len(m.structure.actuators)
+    t0 = np.linspace(0.0, 2.0, B)
+    dt = float(m.structure.dt)
+    n = int(1.05 / dt)  # over a whole period of the slowest (1 s)
+    k = kernel.run_open(kernel.pack(m, 0), "pattern", par, *at_rest(m), n, t0=t0, every=1)
+    phase, duty, low, high = (par[:, :4 * A].reshape(B, A, 4)[:, :, i] for i in range(4))
+    period = par[:, -1:]
+    t = t0[:, None] + np.arange(n)[None] * dt  # [B, F]
+    x = t[:, :, None] / period[:, :, None] - phase[:, None]
+    on = (x - np.floor(x)) < duty[:, None]
+    u = np.where(on, high[:, None], low[:, None])
+    edge = np.abs((x - np.floor(x)) - duty[:, None]) < 1e-9  # on the switching instant the last bit decides
+    np.testing.assert_array_equal(np.where(edge, 0, k["frames_u"]), np.where(edge, 0, u))
+    assert np.all(k["frames_u"].max(1) == high) and np.all(k["frames_u"].min(1) == low)  # every actuator switched
+
+
+def test_a_pattern_is_the_same_alone_and_anywhere_in_a_batch():
+    m = model("walker")
+    par = pattern_params(m, rows=13)
+    batch = sim.rollout(m, sim.PatternController(), par, 0.5)
+    for i in (0, 7, 12):
+        alone = sim.rollout(m, sim.PatternController(), par[i:i + 1], 0.5)
+        np.testing.assert_array_equal(alone.state.q[0], batch.state.q[i])
+
+
+@pytest.mark.parametrize("bad", ["period", "level"])
+def test_a_pattern_refuses_a_period_or_level_it_cannot_play(bad):
+    m = model("cart")
+    par = pattern_params(m, rows=2)
+    if bad == "period":
+        par[1, -1] = 0.0
+    else:
+        par[0, 3] = 1.5
+    with pytest.raises(ValueError, match="period must be > 0 and its levels lie in"):
+        kernel.run_open(kernel.pack(m, 0), "pattern", par, *at_rest(m, 2), 3)

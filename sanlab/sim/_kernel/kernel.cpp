@@ -24,7 +24,7 @@ using namespace sanlab;
 // [0, 1] from the tile's sensor values t.bits at time `time` (s), its parameters `par` [n_param]
 // and its state `st` [n_state] (updated in place), both values of V in the tile's scratch.
 // One rollout template serves them all, so every kind steps, observes and records alike.
-enum { K_SAN, K_HOLD, K_SINE, K_REFLEX };
+enum { K_SAN, K_HOLD, K_SINE, K_REFLEX, K_PATTERN };
 
 // the SAN (step.h: san): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
 template <class V> struct SanControl {
@@ -61,6 +61,25 @@ template <class V> struct SineControl {
       V s, c;
       sincos(w + par[a], s, c);
       t.act[a] = 0.5 + 0.5 * s;
+    }
+  }
+};
+
+// An open-loop square wave per actuator (sim.PatternController): u_a = high_a while the phase of
+// the cycle, frac(t / period - phase_a), lies below duty_a, else low_a. par: (phase_a, duty_a,
+// low_a, high_a) for each actuator (phase and duty as fractions of the period, levels as
+// activations in [0, 1]), then the period (s); t is the rollout's time before the step.
+template <class V> struct PatternControl {
+  static size_t n_param(const Model &m) { return 4 * (size_t)m.A + 1; }
+  static size_t n_state(const Model &) { return 0; }
+  PatternControl at(int64_t) const { return *this; }
+  void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
+    using Ls = Lanes<V>;
+    const V cycles = time / par[4 * m.A];
+    for (int a = 0; a < m.A; ++a) {
+      const V *pa = par + 4 * a;
+      const V x = cycles - pa[0];
+      t.act[a] = Ls::sel(x - Ls::floor(x) < pa[1], pa[3], pa[2]);
     }
   }
 };
@@ -250,6 +269,7 @@ static void rollout_kind(int32_t kind, const int32_t *dims, const void *const *t
   if (kind == K_SAN) run(SanControl<V>{(const short *)weights, NP, (size_t)Lanes<V>::W * dims[9] * NP});
   else if (kind == K_HOLD) run(HoldControl<V>{});
   else if (kind == K_SINE) run(SineControl<V>{});
+  else if (kind == K_PATTERN) run(PatternControl<V>{});
   else run(ReflexControl<V>{});
 }
 
@@ -324,7 +344,7 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // Runs `steps` steps of T tiles of W creatures under one kind of controller (kernel.py: run_san,
 // run_open); scalar = 1: one creature per thread in plain double (W = 1), the form a GPU thread
 // runs, here for the tests that it steps every creature bit for bit as the vector form does.
-// kind: 0 SAN, 1 hold, 2 sine, 3 reflex (see the controllers above for their parameters).
+// kind: 0 SAN, 1 hold, 2 sine, 3 reflex, 4 pattern (see the controllers above for their parameters).
 // dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py; N = 0 and I = S but for a SAN);
 // tables: the creature's tables in the order of kernel.TABLES; per_row: for each float table but
 // the follow path (lf, cf, sf, af, pf, ef, wf, rough), 1 where it holds one copy per row
