@@ -393,7 +393,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
     def scored(factor: float, dtype: str, ensemble: Ensemble, k: Key):
         ev = nudged_evaluator(g.spec, factor, dtype, batch=1, metric=g.metric, seconds=g.seconds, terrain=terrain,
                               ensemble=ensemble, morphology=morphology)
-        return ev(g.weights[None], theta, [k])
+        return ev(g.weights[None], theta, [k], patterns=g.patterns())
 
     def evaluate(M: int, rows: list[int]):
         assert rows == [0]

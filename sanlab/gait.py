@@ -29,8 +29,9 @@ _MODEL_KEYS = {
     "contact": ("C", 2), "act_pts": ("A", 2, 2), "sens_pts": ("S", 2, 2), "spr_pts": ("N", 2, 2),
     "edge": ("E", 2, 2), "q0": ("D",), "root_pose": ("L", 3), "contact_load": ("C",),
 }  # fmt: skip
-_PARAM_KEYS = {"delay_on", "delay_off", "k1", "k2", "model", "scale", "free"}
+_PARAM_KEYS = {"delay_on", "delay_off", "k1", "k2", "model", "scale", "free", "pattern"}
 SCALE_RANGE = (0.1, 10.0)  # link length scales (tuning keeps them in [0.5, 1.5])
+PERIOD_RANGE = (0.01, 100.0)  # s: a stored pattern's period (the pattern search keeps to a narrower range)
 
 
 def check_params(spec: Creature, params: Any) -> None:
@@ -39,7 +40,8 @@ def check_params(spec: Creature, params: Any) -> None:
     spec.DELAY_RANGE (s), per node if given as rates (k1 [N] > 0, k2 [N] < 0, both or neither);
     model overrides of known Params arrays with this creature's shapes, finite, of magnitude at
     most spec.MAX_MAGNITUDE, each actuator's and range sensor's min < max, gains, masses and
-    inertias >= 0 (masses > 0); length scales [L] in SCALE_RANGE."""
+    inertias >= 0 (masses > 0); length scales [L] in SCALE_RANGE; a pattern [4 A + 1] whose
+    phases, duties and levels lie in [0, 1] and whose period lies in PERIOD_RANGE (s)."""
     if not isinstance(params, dict):
         raise ValueError(f"params: expected an object, got {type(params).__name__}")
     unknown = sorted(str(k)[:40] for k in params if k not in _PARAM_KEYS)
@@ -62,6 +64,15 @@ def check_params(spec: Creature, params: Any) -> None:
         a, b = SCALE_RANGE
         _array(params["scale"], (len(spec.links),), "params.scale", f"{len(spec.links)} length scales in [{a:g}, {b:g}]",
                lambda v: a <= v <= b)
+    if "pattern" in params:
+        A = len(spec.actuators)
+        arr = _array(params["pattern"], (4 * A + 1,), "params.pattern",
+                     f"{A} (phase, duty, low, high) in [0, 1] and a period (s)")
+        if not np.all((arr[:-1] >= 0) & (arr[:-1] <= 1)):
+            raise ValueError("params.pattern: expected phases, duties and levels in [0, 1]")
+        lo, hi = PERIOD_RANGE
+        if not lo <= arr[-1] <= hi:
+            raise ValueError(f"params.pattern: expected a period in [{lo:g}, {hi:g}] s, got {arr[-1]:g}")
     if "free" in params:
         design = spec.design
         if design is None:
@@ -134,6 +145,23 @@ class Gait:
     def san(self) -> San:
         return San.for_creature(self.spec)
 
+    @property
+    def kind(self) -> str:
+        """"pattern" for an open-loop pattern gait (``GaitParams.pattern``), else "san"."""
+        return "san" if self.params.pattern is None else "pattern"
+
+    def require_san(self, what: str) -> None:
+        """Raise ValueError (one line) if this gait is a pattern: it has no SAN to be ``what``
+        (e.g. "tuned", "written as a C header")."""
+        if self.kind == "pattern":
+            raise ValueError(f"gait {self.gait_id} is an open-loop pattern (the pattern ceiling), not a SAN: "
+                             f"it cannot be {what}")
+
+    def patterns(self) -> np.ndarray | None:
+        """A pattern gait's square wave with a leading batch axis of 1 [1, 4 A + 1] (what the
+        evaluator's ``patterns`` takes), None for a SAN."""
+        return None if self.params.pattern is None else np.asarray(self.params.pattern, float)[None]
+
     @classmethod
     def from_library(cls, library: Any, gait_id: str) -> Gait:
         """Look a gait up in a ``sanlab.library.Library`` by "RUN/RANK" or "RUN#IDX" (raises
@@ -149,7 +177,8 @@ class Gait:
                    e.score, e.speed_cm_s, run.creature_text, s.source)
 
     def san_params(self, dtype: str = "float64") -> SanParams:
-        """The controller's parameters with a leading batch axis of 1."""
+        """The controller's parameters with a leading batch axis of 1 (ValueError for a pattern)."""
+        self.require_san("run as a SAN")
         k1, k2 = self.params.rates(self.san.n_nodes, self.spec.san.delay_on, self.spec.san.delay_off)
         w = np.asarray(self.weights)[None]
         return SanParams(*(np.asarray(x, dtype) for x in (w, k1[None], k2[None])))
@@ -169,4 +198,7 @@ class Gait:
         from sanlab import sim
 
         model = model if model is not None else self.model(dtype)
+        pattern = self.patterns()
+        if pattern is not None:
+            return sim.rollout(model, sim.PatternController(), pattern, seconds or self.seconds, record_fps=fps)
         return sim.rollout(model, self.san, self.san_params(dtype), seconds or self.seconds, record_fps=fps)

@@ -164,7 +164,7 @@ def robustness(lib, tuned_gait: str) -> dict:
     for name, terrain in grounds.items():
         ev = Evaluator(g.spec, metric="distance", seconds=g.seconds, terrain=[terrain], ensemble=g.ensemble,
                        space=space, batch=1)
-        r = ev(g.weights[None], theta, [key])
+        r = ev(g.weights[None], theta, [key], patterns=g.patterns())
         out[name] = {"distance_m": float(r.distance_m[0]), "fell": bool(r.fell[0]), "seconds": g.seconds}
     return out
 

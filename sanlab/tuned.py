@@ -70,7 +70,10 @@ def file_values(gait: Gait) -> dict:
     {"rows": [{"part", "name", "value", "file", "unit"}]}: each node's delays (s), each
     actuator's range (deg or m) and gains (N·m/deg, N·m·s/deg or N/m, N·s/m), each range
     sensor's range (deg or m), and with a morphology each link's length scale and mass (kg), or
-    each free number's value (the file's units)."""
+    each free number's value (the file's units). A pattern gait has no SAN: its rows are the
+    pattern's period (s), and each actuator's phase and duty (fractions of the period), its two
+    targets (the levels in the actuator's units) and gains; ``file`` is None where the file has
+    no such number."""
     s, t = gait.spec, _tuned(gait)
     free = gait.params.free
     rows: list[dict[str, Any]] = []
@@ -78,6 +81,21 @@ def file_values(gait: Gait) -> dict:
     def add(part: str, name: str, value: float, file: float | None, unit: str) -> None:
         rows.append({"part": part, "name": name, "value": float(value), "file": None if file is None else float(file),
                      "unit": unit})
+
+    if gait.params.pattern is not None:
+        p = gait.params.pattern
+        add("pattern", "period", p[-1], None, "s")
+        for a, act in enumerate(s.actuators):
+            ang = act.kind == "angular"
+            k, unit = (PER_DEG, "deg") if ang else (1.0, "m")
+            lo, hi = t["act_min"][a], t["act_max"][a]
+            add(f"actuator {act.name}", "phase", p[4 * a], None, "period")
+            add(f"actuator {act.name}", "duty", p[4 * a + 1], None, "period")
+            add(f"actuator {act.name}", "low_deg" if ang else "low", (lo + p[4 * a + 2] * (hi - lo)) * k, None, unit)
+            add(f"actuator {act.name}", "high_deg" if ang else "high", (lo + p[4 * a + 3] * (hi - lo)) * k, None, unit)
+            add(f"actuator {act.name}", "ks", t["act_ks"][a] / k, act.ks / k, "N m/deg" if ang else "N/m")
+            add(f"actuator {act.name}", "kd", t["act_kd"][a] / k, act.kd / k, "N m s/deg" if ang else "N s/m")
+        return {"rows": rows}
 
     on, off = _delays(gait)
     if "k1" in gait.params.to_json():  # tuned: each node its own delays
@@ -127,6 +145,7 @@ def apply_to_file(gait: Gait) -> str:
     raises ValueError if the result is not a valid creature file."""
     import tomlkit
 
+    gait.require_san("written into its creature file")
     s, t = gait.spec, _tuned(gait)
     text = gait.creature_text
     free = gait.params.free

@@ -1,8 +1,8 @@
 """The one evaluator of both phases: batches of controllers -> :class:`~sanlab.evaluate.records.ScoreBatch`.
 
 An :class:`Evaluator` scores controllers on one creature with one metric for a fixed time. Each
-controller is its SAN weights, optionally with a parameter vector of Figure 8 (phase 2: node
-delays, actuator and sensor ranges and gains, link lengths; mapped onto the model by a
+controller is its SAN weights (or an open-loop pattern, ``patterns``), optionally with a
+parameter vector of Figure 8 (phase 2: node delays, actuator and sensor ranges and gains, link lengths; mapped onto the model by a
 ``sanlab.search.space.Space``), and with the key of its ensemble draws
 (``sanlab.evaluate.ensemble``). Each controller runs once per member of the ensemble and once per
 terrain of the evaluator's terrain set, all in one batched rollout (every such copy is one row);
@@ -58,12 +58,15 @@ class Request:
 
     weights: [B, N, I] integers in [-2, 2]. thetas: [B, P] parameter vectors (the evaluator's
     space), or None for the creature file's own parameters. keys: one ensemble key per
-    controller (may be empty with a one-member ensemble).
+    controller (may be empty with a one-member ensemble). patterns: [B, 4 A + 1] open-loop
+    square waves (``sanlab.sim.PatternController``) run instead of the SANs (whose weights are
+    then unused), or None.
     """
 
     weights: np.ndarray
     thetas: np.ndarray | None = None
     keys: tuple[Key, ...] = ()
+    patterns: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.weights)
@@ -152,15 +155,21 @@ class Evaluator:
 
     def evaluate(self, request: Request) -> ScoreBatch:
         """Score one :class:`Request`."""
-        return self(request.weights, request.thetas, request.keys)
+        return self(request.weights, request.thetas, request.keys, patterns=request.patterns)
 
     def __call__(self, weights: np.ndarray, thetas: np.ndarray | None = None,
-                 keys: Sequence[Key] | None = None) -> ScoreBatch:
+                 keys: Sequence[Key] | None = None, *, patterns: np.ndarray | None = None) -> ScoreBatch:
         """weights [B, N, I], thetas [B, P] or None, keys: B ensemble keys (optional with one
         member) -> the B evaluations' scores. Each controller's scores depend only on itself and
-        its key, never on the rest of the batch."""
+        its key, never on the rest of the batch. With ``patterns`` [B, 4 A + 1] the controllers
+        are those open-loop square waves instead of SANs (the weights are unused; the pattern
+        ceiling, ``sanlab.search.pattern``), scored by the same ensemble, metric and terrains."""
         W = np.asarray(weights)
         B = len(W)
+        if patterns is not None:
+            patterns = np.asarray(patterns, float)
+            if patterns.shape != (B, 4 * len(self.spec.actuators) + 1):
+                raise ValueError(f"patterns: expected shape {(B, 4 * len(self.spec.actuators) + 1)}, got {patterns.shape}")
         if thetas is not None:
             if self.space is None:
                 raise ValueError("parameter vectors need an evaluator with a space")
@@ -176,10 +185,12 @@ class Evaluator:
         out = []
         for i in range(0, B, self.batch):
             j = min(B, i + self.batch)
-            out.append(self._rollout(W[i:j], None if thetas is None else thetas[i:j], list(keys[i:j])))
+            out.append(self._rollout(W[i:j], None if thetas is None else thetas[i:j], list(keys[i:j]),
+                                     None if patterns is None else patterns[i:j]))
         return ScoreBatch.concat(out)
 
-    def _rollout(self, W: np.ndarray, thetas: np.ndarray | None, keys: list[Key]) -> ScoreBatch:
+    def _rollout(self, W: np.ndarray, thetas: np.ndarray | None, keys: list[Key],
+                 patterns: np.ndarray | None = None) -> ScoreBatch:
         from sanlab import sim
 
         model, variants = self._compile()
@@ -221,15 +232,19 @@ class Evaluator:
             q = (q0 + dq).astype(model.dtype)  # member 0: exactly the start
             member0 = np.arange(R) % K == 0
             state0 = _start(m, q, member0, need)
-        cp = SanParams(np.repeat(W, reps, axis=0).astype(self.dtype), np.repeat(k1, reps, axis=0).astype(self.dtype),
-                       np.repeat(k2, reps, axis=0).astype(self.dtype))
+        if patterns is None:
+            ctl: Any = self.san
+            cp: Any = SanParams(np.repeat(W, reps, axis=0).astype(self.dtype),
+                                np.repeat(k1, reps, axis=0).astype(self.dtype), np.repeat(k2, reps, axis=0).astype(self.dtype))
+        else:
+            ctl, cp = sim.PatternController(), np.repeat(patterns, reps, axis=0)
         factors = self.ensemble.dt_factors
         if len(factors) == 1:
-            r = sim.rollout(m, self.san, cp, self.seconds, observer=self.observer, state0=state0,
+            r = sim.rollout(m, ctl, cp, self.seconds, observer=self.observer, state0=state0,
                             params_batched=need)
             s, d, sig = self._scores(r)
         else:
-            s, d, sig = self._groups(m, cp, state0, need, R, K)
+            s, d, sig = self._groups(m, ctl, cp, state0, need, R, K)
         if step is not None:  # a member with a longer step ran longer: compare over the nominal time
             for name in ("score", "speed_cm_s", "distance_m", "dx_m"):
                 s[name] = s[name] / step
@@ -254,7 +269,7 @@ class Evaluator:
         d, sig = descriptors.values(self.observer.descriptors, r.acc[1], s["dx_m"], self.seconds)
         return s, d, sig
 
-    def _groups(self, m: Model, cp: SanParams, state0, need: bool, R: int,
+    def _groups(self, m: Model, ctl: Any, cp: Any, state0, need: bool, R: int,
                 K: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], list]:
         """The rows' metric scores when the ensemble's members run at several steps: one rollout
         per step factor over its members' rows (each simulating ``seconds``, so a member at dt/2
@@ -273,7 +288,8 @@ class Evaluator:
             mj = _tree(lambda x, rows=rows: np.asarray(x)[rows], m) if need else m
             mj = mj.with_params(dt=(np.asarray(mj.params.dt, float) * f).astype(self.model.dtype))
             s0 = None if state0 is None else type(state0)(*(take(np.asarray(x)) for x in state0))
-            r = sim.rollout(mj, self.san, SanParams(*(take(np.asarray(x)) for x in cp)), steps=int(round(self.seconds / (dt0 * f))),
+            cj = SanParams(*(take(np.asarray(x)) for x in cp)) if isinstance(cp, SanParams) else take(cp)
+            r = sim.rollout(mj, ctl, cj, steps=int(round(self.seconds / (dt0 * f))),
                             observer=self.observer, state0=s0, params_batched=need)
             sj, dj, gj = self._scores(r)
             for into, part in ((out, sj), (desc, dj)):

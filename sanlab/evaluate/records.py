@@ -29,6 +29,9 @@ class GaitParams:
     SI: actuator ranges and gains, sensor ranges, and with ``--morphology`` masses, lengths and
     the start pose), and with ``--morphology`` ``scale`` [L] (each link's length factor), or, for
     a file with free numbers, ``free`` [F] (every free number's value, ``sanlab.creature.free``).
+    A *pattern* gait (the pattern ceiling, ``sanlab.search.pattern``) is no SAN: ``pattern``
+    [4 A + 1] is its open-loop square wave (per actuator phase, duty, low and high level, then
+    the period in s; ``sanlab.sim.PatternController``), and its weights are unused (all zero).
     Unset fields are absent from the JSON form, which is what the library stores.
     """
 
@@ -39,6 +42,7 @@ class GaitParams:
     model: dict[str, Any] = field(default_factory=dict)
     scale: tuple[float, ...] | None = None
     free: tuple[float, ...] | None = None  # tuned with --morphology on a file with free numbers: all of them [F]
+    pattern: tuple[float, ...] | None = None  # a pattern gait's square wave [4 A + 1] (no SAN)
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -56,6 +60,8 @@ class GaitParams:
             out["scale"] = list(self.scale)
         if self.free is not None:
             out["free"] = list(self.free)
+        if self.pattern is not None:
+            out["pattern"] = list(self.pattern)
         return out
 
     @classmethod
@@ -65,7 +71,8 @@ class GaitParams:
         d = d or {}
         num = lambda k: None if d.get(k) is None else float(d[k])
         return cls(num("delay_on"), num("delay_off"), _floats(d.get("k1")), _floats(d.get("k2")),
-                   dict(d.get("model") or {}), _floats(d.get("scale")), _floats(d.get("free")))
+                   dict(d.get("model") or {}), _floats(d.get("scale")), _floats(d.get("free")),
+                   _floats(d.get("pattern")))
 
     def rates(self, n_nodes: int, delay_on: float, delay_off: float) -> tuple[np.ndarray, np.ndarray]:
         """(k1 [N], k2 [N]) in 1/s: the per-node rates, else from this record's delays, else from

@@ -54,6 +54,7 @@ def header(gait: Any) -> str:
     (tuned, or from its delays, or the creature file's), and the actuator and sensor ranges of
     the model it is replayed with (tuned values where the gait has them), each the float64 the
     kernel computes with."""
+    gait.require_san("written as a C header")
     spec = gait.spec
     san = gait.san
     k1, k2 = gait.params.rates(san.n_nodes, spec.san.delay_on, spec.san.delay_off)

@@ -30,7 +30,7 @@ class Scene:
     com: np.ndarray  # [F, 2]
     u: np.ndarray  # [F, A] actuator activations
     bits: np.ndarray  # [F, S] sensor values
-    nodes: np.ndarray  # [F, H + A] SAN node outputs (hidden first, then actuator nodes)
+    nodes: np.ndarray  # [F, H + A] SAN node outputs (hidden first, then actuator nodes); a pattern's: its activations [F, A]
     n_hidden: int
     fps: float  # requested frame rate
     title: str = ""  # e.g. "3fa1c2d0/1  cart  7.3 cm/s"
@@ -230,8 +230,9 @@ def from_result(gait, model, result, fps: float, title: str = "") -> Scene:
         com=np.asarray(P["com"], float),
         u=np.asarray(fr.u[0], float),
         bits=np.asarray(fr.bits[0], float),
-        nodes=np.asarray(fr.cstate.out[0], float),
-        n_hidden=san.n_hidden,
+        # a pattern has no nodes: its panel shows the actuators' activations
+        nodes=np.asarray(fr.u[0] if gait.kind == "pattern" else fr.cstate.out[0], float),
+        n_hidden=0 if gait.kind == "pattern" else san.n_hidden,
         fps=float(fps),
         title=title,
         follow=follow,
@@ -258,7 +259,8 @@ def gait_title(gait, rank: int | None = None) -> str:
     speed = "" if not np.isfinite(gait.speed_cm_s) else \
         f"  {gait.speed_cm_s:.1f} cm/s" + (f" (median of {K})" if K > 1 else "")
     ranked = f" (rank {rank})" if rank else ""
-    return f"{gait.gait_id}{ranked}  {gait.spec.name}{speed}"
+    kind = "  pattern" if gait.kind == "pattern" else ""  # never mistaken for a SAN
+    return f"{gait.gait_id}{ranked}  {gait.spec.name}{kind}{speed}"
 
 
 def scene(gait, seconds: float | None = None, fps: float = 30.0, title: str | None = None) -> Scene:

@@ -33,7 +33,8 @@ class Candidate:
     weights: SAN weights [N, I]. theta: a parameter vector [P] of the problem's space (None: the
     creature file's parameters). key: its ensemble key (``sanlab.evaluate.ensemble``). role: what
     the strategy asked it for ("controller", "start", "trial" or "final"). stream: which strategy
-    of a :class:`Together` asked it.
+    of a :class:`Together` asked it. pattern: an open-loop square wave [4 A + 1] run instead of
+    the SAN (``sanlab.search.pattern``; the weights are then all zero and unused).
     """
 
     idx: int
@@ -42,6 +43,7 @@ class Candidate:
     key: Key
     role: str = "controller"
     stream: int = 0
+    pattern: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

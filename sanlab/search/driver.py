@@ -122,4 +122,8 @@ def _request(cands: list[Candidate]) -> Request:
     if any(t is None for t in thetas) and not all(t is None for t in thetas):
         raise ValueError("a batch mixes controllers with and without parameter vectors")
     stacked = None if thetas[0] is None else np.stack([np.asarray(t) for t in thetas])
-    return Request(np.stack([c.weights for c in cands]), stacked, tuple(c.key for c in cands))
+    patterns = [c.pattern for c in cands]
+    if any(x is None for x in patterns) and not all(x is None for x in patterns):
+        raise ValueError("a batch mixes patterns and SANs")
+    rows = None if patterns[0] is None else np.stack([np.asarray(x) for x in patterns])
+    return Request(np.stack([c.weights for c in cands]), stacked, tuple(c.key for c in cands), rows)

@@ -131,6 +131,8 @@ def _fresh(library: Library, gait_ids: list[str], method: str, trials: int, seed
     if trials < 1:
         raise ValueError(f"trials: expected >= 1, got {trials}")
     gaits = [Gait.from_library(library, g) for g in gait_ids]
+    for g in gaits:
+        g.require_san("tuned (phase 2 tunes a SAN's parameters)")
     spec = gaits[0].spec
     if any(g.spec != spec for g in gaits):
         raise ValueError("all gaits tuned together must be of the same creature")
