@@ -86,6 +86,7 @@ def search(
         refuse_still(spec, str(creature))
     from sanlab.search import run_search
     from sanlab.search.map_elites import DEFAULT_GENERATION, archive_stats, parse_grid
+    from sanlab.search.pattern import POPSIZE
     from sanlab.search.registry import names
 
     ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
@@ -97,7 +98,7 @@ def search(
     if strategy not in names(1):
         raise fail(f"--strategy: expected one of {', '.join(names(1))}, got {strategy!r}")
     if batch is None:
-        batch = DEFAULT_GENERATION if strategy == "map-elites" else 256
+        batch = DEFAULT_GENERATION if strategy == "map-elites" else POPSIZE if strategy == "pattern" else 256
     text = where = ""
     archive = None
     if creature is not None:

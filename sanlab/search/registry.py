@@ -14,13 +14,17 @@ from __future__ import annotations
 from sanlab.search.anneal import Anneal
 from sanlab.search.base import Problem, Strategy, StrategyClass
 from sanlab.search.bodies import BODIES, make_bodies
+from sanlab.search.catcma import CatCma
 from sanlab.search.map_elites import MapElites
+from sanlab.search.pattern import PatternSearch
 from sanlab.search.random_search import RandomSearch
 from sanlab.search.sga import SGA
 
 STRATEGIES: dict[str, StrategyClass] = {
     "random": RandomSearch,  # phase 1 (§5.2)
+    "catcma": CatCma,  # phase 1: mixed-integer CMA-ES over the weights
     "map-elites": MapElites,  # phase 1: a repertoire over two behaviour descriptors
+    "pattern": PatternSearch,  # phase 1: open-loop patterns by CMA-ES, the pattern ceiling (no SAN)
     "sga": SGA,  # phase 2: stochastic gradient ascent (Figure 9)
     "sa": Anneal,  # phase 2: simulated annealing
 }

@@ -1,0 +1,102 @@
+"""The CMA-ES strategies (``catcma``, ``pattern``) find a known best on toy objectives, and the
+pattern search's vectors decode into patterns the kernel can play.
+
+The toy objectives stand in for the simulator as in test_strategies.py (which checks the ask/tell
+contract and resuming on every registered strategy): a score that is highest at one known point
+of the strategy's space, driven through a real library as the driver drives it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sanlab import __version__, creature
+from sanlab.evaluate import ScoreBatch
+from sanlab.evaluate.records import GaitParams
+from sanlab.library import Library
+from sanlab.san import San
+from sanlab.search.base import Problem
+from sanlab.search.catcma import CatCma, population
+from sanlab.search.pattern import PERIOD_RANGE, PatternSearch, decode
+
+SPEC = creature.load("cart")
+SAN = San.for_creature(SPEC)
+
+
+def batch(scores: list[float]) -> ScoreBatch:
+    s = np.asarray(scores, float)
+    no = np.zeros(len(s), bool)
+    return ScoreBatch(s, s, s, no, no, s[:, None], s[:, None])
+
+
+def drive(strategy, lib: Library, score) -> list[float]:
+    """Ask and tell until done, committing as the driver does; the told scores in order."""
+    told = []
+    while not strategy.done:
+        cands = strategy.ask(64)
+        s = [score(c) for c in cands]
+        told += s
+        t = strategy.tell(cands, batch(s))
+        lib.commit(t.evaluations, t.trace, t.finished)
+    return told
+
+
+def run(lib: Library) -> str:
+    return lib.create_run("search", "cart", "text", {}, seed=0, total=1, sanlab_version=__version__).run_id
+
+
+def test_catcma_finds_the_weights_of_a_known_best(tmp_path):
+    small = San(3, 2, 1)  # 3 x 6 = 18 weights: the toy runs in a second
+    target = small.random_weights(7, 0)  # any SAN: the toy's best
+    score = lambda c: -float(np.sum((c.weights.astype(float) - target) ** 2))
+    with Library(str(tmp_path / "a.db")) as lib:
+        s = CatCma(Problem(run(lib), small, 1500, seed=1, gait_params=GaitParams(0.1, 0.1)))
+        assert s.popsize == population(small.n_weights) == 12  # 4 + floor(3 ln 18)
+        assert population(SAN.n_weights) == 16  # the cart's 72 weights
+        told = drive(s, lib, score)
+        first, last = max(told[:s.popsize]), max(told)
+        assert last == 0.0  # every one of the 18 weights found
+        assert first < -10  # and not by a lucky first draw
+        best = lib.top(s.run_ids[0], 1)[0]
+        assert np.array_equal(small.decode(best.encoding), target)
+        assert best.params == {"delay_on": 0.1, "delay_off": 0.1}  # a phase-1 gait: the file's delays
+
+
+def test_the_pattern_search_finds_a_known_best_pattern(tmp_path):
+    A = SAN.n_actuators
+    want = decode(np.array([0.3, 0.6, 0.1, 0.9] * A + [0.5]), A)
+
+    def score(c):
+        p = c.pattern
+        phase = np.abs((p[0:4 * A:4] - want[0:4 * A:4] + 0.5) % 1.0 - 0.5)  # round the cycle
+        rest = [i for i in range(4 * A + 1) if i % 4 != 0 or i == 4 * A]
+        return -float(np.sum(phase**2) + np.sum((p[rest] - want[rest]) ** 2))
+
+    with Library(str(tmp_path / "a.db")) as lib:
+        s = PatternSearch(Problem(run(lib), SAN, 1600, seed=2, generation=16))
+        told = drive(s, lib, score)
+        assert max(told) > -1e-4
+        best = lib.top(s.run_ids[0], 1)[0]
+        got = np.asarray(best.params["pattern"])
+        np.testing.assert_allclose(got[-1], want[-1], rtol=0.02)  # the period, s
+        assert not best.params.keys() - {"pattern"}  # a pattern gait: no delays, no SAN parameters
+        assert not SAN.decode(best.encoding).any()
+
+
+def test_a_decoded_pattern_lies_where_the_kernel_can_play_it():
+    rng = np.random.default_rng(0)
+    x = rng.normal(0.5, 2.0, (200, 4 * 3 + 1))  # CMA-ES points well outside the unit cube
+    p = decode(x, 3)
+    assert np.all((p[:, :12] >= 0) & (p[:, :12] <= 1))
+    assert np.all((p[:, 12] >= PERIOD_RANGE[0]) & (p[:, 12] <= PERIOD_RANGE[1]))
+    np.testing.assert_allclose(p[:, 0:12:4], np.mod(x[:, 0:12:4], 1.0))  # phases wrap, they are not clipped
+
+
+@pytest.mark.parametrize("cls", [CatCma, PatternSearch])
+def test_a_search_of_one_seed_asks_the_same_and_another_seed_does_not(cls, tmp_path):
+    def first(seed):
+        s = cls(Problem("r", SAN, 40, seed=seed, gait_params=GaitParams(0.1, 0.1), generation=8))
+        return [c.weights.tobytes() + (b"" if c.pattern is None else c.pattern.tobytes()) for c in s.ask(8)]
+
+    assert first(3) == first(3) and first(3) != first(4)
