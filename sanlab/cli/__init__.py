@@ -21,7 +21,7 @@ from typing import Annotated, Any
 import typer
 
 from sanlab import __version__
-from sanlab.cli import audit, creatures, design, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
+from sanlab.cli import audit, ceiling, creatures, design, library, mjcf, modes, render, reproduce, search, simulate, studio, tune
 
 
 def _flag_types_hidden() -> None:
@@ -133,6 +133,7 @@ app.command()(creatures.check)
 app.command()(creatures.creatures)
 app.command()(simulate.simulate)
 app.command()(search.search)
+app.command()(ceiling.ceiling)
 app.command()(library.runs)
 app.command()(library.show)
 app.command()(modes.modes)

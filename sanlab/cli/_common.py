@@ -397,7 +397,8 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
     along x ``dx_m`` (m) and ``direction`` ("+x", "-x"; null where the run did not store it),
     flags (``verdict``: the stored audit's, "robust", "resolution-dependent", "undecided" or
     "not reproduced", and ``flagged``, ``resolution_dependent`` and ``reproduced`` from it; null
-    when it was never audited; see ``sanlab audit``), encoding."""
+    when it was never audited; see ``sanlab audit``), encoding, and ``kind``: "san", or "pattern"
+    for an open-loop pattern (``search --strategy pattern``, the pattern ceiling)."""
     audits = lib.audits(run_id)
     rows = []
     for rank, e in enumerate(lib.top(run_id, n), 1):
@@ -410,6 +411,7 @@ def top_rows(lib: Library, run_id: str, n: int) -> list[dict]:
             "flagged": audits[e.idx].flagged if e.idx in audits else None,
             "resolution_dependent": audits[e.idx].resolution_dependent if e.idx in audits else None,
             "reproduced": audits[e.idx].reproduced if e.idx in audits else None, "encoding": e.encoding,
+            "kind": "pattern" if "pattern" in (e.params or {}) else "san",
         })
     return rows
 
@@ -427,7 +429,8 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
     table = Table("rank", id_column("gait", [r["gait"] for r in rows]), score, "speed (cm/s)", "flags",
                   title=safe(title))
     for rank, r in enumerate(rows, 1):
-        flags = ", ".join(f for f, on in (("fell", r["fell"]), ("non-finite", r["nonfinite"]),
+        flags = ", ".join(f for f, on in (("pattern", r.get("kind") == "pattern"), ("fell", r["fell"]),
+                                          ("non-finite", r["nonfinite"]),
                                           ("not reproduced", r.get("reproduced") is False),
                                           ("resolution-dependent", r.get("resolution_dependent")),
                                           ("audit undecided", r.get("verdict") == "undecided"),
@@ -460,8 +463,8 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
                       "file, settings and seed: the same results); change --seed for new controllers")
     if rows:
         best = rows[0]["gait"]
-        print_next(db, [f"sanlab show {best}", f"sanlab render {best} -o best.png", f"sanlab tune {best}",
-                        f"sanlab audit {best}"])
+        tune = [f"sanlab tune {best}"] if rows[0].get("kind") != "pattern" else []  # a pattern has no SAN to tune
+        print_next(db, [f"sanlab show {best}", f"sanlab render {best} -o best.png", *tune, f"sanlab audit {best}"])
 
 
 def print_next(db: str, commands: list[str], without_db: tuple[str, ...] = ()) -> None:

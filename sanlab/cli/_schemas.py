@@ -18,7 +18,7 @@ from importlib import resources
 from typing import Any
 
 VERSION = 1
-RECORDS = ("audit", "check", "creature-entry", "design", "gait", "gait-row", "mjcf-import", "modes", "render", "run", "run-entry",
+RECORDS = ("audit", "ceiling", "check", "creature-entry", "design", "gait", "gait-row", "mjcf-import", "modes", "render", "run", "run-entry",
            "search", "selection", "simulate", "tuning")
 
 

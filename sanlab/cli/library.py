@@ -139,10 +139,14 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
     values = file_values(gait)
     audit = library_call(lib.audit, ev.gait_id)
     flagged = audit is not None and audit.flagged
-    summary = record("gait", {"gait": ev.gait_id, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
+    ceiling = _ceiling(lib, gait, ev.speed_cm_s)
+    if network and gait.kind == "pattern":
+        raise fail(f"--network: gait {ev.gait_id} is an open-loop pattern (the pattern ceiling): it has no SAN to show")
+    summary = record("gait", {"gait": ev.gait_id, "kind": gait.kind, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
                "score": ev.score, "score_unit": SCORE_UNITS.get(gait.metric), "speed_cm_s": ev.speed_cm_s,
                "dx_m": dx if isinstance(dx, (int, float)) else None, "direction": direction(dx),
                "fell": ev.fell, "nonfinite": ev.nonfinite, "encoding": ev.encoding, "parameters": values,
+               "ceiling": ceiling,
                "audit": None if audit is None else {"verdict": audit.verdict, "flagged": audit.flagged,
                                                      "resolution_dependent": audit.resolution_dependent,
                                                      "reproduced": audit.reproduced, "worst": audit.worst,
@@ -153,7 +157,8 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
         typer.echo(dump_json(summary))
         return
     arrow = {"+x": " → (+x)", "-x": " ← (-x)"}.get(summary["direction"] or "", "")
-    flags = ", ".join(f for f, on in (("fell", ev.fell), ("non-finite", ev.nonfinite),
+    flags = ", ".join(f for f, on in (("pattern (open loop, no SAN)", gait.kind == "pattern"), ("fell", ev.fell),
+                                      ("non-finite", ev.nonfinite),
                                       ("not reproduced", audit is not None and not audit.reproduced),
                                       ("resolution-dependent", audit is not None and audit.resolution_dependent),
                                       ("audit undecided", audit is not None and audit.verdict == "undecided"),
@@ -161,12 +166,29 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
     console.print(f"[bold]gait {safe(ev.gait_id)}[/bold] (rank {ev.rank} of run {safe(run.run_id)}), "
                   f"{safe(gait.spec.name)}, metric {safe(gait.metric)}: score {ev.score:.3f} "
                   f"{SCORE_UNITS.get(gait.metric, '')}, speed {ev.speed_cm_s:.1f} cm/s{arrow}, flags {flags}")
+    if ceiling is None:
+        console.print(f"[dim]no pattern ceiling stored for this creature file: sanlab ceiling {safe(gait.source or gait.spec.name)}"
+                      " measures how fast an open loop drives the body[/dim]")
+    elif gait.kind == "san" and ceiling["fraction"] is not None:
+        vouched = "audited: robust" if ceiling["verdict"] == "robust" else "not vouched for by an audit"
+        console.print(f"{100 * ceiling['fraction']:.0f} % of its pattern ceiling ({ceiling['speed_cm_s']:.1f} cm/s, "
+                      f"gait {ceiling['gait']}, {vouched})")
     _print_values(values)
     if network:
         _print_network(summary["network"])
     gid = ev.gait_id
     audit_next = [f"sanlab audit {gid}"] if audit is None else []  # audited: its verdict is in the flags already
-    print_next(db, [f"sanlab render {gid}", f"sanlab tune {gid}", *audit_next, f"sanlab export {gid}"])
+    san_next = [f"sanlab tune {gid}"] if gait.kind == "san" else []  # a pattern has no SAN to tune or export
+    print_next(db, [f"sanlab render {gid}", *san_next, *audit_next, *[f"sanlab export {gid}"] * (gait.kind == "san")])
+
+
+def _ceiling(lib: Library, gait, speed_cm_s: float) -> dict | None:
+    """The creature's pattern ceiling in this library (``sanlab.search.ceiling.find``) and the
+    fraction of it ``speed_cm_s`` is, as ``show --json`` prints it; None without one."""
+    from sanlab.search.ceiling import find
+
+    c = library_call(find, lib, gait.creature_text, gait.metric, gait.seconds)
+    return None if c is None else {**c.to_json(), "fraction": c.fraction(speed_cm_s)}
 
 
 def _print_values(values: dict) -> None:
@@ -174,7 +196,7 @@ def _print_values(values: dict) -> None:
     table = Table("part", "parameter", "this gait", "creature file", "unit", title="parameters (creature file units)")
     tuned = 0
     for row in values["rows"]:
-        same = row["value"] == row["file"] or (row["file"] is not None and abs(row["value"] - row["file"]) <= 1e-9 * max(1.0, abs(row["file"])))
+        same = row["file"] is None or row["value"] == row["file"] or abs(row["value"] - row["file"]) <= 1e-9 * max(1.0, abs(row["file"]))
         style = "" if same else "bold"
         tuned += not same
         shown = f"[{style}]{row['value']:.6g} *[/{style}]" if style else f"{row['value']:.6g}"  # '*': seen without bold too
