@@ -61,7 +61,7 @@ def check(
         from sanlab.check import static  # no simulator: plain `check` stays fast
 
         findings = static(c)
-    findings += _free_ends(out)
+    findings += _free_ends(out) + _off_totals(design)
     out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
     out["warnings"] = sum(f.warning for f in findings)
     if as_json:
@@ -184,6 +184,21 @@ def _free_ends(out: dict) -> list:
                 found.append(Finding("free", True, f"free number {f['name']}: at its {end} ({f[end]:g}) the file is no "
                                                    "valid creature (`sanlab check` of the file with that value says "
                                                    "why); narrow its range", {"name": f["name"], "end": end}))
+    return found
+
+
+def _off_totals(design) -> list:
+    """A warning for each [[design.total]] its numbers' defaults do not sum to: the file loads at
+    the defaults, while every body `sanlab design` makes, its reference too, keeps the total."""
+    from sanlab.check import Finding
+
+    found = []
+    for k, total in design.off_totals():
+        t = design.coupling.totals[k]
+        found.append(Finding("free", True, f"design.total[{k}]: the defaults of {' + '.join(t.of)} sum to {total:.6g}, "
+                             f"not its value {t.value:.6g}: the file loads at its defaults, while `sanlab design` "
+                             "starts from them moved onto the total; make the defaults sum to its value",
+                             {"total": k, "sum": total, "value": t.value}))
     return found
 
 

@@ -155,6 +155,18 @@ class Design:
     def defaults(self) -> np.ndarray:
         return np.array([f.default for f in self.free], float)
 
+    def off_totals(self) -> list[tuple[int, float]]:
+        """Each ``[[design.total]]`` its numbers' defaults do not sum to: (its index, the sum of
+        their defaults). The file loads at its defaults; :meth:`project` (every body of a design,
+        its reference too) moves them onto the total."""
+        index = {n: i for i, n in enumerate(self.names)}
+        out = []
+        for k, t in enumerate(self.coupling.totals):
+            total = float(sum(self.defaults[index[n]] for n in t.of))
+            if abs(total - t.value) > 1e-9 * max(1.0, abs(t.value)):
+                out.append((k, total))
+        return out
+
     def slots(self) -> dict[str, _Slot]:
         """Path (``links[1].points[1][1]``) -> the slot there: which free number, times, plus."""
         out: dict[str, _Slot] = {}
@@ -602,6 +614,7 @@ def _coupling(raw: Any, shown: str, free: tuple[FreeNumber, ...], data: dict) ->
     if not isinstance(raw_totals, list):
         raise _err(shown, "design.total", "an array of [[design.total]] tables", raw_totals)
     by_name = {f.name: f for f in free}
+    held: dict[str, int] = {}  # free number -> the total that holds it
     for k, t in enumerate(raw_totals):
         where = f"design.total[{k}]"
         if not isinstance(t, dict):
@@ -615,6 +628,10 @@ def _coupling(raw: Any, shown: str, free: tuple[FreeNumber, ...], data: dict) ->
         for i, x in enumerate(of):
             if x not in by_name:
                 raise _err(shown, f"{where}.of[{i}]", f"the name of a free number (one of {sorted(by_name)})", x)
+            if x in held:  # each total is kept by moving its own numbers: a shared one would undo the other
+                raise _err(shown, f"{where}.of[{i}]", f"a free number in no other total (design.total[{held[x]}] "
+                           "holds it, and two totals on one number cannot both be kept)", x)
+            held[x] = k
         fs = [by_name[x] for x in of]
         value = t.get("value", sum(f.default for f in fs))
         lo, hi = sum(f.min for f in fs), sum(f.max for f in fs)
