@@ -84,7 +84,8 @@ def design(
 
     Each body is scored as a Table 1 row: phase 1, a short phase 2 on its best SANs, the audited
     selection. The best bodies and the reference (the file's defaults) are scored again on other
-    seeds; the chosen body is written as a creature file. Run it again to continue."""
+    seeds; the chosen body is written as a creature file. Run it again to continue. Progress: a
+    bar on a terminal, else a line per score (a body on one seed) on stderr."""
     from sanlab.creature import CreatureError, load_design, read_source
 
     check_count("--controllers", controllers)
