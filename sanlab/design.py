@@ -363,10 +363,11 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     day = day or datetime.now(timezone.utc).date().isoformat()
     seeds = ", ".join(str(x) for x in s.seeds)
     about = f" (design {design_id})" if design_id else ""
+    whose = "the reference's" if design.off_totals() else "the defaults'"  # the defaults break a total: moved
     line = (f"{day}: body chosen by `sanlab design` from {_file(where)}{about}: {_largest(design, chosen.values)}; "
             f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s{_trials(design, s)} on the search's seed {s.seed} and "
-            f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against the "
-            f"{'defaults' if not design.off_totals() else 'reference'}' {reference.speed(s.seed):.1f} and "
+            f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against {whose} "
+            f"{reference.speed(s.seed):.1f} and "
             f"{reference.mean(s.seeds):.1f}")
     return line if len(line) <= MAX_HISTORY_ENTRY else line[:MAX_HISTORY_ENTRY - 3] + "..."
 
