@@ -20,9 +20,11 @@ as it is made (so an interrupted design shows what it has), and once done the ch
 ``sanlab studio`` shows it.
 
 The outer search over bodies is a body strategy (``sanlab.search.bodies``: CMA-ES by default,
-or random). Then the ``validate`` best bodies, and the reference (the file's defaults), are
-scored again on ``seeds`` (other seeds than the search's: fresh SANs, fresh ensemble draws), and
-the chosen body is the one with the best mean robust tuned speed on those seeds: the search's
+or random). Then the ``validate`` best bodies of those that scored above 0 (a tie of zeros
+spends no validation seed: where none did, nothing is scored again and the reference is kept),
+and the reference (the file's defaults, moved onto its ``[[design.total]]``s as every body is:
+:func:`reference_name`), are scored again on ``seeds`` (other seeds than the search's: fresh
+SANs, fresh ensemble draws), and the chosen body is the one with the best mean robust tuned speed on those seeds: the search's
 own scores are biased up (the best of many noisy scores), the validation's are not. The
 reference is scored by the same rules beside it and is a contender: where no body beats its mean
 there, the chosen body is the reference (the file's defaults are kept). The chosen body's file
@@ -95,6 +97,49 @@ class Body:
         """The mean robust tuned speed (cm/s) over ``seeds``; KeyError for a seed not scored."""
         return float(np.mean([self.speed(s) for s in seeds]))
 
+    @property
+    def label(self) -> str:
+        """"reference", or "r2b0" (round 2, body 0): a name no one reads as a speed."""
+        return "reference" if self.round < 0 else f"r{self.round}b{self.index}"
+
+    def why(self, seed: int) -> str:
+        """Why the body scored as it did on ``seed`` where it scored 0 (:func:`why_zero`), else ""."""
+        return why_zero(self.speeds[seed])
+
+
+def why_zero(rec: dict) -> str:
+    """Why a ``robust_tuned`` record (a body on one seed) scored 0 cm/s, in a few words: the
+    loader's reason for an invalid body; a pruned body's phase-1 best; "no rung survived the audit;
+    best tuned 12.0 cm/s" where chains were tuned but none kept its speed at dt/2 and dt/4; "" for
+    a body that scored above 0."""
+    if rec.get("invalid"):
+        return f"invalid: {rec['invalid']}"
+    if rec.get("pruned"):
+        p1 = rec.get("phase1_cm_s")
+        return "pruned: best random SAN " + (f"{p1:.1f} cm/s" if isinstance(p1, int | float) else "unknown") + \
+            ", below the --prune line"
+    if float(rec.get("speed") or 0.0) > 0:
+        return ""
+    tuned = [float(c["tuned_cm_s"]) for c in rec.get("chains") or [] if isinstance(c.get("tuned_cm_s"), int | float)]
+    if not tuned:
+        return "no chain was tuned"
+    if max(tuned) <= 0:
+        return f"nothing moved: best tuned {max(tuned):.1f} cm/s"
+    if any(c.get("robust") for c in rec["chains"]):
+        return f"its robust gait moves 0.0 cm/s; best tuned {max(tuned):.1f} cm/s"
+    return f"no rung survived the audit; best tuned {max(tuned):.1f} cm/s"
+
+
+def reference_name(design: Design) -> str:
+    """What a design's reference is: "the file's defaults", or where a ``[[design.total]]`` does
+    not hold at them (``Design.off_totals``) "the file's defaults moved onto design.total[0]":
+    every body of a design keeps its totals, the reference too, so it is then not the file as it
+    loads."""
+    off = design.off_totals()
+    if not off:
+        return "the file's defaults"
+    return "the file's defaults moved onto " + " and ".join(f"design.total[{k}]" for k, _ in off)
+
 
 @dataclass
 class DesignResult:
@@ -109,15 +154,17 @@ class DesignResult:
     text: str
     seconds: float
     design_id: str = ""
+    free: list[dict] = field(default_factory=list)  # free_json: the names, units and ranges of ``values``
+    validated: bool = True  # False: no body of the search scored above 0, so none was scored again
 
     def to_json(self) -> dict:
         """The ``sanlab/design/1`` record's fields (``sanlab/schemas/design.json``) but its own."""
 
         def body(b: Body) -> dict:
-            return {"values": b.values, "round": b.round, "index": b.index,
+            return {"body": b.label, "values": b.values, "round": b.round, "index": b.index,
                     "speeds": {str(k): v for k, v in b.speeds.items()}}
 
-        return {"design": self.design_id, "settings": settings_json(self.settings),
+        return {"design": self.design_id, "settings": settings_json(self.settings), "free": self.free,
                 "reference": body(self.reference), "chosen": body(self.chosen),
                 "bodies": [body(b) for b in self.bodies]}
 
@@ -194,14 +241,14 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
     from sanlab.reproduce import robust_tuned
 
     report = reporter or (lambda *a: None)
-    total = 1 + s.designs + (min(s.validate, s.designs) + 1) * len(s.seeds)
+    total = 1 + s.designs + (min(s.validate, s.designs) + 1) * len(s.seeds)  # scores: body x seed
     done = [0]
     bodies: list[Body] = []
     best = [0.0]
 
     def score(body: Body, seed: int, prune_below: float | None = None) -> None:
         if seed not in body.speeds or (prune_below is None and body.speeds[seed].get("pruned")):
-            report(done[0], total, best[0], f"round {body.round}, body {body.index}, seed {seed}")
+            report(done[0], total, best[0], f"{body.label}, seed {seed}")
             try:
                 t = design.text(text, body.values, f"A body of `sanlab design`: {body.values}")
             except CreatureError as e:
@@ -218,7 +265,9 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
             best[0] = max(best[0], body.speed(seed))
         report(done[0], total, best[0], "")
 
-    reference = Body(rounded(design.defaults).tolist(), -1, 0)
+    # the reference keeps the file's totals, as every body does (where the defaults break one,
+    # it is not the file as it loads: reference_name says so)
+    reference = Body(rounded(design.project(design.defaults)).tolist(), -1, 0)
     score(reference, s.seed)
     below = s.prune * reference.speeds[s.seed]["phase1_cm_s"] if s.prune > 0 else None
     strategy = make_bodies(s.strategy, BodyProblem(design.lo, design.hi, design.defaults, s.designs, s.generation, s.seed))
@@ -233,20 +282,23 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
         rnd += 1
     ranked = sorted(bodies, key=lambda b: -b.speed(s.seed))
     picks = []
-    for b in ranked:  # distinct bodies: two rounds may ask the same one; an invalid body is no candidate
-        if not b.speeds[s.seed].get("invalid") and all(b.values != p.values for p in picks):
+    for b in ranked:  # distinct bodies: two rounds may ask the same one; an invalid body is no candidate,
+        # nor one that scored 0 (a tie of zeros says nothing a validation seed could settle)
+        if b.speed(s.seed) > 0 and all(b.values != p.values for p in picks):
             picks.append(b)
     picks = picks[:max(1, s.validate)]
-    for seed in s.seeds:
+    total = done[0] + (len(picks) + 1) * len(s.seeds) if picks else done[0]
+    report(done[0], total, best[0], "validation" if picks else "")
+    for seed in s.seeds if picks else ():
         for b in [*picks, reference]:
             score(b, seed)
     # the reference is a contender: a file is changed only for a body that beats its defaults on
     # fresh seeds (ties and a better search score do not count: the defaults stay)
     leader = max(picks, key=lambda b: (b.mean(s.seeds), b.speed(s.seed)), default=reference)
-    chosen = leader if leader.mean(s.seeds) > reference.mean(s.seeds) else reference
-    note = _note(design, where, s, chosen, reference, len(bodies))
+    chosen = leader if picks and leader.mean(s.seeds) > reference.mean(s.seeds) else reference
+    note = _note(design, where, s, chosen, reference, len(bodies), bool(picks))
     out = design.text(text, chosen.values, note, history_entry(design, where, design_id, s, chosen, reference))
-    return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id)
+    return DesignResult(s, [reference, *bodies], reference, chosen, out, 0.0, design_id, free_json(design), bool(picks))
 
 
 def _invalid(design: Design, error: CreatureError) -> dict:
@@ -272,19 +324,24 @@ def _trials(design: Design, s: DesignSettings) -> str:
     return f" ({s.seconds:g} s trials, the file's {stated:g} s)"
 
 
-def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int) -> str:
+def _note(design: Design, where: str, s: DesignSettings, chosen: Body, reference: Body, n: int,
+          validated: bool = True) -> str:
     seeds = ", ".join(str(x) for x in s.seeds)
+    ref = reference_name(design)
     which = (f"the body chosen among {n} ({s.strategy}, seed {s.seed}, round {chosen.round}, body {chosen.index})"
              if chosen is not reference else
-             f"the file's defaults: none of {n} {'body' if n == 1 else 'bodies'} searched "
-             f"({s.strategy}, seed {s.seed}) beat them on the validation seeds")
+             f"{ref}: none of {n} {'body' if n == 1 else 'bodies'} searched ({s.strategy}, seed {s.seed}) "
+             + ("beat them on the validation seeds" if validated else "scored above 0 cm/s, so none was validated"))
+    speeds = (f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
+              f"mean on seed{'s' * (len(s.seeds) > 1)} {seeds} (validation); the reference ({ref}): "
+              f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}." if validated else
+              f"Robust tuned speed of the reference ({ref}) on the search's seed: {reference.speed(s.seed):.1f} cm/s"
+              + (f" ({why})." if (why := reference.why(s.seed)) else "."))
     lines = [
         f"Written by `sanlab design` (sanlab {__version__}) from {where}: {which}.",
         f"Scored by robust tuned speed{_trials(design, s)}: phase 1 ({_count(s.controllers, 'random SAN')}), "
         f"phase 2 ({_count(s.top, 'chain')} x {_count(s.trials, 'trial')}), the audited selection.",
-        f"Robust tuned speed: {chosen.speed(s.seed):.1f} cm/s on the search's seed, {chosen.mean(s.seeds):.1f} "
-        f"mean on seed{'s' * (len(s.seeds) > 1)} {seeds} (validation); the reference (the file's defaults): "
-        f"{reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}.",
+        speeds,
         *(["What changed (default -> chosen):", *[f"  {line}" for line in design.changes(chosen.values)]]
           if chosen is not reference else []),
     ]
@@ -306,10 +363,12 @@ def history_entry(design: Design, where: str, design_id: str, s: DesignSettings,
     day = day or datetime.now(timezone.utc).date().isoformat()
     seeds = ", ".join(str(x) for x in s.seeds)
     about = f" (design {design_id})" if design_id else ""
+    whose = "the reference's" if design.off_totals() else "the defaults'"  # the defaults break a total: moved
     line = (f"{day}: body chosen by `sanlab design` from {_file(where)}{about}: {_largest(design, chosen.values)}; "
             f"robust tuned speed {chosen.speed(s.seed):.1f} cm/s{_trials(design, s)} on the search's seed {s.seed} and "
-            f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against the "
-            f"defaults' {reference.speed(s.seed):.1f} and {reference.mean(s.seeds):.1f}")
+            f"{chosen.mean(s.seeds):.1f} mean on validation seed{'s' * (len(s.seeds) > 1)} {seeds}, against {whose} "
+            f"{reference.speed(s.seed):.1f} and "
+            f"{reference.mean(s.seeds):.1f}")
     return line if len(line) <= MAX_HISTORY_ENTRY else line[:MAX_HISTORY_ENTRY - 3] + "..."
 
 
@@ -339,4 +398,4 @@ def _largest(design: Design, values, n: int = 3) -> str:
         f"{printable(m.name)} {m.default:.4g} -> {m.value:.4g}{f' {m.unit}' if m.unit else ''}{m.percent}" for m in moved[:n])
 
 
-__all__ = ["Body", "DesignResult", "DesignSettings", "history_entry", "run_design"]
+__all__ = ["Body", "DesignResult", "DesignSettings", "history_entry", "reference_name", "run_design", "why_zero"]

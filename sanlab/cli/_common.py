@@ -482,7 +482,10 @@ class ProgressBar:
     score, time elapsed and an estimate of the time left; drawn only when ``show`` (a terminal,
     and no ``--json``)."""
 
-    def __init__(self, show: bool, title: str | None = None):
+    def __init__(self, show: bool, title: str | None = None, unit: str = "",
+                 rate: str | None = "{task.fields[rate]:.0f} eval/s", best: str = "best {task.fields[best]:.3f}"):
+        """``unit``: what is counted, after done/total ("scores"); ``rate`` and ``best``: their
+        columns' Rich formats (``rate`` None: no rate column, for work of minutes a unit)."""
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
@@ -493,11 +496,11 @@ class ProgressBar:
         )
 
         first = TextColumn(f"[bold]{escape(title)}" if title else "[bold]{task.description}")
+        columns = [first, BarColumn(), MofNCompleteColumn(), *([TextColumn(escape(unit))] if unit else []),
+                   *([TextColumn(rate)] if rate else []), TextColumn(best)]
         self.progress = Progress(
-            first, BarColumn(), MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]:.0f} eval/s"), TextColumn("best {task.fields[best]:.3f}"),
-            TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=console, disable=not show,
-            transient=False,
+            *columns, TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=console,
+            disable=not show, transient=False,
         )
         self._task: Any = None
 
@@ -536,10 +539,14 @@ class ProgressLines:
     and at least every ``every_s`` seconds while it goes on, e.g. "tune: 30/100 trials (30 %),
     2.1 eval/s, best 1.234, 1 min 05 s elapsed, about 2 min 30 s left"."""
 
-    def __init__(self, show: bool, what: str, unit: str, every_s: float = 60.0):
+    def __init__(self, show: bool, what: str, unit: str, every_s: float = 60.0, rate: str | None = "{:.1f} eval/s",
+                 best: str = "best {:.3f}"):
+        """``rate`` and ``best``: how a line writes them (``str.format`` of the number; ``rate``
+        None: left out, for work of minutes a unit)."""
         import time
 
         self.show, self.what, self.unit, self.every_s = show, what, unit, every_s
+        self.rate, self.best = rate, best
         self._clock = time.perf_counter
         self._t0 = self._clock()
         self._last_t = self._t0
@@ -558,8 +565,9 @@ class ProgressLines:
         self._last_tenth, self._last_t, self._last_done = tenth, now, done
         left = self.left(done, total, now)
         tail = f", about {duration(left)} left" if left is not None and done < total else ""
-        warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {rate:.1f} eval/s, "
-             f"best {best:.3f}, {duration(now - self._t0)} elapsed{tail}")
+        said = f"{self.rate.format(rate)}, " if self.rate else ""
+        warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {said}"
+             f"{self.best.format(best)}, {duration(now - self._t0)} elapsed{tail}")
 
     def left(self, done: int, total: int, now: float | None = None) -> float | None:
         """Seconds left at the pace since the first report (None until work was done after it)."""

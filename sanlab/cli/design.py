@@ -17,6 +17,7 @@ from sanlab.cli._common import (
     EnsembleOpt,
     JsonOpt,
     ProgressBar,
+    ProgressLines,
     WorkersOpt,
     backend_or_exit,
     check_count,
@@ -30,6 +31,7 @@ from sanlab.cli._common import (
     print_next,
     record,
     safe,
+    warn,
 )
 
 
@@ -82,7 +84,8 @@ def design(
 
     Each body is scored as a Table 1 row: phase 1, a short phase 2 on its best SANs, the audited
     selection. The best bodies and the reference (the file's defaults) are scored again on other
-    seeds; the chosen body is written as a creature file. Run it again to continue."""
+    seeds; the chosen body is written as a creature file. Run it again to continue. Progress: a
+    bar on a terminal, else a line per score (a body on one seed) on stderr."""
     from sanlab.creature import CreatureError, load_design, read_source
 
     check_count("--controllers", controllers)
@@ -118,11 +121,33 @@ def design(
 
     settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
                               validate, valid_seeds, prune)
+    from sanlab.design import reference_name
+
+    for k, total in d.off_totals():  # said before the hours of the design, not after
+        t = d.coupling.totals[k]
+        warn(f"warning: {creature}: design.total[{k}]: the defaults of {' + '.join(t.of)} sum to {total:.6g}, not "
+             f"{t.value:.6g}: the reference is {reference_name(d)}, not the file as it loads")
     lib = open_library(db, create=True)
-    bar = ProgressBar(console.is_terminal and not as_json, "design")
+    shown = console.is_terminal and not as_json
+    bar = ProgressBar(shown, "design", unit="scores", rate=None, best="best {task.fields[best]:.1f} cm/s")
+    # a log or a pipe gets lines instead of a bar, as for `sanlab tune` (a score takes minutes)
+    lines = ProgressLines(not console.is_terminal, "design", "scores", rate=None, best="best {:.1f} cm/s")
+    n_valid = min(validate, designs)
+    plan = (f"design: {1 + designs} scores on seed {seed} (the reference and {designs} "
+            f"bod{'y' if designs == 1 else 'ies'}), then up to {n_valid + 1} on each validation seed "
+            f"({', '.join(map(str, valid_seeds))}: the best {n_valid} and the reference, none if no body scored above 0)")
+
+    planned = [False]
 
     def report(done: int, total: int, best: float, what: str) -> None:
+        if not planned[0]:  # once the settings are accepted, before the first score's minutes
+            planned[0] = True
+            if shown:
+                bar.progress.console.print(plan, soft_wrap=True, highlight=False)
+            elif not console.is_terminal:
+                warn(plan)
         bar.update(f"design {what}" if what else "design", done, total, 0.0, best)
+        lines.update(done, total, 0.0, best)
 
     try:
         with bar:
@@ -137,28 +162,33 @@ def design(
     with output_file(str(target), "--out") as path:  # whole or not at all; a full disk is one line too
         Path(path).write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference
+    ref_name = reference_name(d)
     if render is not None:
         rec = ch.speeds[s.seed] if not ch.speeds[s.seed].get("pruned") else ch.speeds[s.seeds[0]]
-        _render(lib, render, [("reference (the file's defaults)", ref.speeds[s.seed]), ("chosen", rec)],
+        _render(lib, render, [(f"reference ({ref_name})", ref.speeds[s.seed]), ("chosen", rec)],
                 f"{spec.name}: the reference and the chosen body")
     if as_json:
         typer.echo(dump_json(record("design", {"creature": spec.name, "source": where, "written": str(target),
                                                **result.to_json(), "seconds": result.seconds})))
         return
-    table = Table("body", "round", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait")
+    table = Table("body", f"seed {s.seed} (cm/s)", *(f"seed {x}" for x in s.seeds), "robust gait, or why 0")
     for b in result.bodies:
-        name = ("reference" if b.round < 0 else f"{b.round}.{b.index}") + (" (chosen)" if b is ch else "")
         rec = b.speeds[s.seed]
-        gait = (f"invalid: {safe(str(rec['invalid']))}" if rec.get("invalid") else
-                "pruned (phase 1)" if rec.get("pruned") else safe(str(rec["gait"] or "none")))
-        table.add_row(name, str(b.round), f"{b.speed(s.seed):.1f}",
-                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds), gait)
+        table.add_row(b.label + (" (chosen)" if b is ch else ""), f"{b.speed(s.seed):.1f}",
+                      *(f"{b.speed(x):.1f}" if x in b.speeds else "" for x in s.seeds),
+                      safe(b.why(s.seed) or rec["gait"] or "none"))
     console.print(table)
-    console.print(f"robust tuned speed, mean on seed{'s' * (len(s.seeds) > 1)} {', '.join(map(str, s.seeds))}: chosen {ch.mean(s.seeds):.1f} "
-                  f"cm/s, reference (the file's defaults) {ref.mean(s.seeds):.1f} cm/s")
+    _print_values(d, result.bodies, ch)
+    seeds_said = f"seed{'s' * (len(s.seeds) > 1)} {', '.join(map(str, s.seeds))}"
+    if result.validated:
+        console.print(f"robust tuned speed, mean on {seeds_said}: chosen {ch.mean(s.seeds):.1f} cm/s{_why(ch, s.seeds)}, "
+                      f"reference ({safe(ref_name)}) {ref.mean(s.seeds):.1f} cm/s{_why(ref, s.seeds)}", soft_wrap=True)
     if ch is ref:
-        console.print(f"no body beat the file's defaults on the validation seeds: {safe(str(target))} is the "
-                      "reference (raise --designs, --controllers or --trials, or widen the ranges)")
+        why = ("no body beat the reference on the validation seeds" if result.validated else
+               f"no body of the search scored above 0 cm/s on seed {s.seed} (the table says why), so none was "
+               f"validated on {seeds_said}")
+        console.print(f"{why}: {safe(str(target))} is the reference ({safe(ref_name)}; raise --designs, --controllers "
+                      "or --trials, or widen the ranges)", soft_wrap=True)
     else:
         for line in d.changes(ch.values):
             console.print(f"  {safe(line)}", soft_wrap=True)
@@ -167,6 +197,36 @@ def design(
     gait = ch.speeds[s.seed]["gait"]
     print_next(db, [*([f"sanlab render {gait}"] if gait else []), "sanlab studio"],
                (f"sanlab check {target}",))  # check reads no library
+
+
+def _why(body, seeds) -> str:
+    """" (no rung survived the audit; ...)" for a body whose mean on ``seeds`` is 0, else ""."""
+    if body.mean(seeds) > 0:
+        return ""
+    return next((f" ({safe(w)})" for x in seeds if (w := body.why(x))), "")
+
+
+def _print_values(design, bodies, chosen) -> None:
+    """Each body's free values, named (the file's units), in tables as wide as the console: a
+    column per free number, as many as fit beside the body's label."""
+    names = [f.name + (f" ({u})" if u else "") for f, u in zip(design.free, design.units, strict=True)]
+    label = max(len(b.label) + len(" (chosen)") * (b is chosen) for b in bodies) + 3
+    width, group, used = max(console.width, 40), [], label
+    groups = []
+    for i, name in enumerate(names):
+        w = max(min(len(name), 24), 9) + 3
+        if group and used + w > width:
+            groups.append(group)
+            group, used = [], label
+        group.append(i)
+        used += w
+    groups.append(group)
+    for k, group in enumerate(groups):
+        head = "free values" + (f" ({k + 1} of {len(groups)})" if len(groups) > 1 else "")
+        table = Table("body", *(safe(names[i]) for i in group), title=head, title_justify="left")
+        for b in bodies:
+            table.add_row(b.label + (" (chosen)" if b is chosen else ""), *(f"{b.values[i]:.6g}" for i in group))
+        console.print(table)
 
 
 def _render(lib, path: str, bodies: list[tuple[str, dict]], title: str) -> None:

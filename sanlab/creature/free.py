@@ -22,13 +22,15 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from ._checks import CreatureError, _show, printable
+from ._checks import CreatureError, _Bad, _show, nonempty, printable
 from .spec import Creature
 
 __all__ = ["Coupling", "Design", "FreeNumber", "Move", "Total", "read_design"]
@@ -38,6 +40,10 @@ SAME = {"free", "times", "plus"}  # the keys of a use of a named free number
 DESIGN = {"density", "strength_mass", "total_mass", "total"}  # the keys of [design]
 TOTAL = {"of", "value"}  # the keys of a [[design.total]]
 PER_DEG = 180.0 / math.pi  # (N m/deg) * PER_DEG = N m/rad
+# Free numbers in one file. A design affords tens of bodies, and CMA-ES over more numbers than
+# bodies learns little; the built-in designs free at most 13. `sanlab check` builds the creature
+# at both ends of each range (each build reads the whole file), so the cap also bounds its cost.
+MAX_FREE = 64
 
 
 @dataclass(frozen=True)
@@ -149,6 +155,18 @@ class Design:
     def defaults(self) -> np.ndarray:
         return np.array([f.default for f in self.free], float)
 
+    def off_totals(self) -> list[tuple[int, float]]:
+        """Each ``[[design.total]]`` its numbers' defaults do not sum to: (its index, the sum of
+        their defaults). The file loads at its defaults; :meth:`project` (every body of a design,
+        its reference too) moves them onto the total."""
+        index = {n: i for i, n in enumerate(self.names)}
+        out = []
+        for k, t in enumerate(self.coupling.totals):
+            total = float(sum(self.defaults[index[n]] for n in t.of))
+            if abs(total - t.value) > 1e-9 * max(1.0, abs(t.value)):
+                out.append((k, total))
+        return out
+
     def slots(self) -> dict[str, _Slot]:
         """Path (``links[1].points[1][1]``) -> the slot there: which free number, times, plus."""
         out: dict[str, _Slot] = {}
@@ -199,6 +217,16 @@ class Design:
         """The creature at ``values`` (the defaults when None), couplings applied. Raises
         CreatureError (one line naming the file) when the values make an invalid creature (a
         segment of zero length, a parent's anchor ...)."""
+        if values is None:
+            return self._default
+        return self._build(values)
+
+    @cached_property
+    def _default(self) -> Creature:
+        # the file's stated creature: every command that loads the file, and `check`, ask for it
+        return self._build(None)
+
+    def _build(self, values: Sequence[float] | np.ndarray | None) -> Creature:
         data = self.expand(self.data(values))
         c = self.build(data)
         if not (self.coupling.density or self.coupling.strength_mass or self.coupling.total_mass is not None):
@@ -288,17 +316,29 @@ class Design:
 
     def _stated(self) -> Creature:
         """The creature at the defaults, before couplings (the reference sizes and strengths)."""
+        return self._stated_once
+
+    @cached_property
+    def _stated_once(self) -> Creature:
+        # built once: every body's couplings are measured against it (a build reads the whole file)
         return self.build(self.expand(self.data()))
 
     def total_mass(self, values: Sequence[float] | np.ndarray | None = None) -> float:
         """The creature's total mass (kg) at ``values``."""
         return float(sum(link.mass for link in self.creature(values).links))
 
-    def ends(self) -> list[tuple[float, float]]:
+    def ends(self, budget_s: float | None = None) -> list[tuple[float, float] | None]:
         """For each free number, the total mass (kg) with it at its min and at its max (the rest
-        at their defaults; totals projected), or NaN where that end makes no valid creature."""
-        out = []
+        at their defaults; totals projected), or NaN where that end makes no valid creature. Each
+        end is a creature built from the whole file (two builds with couplings), so the cost is
+        about 2 x len(free) builds; ``budget_s``: stop after that many seconds of wall time, the
+        numbers not reached None (their ends not checked); None: every end."""
+        out: list[tuple[float, float] | None] = []
+        start = time.perf_counter()
         for i, f in enumerate(self.free):
+            if budget_s is not None and time.perf_counter() - start >= budget_s:
+                out += [None] * (len(self.free) - i)
+                break
             row = []
             for x in (f.min, f.max):
                 v = self.defaults.copy()
@@ -438,11 +478,16 @@ def read_design(data: dict, shown: str, expand: Callable[[dict], dict], build: C
         default = float(v.get("default", float(f"{(lo + hi) / 2:.12g}")))  # the middle, without 0.30000000000000004
         if not lo <= default <= hi:
             raise _err(shown, _join(path, "default"), f"a number within [{lo:g}, {hi:g}] (the range)", v["default"])
+        if len(free) >= MAX_FREE:
+            raise CreatureError(f"{shown}: {printable(path)}: expected at most {MAX_FREE} free numbers in a file (a "
+                                f"design affords tens of bodies; `sanlab check` builds both ends of each), got more")
         name = path
         if "name" in v:
             name = v["name"]
-            if not isinstance(name, str) or not name.strip() or len(name) > 100:
-                raise _err(shown, _join(path, "name"), "a name (a non-empty string of at most 100 characters)", name)
+            try:
+                nonempty(name)  # as every other name: printed in tables, written into files
+            except _Bad as e:
+                raise _err(shown, _join(path, "name"), e.what, name) from None
             if name in named:
                 raise _err(shown, _join(path, "name"), f"a name not used by another free number "
                            f"({free[named[name]]['path']})", name)
@@ -569,6 +614,7 @@ def _coupling(raw: Any, shown: str, free: tuple[FreeNumber, ...], data: dict) ->
     if not isinstance(raw_totals, list):
         raise _err(shown, "design.total", "an array of [[design.total]] tables", raw_totals)
     by_name = {f.name: f for f in free}
+    held: dict[str, int] = {}  # free number -> the total that holds it
     for k, t in enumerate(raw_totals):
         where = f"design.total[{k}]"
         if not isinstance(t, dict):
@@ -582,6 +628,10 @@ def _coupling(raw: Any, shown: str, free: tuple[FreeNumber, ...], data: dict) ->
         for i, x in enumerate(of):
             if x not in by_name:
                 raise _err(shown, f"{where}.of[{i}]", f"the name of a free number (one of {sorted(by_name)})", x)
+            if x in held:  # each total is kept by moving its own numbers: a shared one would undo the other
+                raise _err(shown, f"{where}.of[{i}]", f"a free number in no other total (design.total[{held[x]}] "
+                           "holds it, and two totals on one number cannot both be kept)", x)
+            held[x] = k
         fs = [by_name[x] for x in of]
         value = t.get("value", sum(f.default for f in fs))
         lo, hi = sum(f.min for f in fs), sum(f.max for f in fs)

@@ -27,7 +27,7 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from sanlab import __version__
-from sanlab.creature import CreatureError, builtin_names, loads, read_source
+from sanlab.creature import CreatureError, builtin_names, loads, printable, read_source
 from sanlab.library import Library, LibraryError
 
 # Playback (the run grid and the one-gait view) records this many frames per simulated second:
@@ -266,10 +266,10 @@ class Service:
         out = []
         with self._lib() as lib:
             for d in lib.designs():
-                seed = d.settings.get("seed", 0)
                 try:
+                    seed, _ = _design_seeds(d, lib.path) if d.status != "damaged" else (0, [])
                     scores = [x for x in lib.design_scores(d.design_id) if x.seed == seed] if d.status != "damaged" else []
-                except LibraryError:
+                except (LibraryError, StudioError):
                     scores, d = [], dataclasses.replace(d, status="damaged")
                 search = [x.speed_cm_s for x in scores if x.round >= 0]
                 ref = [x.speed_cm_s for x in scores if x.round < 0]
@@ -286,7 +286,7 @@ class Service:
         validation's), free [{name, path, min, max, default, unit}] (the file's units), chosen
         {round, index} or None (not done yet), seconds (wall time of the run that finished it, s,
         or None), points}. ``points``: each body scored so far, the reference first, then by
-        round and place: {body ("reference" or "ROUND.INDEX"), round (-1: the reference), index,
+        round and place: {body ("reference" or "rROUNDbINDEX", as `sanlab design` names it: "r2b0"), round (-1: the reference), index,
         values [D] (its free values, in the order of ``free``), score (its robust tuned speed on
         the search's seed, cm/s; None not yet scored), pruned (phase 2 skipped: score 0), invalid
         (why the body could not be built, the loader's message, or None: an invalid body is pruned), gait
@@ -296,12 +296,18 @@ class Service:
         (validated bodies and the reference), validation_mean (cm/s or None), reference, chosen
         (bools)}. A design not in this library, or damaged: StudioError."""
         if not isinstance(design_id, str):
-            raise StudioError(f"expected a design id (8 hex digits), got {design_id!r}")
+            raise StudioError(f"expected a design id (8 hex digits), got {_short(repr(design_id))}")
+        if len(design_id) > MAX_ID:  # never echoed back whole: a page shows the message
+            raise StudioError(f"no design {printable(design_id[:16])!r}... in {self.path}: expected a design id of 8 "
+                              f"hex digits (or their first few), got one of {len(design_id):,} characters")
         with self._lib() as lib:
             d = lib.get_design(design_id)
             rows = lib.design_scores(d.design_id)
-            seed = d.settings.get("seed", 0)
-            seeds = [int(x) for x in d.settings.get("seeds") or []]
+            seed, seeds = _design_seeds(d, lib.path)
+            seconds = (d.result or {}).get("seconds")
+            if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, int | float)):
+                raise _damaged(lib.path, f"design {d.design_id}", f"its result: seconds: a number was expected, "
+                                                                  f"it holds {_short(repr(seconds))}")
             bodies: dict[tuple[int, int], list] = {}
             for x in rows:
                 bodies.setdefault((x.round, x.index), []).append(x)
@@ -313,7 +319,7 @@ class Service:
                 means = [by_seed[k].speed_cm_s for k in seeds if k in by_seed]
                 opened, kind = self._design_gait(lib, [x for x in (mine, *(by_seed.get(k) for k in seeds)) if x is not None])
                 points.append({
-                    "body": "reference" if rnd < 0 else f"{rnd}.{idx}", "round": rnd, "index": idx,
+                    "body": "reference" if rnd < 0 else f"r{rnd}b{idx}", "round": rnd, "index": idx,
                     "values": list(scored[0].values), "score": None if mine is None else _num(mine.speed_cm_s),
                     "pruned": bool(mine is not None and mine.pruned), "gait": None if mine is None else mine.gait,
                     "invalid": None if mine is None else mine.record.get("invalid"),
@@ -325,7 +331,7 @@ class Service:
             "created": d.created, "updated": d.updated, "settings": d.settings, "seed": seed, "seeds": seeds,
             "free": [dict(f) for f in d.free],
             "chosen": None if d.chosen is None else {"round": d.chosen[0], "index": d.chosen[1]},
-            "seconds": _num((d.result or {}).get("seconds")), "points": points})
+            "seconds": _num(seconds), "points": points})
 
     @staticmethod
     def _design_gait(lib, scores) -> tuple[str | None, str | None]:
@@ -747,6 +753,38 @@ def _creature_row(c) -> dict:
     return {"name": c.name, "description": c.description, "plane": c.world.plane,
             "eyes": any(s.kind == "eye" for s in c.sensors), "seconds": c.evaluation.seconds,
             "links": len(c.links), "sensors": len(c.sensors), "actuators": len(c.actuators)}
+
+
+# Characters of an id a request may give: a run or design id is 8 hex digits, a gait id a few more
+# (RUN/RANK, RUN#IDX); a longer one is no id, and is never echoed back whole.
+MAX_ID = 64
+
+
+def _short(text: str, keep: int = 40) -> str:
+    """``text`` cut to ``keep`` characters with "..." and its length: what a message quotes of
+    something a request sent, however long."""
+    return text if len(text) <= keep else f"{text[:keep]}... ({len(text):,} characters)"
+
+
+def _damaged(path: str, what: str, why: str) -> StudioError:
+    """The library's message for a damaged record (``Library._damaged``), for damage only the
+    studio's reading finds: a cell of the right JSON type holding the wrong thing."""
+    return StudioError(f"{path}: {what} is damaged ({why}); the rest of the library is intact: "
+                       "restore this file from a backup to read it, or leave it be")
+
+
+def _design_seeds(d, path: str) -> tuple[int, list[int]]:
+    """A design's seeds from its stored settings: the search's (``seed``, default 0) and the
+    validation's (``seeds``); StudioError naming the design as damaged where they are not
+    integers."""
+    seed, seeds = d.settings.get("seed", 0), d.settings.get("seeds") or []
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise _damaged(path, f"design {d.design_id}", f"its settings: seed: an integer was expected, it holds "
+                                                      f"{_short(repr(seed))}")
+    if not isinstance(seeds, list) or not all(isinstance(x, int) and not isinstance(x, bool) for x in seeds):
+        raise _damaged(path, f"design {d.design_id}", f"its settings: seeds: a list of integers was expected, it "
+                                                      f"holds {_short(repr(seeds))}")
+    return seed, list(seeds)
 
 
 def _gait_id(gait_id: Any) -> str:

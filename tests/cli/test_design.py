@@ -455,3 +455,156 @@ def test_a_file_scored_by_tracking_is_refused_in_one_line(tmp_path):
     assert len(r.output.strip().splitlines()) == 1
     with Library(str(tmp_path / "x.db")) as lib:
         assert lib.designs() == []  # refused before anything was stored
+
+
+# -- issue 57: why a body scored 0, its values, its name, the progress of a piped design -----------
+
+
+def _zeros_below(monkeypatch, calls, light: float = 1.0):
+    """robust_tuned replaced: a body lighter than ``light`` kg tunes to 12 cm/s on every chain
+    but no rung survives the audit (0 cm/s); a heavier one scores 10 x its mass on every seed."""
+    import sanlab.reproduce
+
+    def fake(lib, text, where, *, seed, prune_below=None, **kw):
+        mass = loads(text).links[0].mass
+        calls.append((round(mass, 6), seed))
+        if mass < light:
+            chains = [{"tuned": "0000abcd#1", "tuned_cm_s": 12.0, "robust": None, "robust_cm_s": 0.0}]
+            return {"speed": 0.0, "gait": None, "search": "s", "phase1_cm_s": 5.0, "chains": chains}
+        return {"speed": 10 * mass, "gait": f"{round(mass * 1e6):08x}#{seed}", "search": "s", "phase1_cm_s": 5.0, "chains": []}
+
+    monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
+
+
+def test_a_zero_says_why_the_values_are_named_and_labels_are_no_speeds(monkeypatch, tmp_path):
+    calls: list = []
+    _zeros_below(monkeypatch, calls)
+    r = runner.invoke(app, ["design", str(HOPPER), "--designs", "4", "--generation", "2", "--strategy", "random",
+                            "--validate", "1", "--db", str(tmp_path / "d.db"), "-o", str(tmp_path / "o.toml")])
+    assert r.exit_code == 0, r.output
+    out = r.stdout
+    assert "no rung survived the audit; best" in out and "tuned 12.0 cm/s" in out  # not a bare 0.0 (a cell wraps)
+    rows = [line for line in out.splitlines() if line.startswith("│ r")]
+    labels = {line.split("│")[1].split()[0] for line in rows}
+    assert labels == {"reference", "r0b0", "r0b1", "r1b0", "r1b1"}  # never "0.0", "0.1" or "-1"
+    # the free values, named with their units, a row per body
+    values = out.split("free values", 1)[1]
+    for name in ("links[0].mass (kg)", "front (m)", "back (m)", "actuators[0].ks"):
+        assert name in values
+    assert re.search(r"│ reference\s+│ 1\s+│ -0\.275\s+│ -0\.275\s+│", values), values
+    assert re.search(r"│ reference\s+│ 0\.02\s+│", values), values  # a second table: 80 columns hold three
+
+
+def test_a_tie_of_zeros_spends_no_validation_seed(monkeypatch, tmp_path):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _zeros_below(monkeypatch, calls, light=9.0)  # every body and the reference score 0
+    reports: list = []
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=4, generation=2, strategy="random", seed=0, validate=2, seeds=(1, 2))
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s, lambda *a: reports.append(a))
+    assert [seed for _, seed in calls] == [0] * 5  # the reference and 4 bodies: nothing on seeds 1 and 2
+    assert r.chosen is r.reference and not r.validated
+    assert "none of 4 bodies searched (random, seed 0) scored above 0 cm/s, so none was validated" in r.text
+    assert "(no rung survived the audit; best tuned 12.0 cm/s)" in r.text
+    assert reports[-1][:2] == (5, 5)  # the bar ends full: 5 scores of 5, not 5 of 11
+
+
+def test_a_body_at_0_is_not_validated_beside_one_above_it(monkeypatch, tmp_path):
+    from sanlab.design import DesignSettings, run_design
+
+    calls: list = []
+    _zeros_below(monkeypatch, calls)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=8, generation=4, strategy="random", seed=0, validate=3, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        r = run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+    above = {b.values[0] for b in r.bodies if b.round >= 0 and b.speed(0) > 0}
+    validated = {m for m, seed in calls if seed == 1}
+    assert validated == {round(v, 6) for v in sorted(above)[-3:]} | {1.0}  # the reference (1 kg) too
+
+
+@pytest.mark.parametrize("rec, why", [
+    ({"speed": 0.0, "chains": [{"tuned_cm_s": 12.04, "robust": None}]}, "no rung survived the audit; best tuned 12.0 cm/s"),
+    ({"speed": 0.0, "chains": [{"tuned_cm_s": 0.0, "robust": None}]}, "nothing moved: best tuned 0.0 cm/s"),
+    ({"speed": 0.0, "chains": [], "pruned": True, "phase1_cm_s": 3.25}, "pruned: best random SAN 3.2 cm/s, below the --prune line"),
+    ({"speed": 0.0, "pruned": True, "invalid": "links[0].mass: expected ..."}, "invalid: links[0].mass: expected ..."),
+    ({"speed": 7.0, "chains": []}, ""),
+])
+def test_why_a_score_is_0(rec, why):
+    from sanlab.design import why_zero
+
+    assert why_zero(rec) == why
+
+
+def test_a_piped_design_reports_its_progress_on_stderr(monkeypatch, tmp_path):
+    """As `sanlab tune` does (issue 57, item 10): a log or a pipe gets a line per score on stderr,
+    in scores with the best speed in cm/s, after a line saying what will be scored."""
+    calls: list = []
+    _zeros_below(monkeypatch, calls)
+    r = runner.invoke(app, ["design", str(HOPPER), "--designs", "4", "--generation", "2", "--strategy", "random",
+                            "--validate", "1", "--db", str(tmp_path / "d.db"), "-o", str(tmp_path / "o.toml"), "--json"])
+    assert r.exit_code == 0, r.output
+    rec = json.loads(r.stdout)  # stdout stays the record
+    _schemas.validate(rec, "design")
+    assert [f["name"] for f in rec["free"]] == ["links[0].mass", "front", "back", "actuators[0].ks"]
+    assert rec["reference"]["body"] == "reference" and rec["bodies"][1]["body"] == "r0b0"
+    err = r.stderr.splitlines()
+    assert err[0] == ("design: 5 scores on seed 0 (the reference and 4 bodies), then up to 2 on each validation seed "
+                      "(1: the best 1 and the reference, none if no body scored above 0)")
+    progress = [line for line in err if re.match(r"design: \d+/\d+ scores", line)]
+    assert progress[0].startswith("design: 1/7 scores (14 %), best 10.0 cm/s, ")
+    assert progress[-1].startswith("design: 7/7 scores (100 %), best ")
+    assert "eval/s" not in r.stderr
+
+
+def test_two_totals_on_one_free_number_are_refused(tmp_path):
+    text = HOPPER.read_text() + '[[design.total]]\nof = ["back", "links[0].mass"]\nvalue = 0.7\n'
+    path = tmp_path / "two.toml"
+    path.write_text(text)
+    r = runner.invoke(app, ["check", str(path)])
+    assert r.exit_code == 2
+    assert r.output.strip() == (f"{path}: design.total[1].of[0]: expected a free number in no other total "
+                                "(design.total[0] holds it, and two totals on one number cannot both be kept), got 'back'")
+
+
+def test_a_total_its_defaults_break_is_warned_and_the_reference_is_named_for_what_it_is(monkeypatch, tmp_path):
+    from sanlab.design import DesignSettings, reference_name, run_design
+
+    text = HOPPER.read_text().replace("value = -0.55", "value = -0.6")  # the defaults sum to -0.55
+    path = tmp_path / "off.toml"
+    path.write_text(text)
+    r = runner.invoke(app, ["check", str(path)])
+    assert r.exit_code == 0, r.output
+    assert ("design.total[0]: the defaults of front + back sum to -0.55, not its value -0.6: the file loads at its "
+            "defaults, while `sanlab design` starts from them moved onto the total") in r.stdout
+    assert runner.invoke(app, ["check", str(path), "--strict"]).exit_code == 1
+    design, _ = load_design(str(path))
+    assert reference_name(design) == "the file's defaults moved onto design.total[0]"
+    calls: list = []
+    _fake_scores(monkeypatch, calls, reference_handicap=0.0)
+    s = DesignSettings(designs=2, generation=2, strategy="random", seed=0, validate=1, seeds=(1,))
+    with Library(tmp_path / "d.db") as lib:
+        res = run_design(lib, design, text, str(path), s)
+    assert res.reference.values == [1.0, -0.3, -0.3, 0.02]  # what was scored: the total holds
+    if res.chosen is res.reference:
+        assert "the file's defaults moved onto design.total[0]: none of 2 bodies" in res.text
+    assert "the reference (the file's defaults moved onto design.total[0])" in res.text
+    assert "reference (the file's defaults)" not in res.text
+    r = runner.invoke(app, ["design", str(path), "--designs", "2", "--generation", "2", "--strategy", "random",
+                            "--validate", "1", "--db", str(tmp_path / "e.db"), "-o", str(tmp_path / "o.toml")])
+    assert r.exit_code == 0, r.output
+    assert (f"warning: {path}: design.total[0]: the defaults of front + back sum to -0.55, not -0.6: the reference is "
+            "the file's defaults moved onto design.total[0], not the file as it loads") in r.stderr
+
+
+@pytest.mark.parametrize("name", ["fr\\nont", "\\u001b[2J", " front", "x" * 65])
+def test_a_free_numbers_name_is_refused_as_every_other_name_is(name):
+    text = HOPPER.read_text().replace('name = "front" }', f'name = "{name}" }}').replace('free = "front"', f'free = "{name}"')
+    with pytest.raises(Exception) as e:
+        loads(text, "hopper.toml")
+    msg = str(e.value)
+    assert msg.startswith("hopper.toml: links[1].points[1][1].name: expected a name (printable, not blank, no spaces "
+                          "around it, at most 64 characters), got ") and msg.isprintable()

@@ -175,3 +175,98 @@ def test_check_lists_each_free_number_its_range_and_masses_and_the_couplings():
 def test_check_of_a_file_without_free_numbers_says_nothing_of_them():
     r = CliRunner().invoke(app, ["check", "cart", "--json"])
     assert "free" not in json.loads(r.stdout)
+
+
+# -- the cost of free numbers (issue 57, item 6) ---------------------------------------------------
+
+
+def _many(n: int, couple: bool = True) -> str:
+    """A chain of 8 segments, 7 motors and 16 angle sensors: its first ``n`` numbers free (the
+    links' masses and ends, the motors' gains, the sensors' ranges)."""
+    lines, k = ['name = "many"'], 0
+
+    def num(x: float) -> str:
+        nonlocal k
+        k += 1
+        return f"{{ min = {min(0.9 * x, 1.1 * x):.4f}, max = {max(0.9 * x, 1.1 * x):.4f} }}" if k <= n else repr(x)
+
+    for i in range(8):
+        lines += ["[[links]]", f'name = "L{i}"', f"mass = {num(0.1)}", 'shape = "segment"',
+                  f"points = [[0, 0], [{num(0.1)}, {num(0.02)}]]"]
+        lines += ["position = [0, 0.3]"] if i == 0 else [f'parent = "L{i - 1}"', "anchor = [0.1, 0]"]
+    for i in range(1, 8):
+        lines.append(f'[[actuators]]\ntype = "angular"\njoint = "L{i}"\nmin_deg = -30\nmax_deg = 30\n'
+                     f"ks = {num(0.02)}\nkd = {num(0.002)}")
+    for j in range(16):
+        lines.append(f'[[sensors]]\ntype = "angle"\nlink = "L{j % 7 + 1}"\nmin_deg = {num(-30.0)}\nmax_deg = {num(30.0)}')
+    assert k >= n
+    return "\n".join(lines) + ("\n[design]\ndensity = true\nstrength_mass = 1.0\ntotal_mass = true\n" if couple else "")
+
+
+def _counted(design):
+    """``design`` with its creature builds counted (``calls[0]``)."""
+    import dataclasses
+
+    calls = [0]
+
+    def build(data):
+        calls[0] += 1
+        return design.build(data)
+
+    return dataclasses.replace(design, build=build), calls
+
+
+@pytest.mark.parametrize("couple", [False, True])
+def test_the_ends_of_free_numbers_cost_builds_linear_in_their_count(couple):
+    """Each end is one creature built (two with couplings: the masses they give are built
+    again), and the stated creature the couplings measure against once: 2n (4n + 1) builds for
+    n free numbers, whatever n. It was three builds an end, the stated creature built again
+    for each: a check of 313 free numbers took 57 s."""
+    for n in (4, 16, 31):
+        design, _ = loads_design(_many(n, couple), "many.toml")
+        assert len(design.free) == n
+        design, calls = _counted(design)
+        ends = design.ends()
+        assert all(e is not None and np.isfinite(e).all() for e in ends)
+        assert calls[0] == (4 * n + 1 if couple else 2 * n)
+
+
+def test_the_stated_creature_is_built_once_however_often_it_is_asked():
+    design, _ = _counted(loads_design(_many(6), "many.toml")[0])
+    design, calls = _counted(design)
+    first = design.creature()
+    assert design.creature() is first and design.total_mass() == pytest.approx(sum(k.mass for k in first.links))
+    assert calls[0] == 2  # the creature at the defaults, and again with the masses the couplings give
+
+
+def test_a_budget_of_time_leaves_the_ends_not_reached_unchecked():
+    design, calls = _counted(loads_design(_many(6), "many.toml")[0])
+    assert design.ends(budget_s=0.0) == [None] * 6 and calls[0] == 0
+
+
+def test_a_file_of_more_free_numbers_than_the_format_allows_is_refused_naming_the_first_too_many():
+    from sanlab.creature.free import MAX_FREE
+
+    assert len(loads_design(_many(MAX_FREE, couple=False))[0].free) == MAX_FREE
+    with pytest.raises(CreatureError) as e:
+        loads(_many(MAX_FREE + 1, couple=False), "many.toml")
+    # the 65th free number: after 8 links x 3 numbers, 7 actuators x 2 and 13 sensors x 2
+    assert str(e.value) == ("many.toml: sensors[13].min_deg: expected at most 64 free numbers in a file (a design affords "
+                            "tens of bodies; `sanlab check` builds both ends of each), got more")
+
+
+def test_plain_check_says_which_ends_it_did_not_check_and_strict_checks_them_all(tmp_path, monkeypatch):
+    import sanlab.cli.creatures as creatures
+
+    path = tmp_path / "many.toml"
+    path.write_text(_many(10))
+    monkeypatch.setattr(creatures, "ENDS_BUDGET_S", 0.0)
+    r = CliRunner().invoke(app, ["check", str(path)])
+    assert r.exit_code == 0, r.output
+    assert "links[0].mass: free in [0.09, 0.11], default 0.1; ends not checked" in r.stdout
+    assert "the ends of 10 of 10 free numbers were not checked" in r.stdout and "--strict checks every end" in r.stdout
+    obj = json.loads(CliRunner().invoke(app, ["check", str(path), "--json"]).stdout)
+    _schemas.validate(obj, "check")
+    assert [f["ends_checked"] for f in obj["free"]] == [False] * 10 and obj["free"][0]["mass_at_min"] is None
+    obj = json.loads(CliRunner().invoke(app, ["check", str(path), "--json", "--strict"]).stdout)
+    assert [f["ends_checked"] for f in obj["free"]] == [True] * 10 and obj["free"][0]["mass_at_min"] > 0

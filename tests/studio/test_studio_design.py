@@ -66,7 +66,7 @@ def test_a_designs_points_are_its_bodies_and_open_their_best_gaits(made):
     assert (out["design_id"], out["status"], out["chosen"], out["seed"], out["seeds"]) == (d, "interrupted", None, 0, [1])
     assert [f["unit"] for f in out["free"]] == ["kg", "m"] and out["settings"] == SETTINGS
     pts = {p["body"]: p for p in out["points"]}
-    assert list(pts) == ["reference", "0.0", "0.1", "1.0", "1.1"]  # the reference first, then by round and place
+    assert list(pts) == ["reference", "r0b0", "r0b1", "r1b0", "r1b1"]  # the reference first, then by round and place
     ref, best, pruned, tuned, invalid = pts.values()
     assert (ref["reference"], ref["values"], ref["score"], ref["validation"], ref["validation_mean"]) == \
         (True, [1.0, -0.275], 20.0, {"1": 19.0}, 19.0)
@@ -82,7 +82,7 @@ def test_a_designs_points_are_its_bodies_and_open_their_best_gaits(made):
         lib.end_design(d, "done", {"chosen": {"round": 0, "index": 0}, "seconds": 12.5, "text": "# x\n"})
     out = svc.design(d)
     assert out["chosen"] == {"round": 0, "index": 0} and out["seconds"] == 12.5
-    assert [p["body"] for p in out["points"] if p["chosen"]] == ["0.0"]
+    assert [p["body"] for p in out["points"] if p["chosen"]] == ["r0b0"]
     assert svc.designs()[0]["chosen"] is True and svc.design_fingerprint() == [[d, "done", 7]]
 
 
@@ -91,6 +91,41 @@ def test_a_design_not_in_the_library_is_a_one_line_error(made, ref, needle):
     with pytest.raises(StudioError) as err:
         Service(made["db"]).design(ref)
     assert needle in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_id_far_longer_than_any_is_not_echoed_back_whole(made):
+    with pytest.raises(StudioError) as err:
+        Service(made["db"]).design("z" * 100_000)
+    msg = str(err.value)
+    assert msg.startswith("no design 'zzzzzzzzzzzzzzzz'... in ") and len(msg) < 300
+    assert msg.endswith("expected a design id of 8 hex digits (or their first few), got one of 100,000 characters")
+
+
+@pytest.mark.parametrize("cell, value, damage", [
+    ("settings", {**SETTINGS, "seeds": "ab"}, "its settings: seeds: a list of integers was expected, it holds 'ab'"),
+    ("settings", {**SETTINGS, "seeds": 5}, "its settings: seeds: a list of integers was expected, it holds 5"),
+    ("settings", {**SETTINGS, "seeds": ["x"]}, "its settings: seeds: a list of integers was expected"),
+    ("settings", {**SETTINGS, "seed": [1]}, "its settings: seed: an integer was expected, it holds [1]"),
+    ("result", {"chosen": {"round": 0, "index": 0}, "seconds": "x"}, "its result: seconds: a number was expected, it holds 'x'"),
+])
+def test_a_damaged_design_cell_is_named_as_damaged_not_an_internal_error(made, cell, value, damage):
+    """Cells of the right JSON type holding the wrong thing (a fuzzer's edits, issue 57 item 9):
+    each was a ValueError, TypeError or OverflowError, "internal error" with a traceback."""
+    import sqlite3
+
+    con = sqlite3.connect(made["db"])
+    con.execute(f"UPDATE designs SET {cell} = ? WHERE design_id = ?", (json.dumps(value), made["design"]))
+    con.commit()
+    con.close()
+    svc = Service(made["db"])
+    with pytest.raises(StudioError) as err:
+        svc.design(made["design"])
+    assert str(err.value).startswith(f"{made['db']}: design {made['design']} is damaged ({damage}")
+    assert str(err.value).endswith("the rest of the library is intact: restore this file from a backup to read it, "
+                                   "or leave it be")
+    if cell == "settings":  # the listing shows it as damaged, and the rest
+        [row] = svc.designs()
+        assert row["status"] == "damaged"
 
 
 def test_design_requests_over_the_websocket(studio, library):
@@ -152,8 +187,8 @@ RING = """(body) => { const [u, v] = studio.view.pointPx(body), c = document.que
 @pytest.mark.slow  # the small design (about 10 s on 2 busy cores) and a replay of the hopper
 def test_the_studio_shows_a_design_as_a_scatter_whose_points_open_their_gaits(design_page, designed):
     pg, result = design_page, designed["result"]
-    bodies = {("reference" if b.round < 0 else f"{b.round}.{b.index}"): b for b in result.bodies}
-    chosen = "reference" if result.chosen.round < 0 else f"{result.chosen.round}.{result.chosen.index}"
+    bodies = {b.label: b for b in result.bodies}
+    chosen = result.chosen.label
     # the library lists the design; its row opens it
     pg.wait_for_selector(f"#designs tr[data-design='{result.design_id}']")
     row = pg.locator(f"#designs tr[data-design='{result.design_id}']")
@@ -190,3 +225,14 @@ def test_the_studio_shows_a_design_as_a_scatter_whose_points_open_their_gaits(de
     pg.wait_for_selector("body[data-view='gait']")
     assert pg.url.endswith(f"#/gait/{want.replace('#', '%23')}")
     assert want in pg.locator("h2").inner_text()
+
+
+def test_the_design_page_of_a_100000_character_id_shows_it_cut(page, studio):
+    """Issue 57, item 9: the page put the whole id in its heading, and the server's message
+    quoted 600 characters of it. Both now quote its start and its length."""
+    page.goto(f"{studio.url}#/design/{'z' * 100_000}")
+    page.wait_for_selector("body[data-view='design-error']")
+    head = page.locator("h2").inner_text()
+    assert head == "Design zzzzzzzzzzzzzzzzzzzzzzzz… (100,000 characters)"
+    error = page.locator("#errors .error-text").first.inner_text()
+    assert error.startswith("no design 'zzzzzzzzzzzzzzzz'... in ") and len(error) < 300

@@ -4,7 +4,7 @@
 // A click on a point, or a row of the table under it, opens that body's gait in the gait view.
 
 import { Scatter } from "./plots.js";
-import { attempt, fmt, fmtDate, gaitHref, h } from "./util.js";
+import { attempt, fmt, fmtDate, gaitHref, h, shortId } from "./util.js";
 
 const SCORE = "score";
 
@@ -50,7 +50,7 @@ export class DesignView {
   async refresh() {
     const d = await attempt(() => this.app.api.request("design", { design: this.designId }));
     if (!d) {
-      if (!this.design) this.head.replaceChildren(h("h2", {}, `Design ${this.designId}`), h("p", { class: "muted" }, "cannot show this design (see the message above)"));
+      if (!this.design) this.head.replaceChildren(h("h2", {}, `Design ${shortId(this.designId)}`), h("p", { class: "muted" }, "cannot show this design (see the message above)"));
       return;
     }
     this.design = d;

@@ -3,7 +3,7 @@
 
 import { View, cameraFor, drawFrame, fitCanvas, frameOf, linkColors, scaleFor, smoothTrack } from "./draw.js";
 import { Raster } from "./plots.js";
-import { attempt, download, flags, fmt, gaitHref, h, showError } from "./util.js";
+import { attempt, download, flags, fmt, gaitHref, h, shortId, showError } from "./util.js";
 
 const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 4];
 
@@ -21,10 +21,10 @@ export class GaitView {
 
   async mount(root) {
     this.root = root;
-    root.replaceChildren(h("h2", {}, `Gait ${this.gaitId}`), h("p", { class: "muted", id: "gait-loading" }, "replaying…"));
+    root.replaceChildren(h("h2", {}, `Gait ${shortId(this.gaitId)}`), h("p", { class: "muted", id: "gait-loading" }, "replaying…"));
     const data = await attempt(() => this.app.api.request("playback", { gait: this.gaitId }));
     if (!data) {
-      root.replaceChildren(h("h2", {}, `Gait ${this.gaitId}`), h("p", { class: "muted" }, "cannot show this gait (see the message above)"));
+      root.replaceChildren(h("h2", {}, `Gait ${shortId(this.gaitId)}`), h("p", { class: "muted" }, "cannot show this gait (see the message above)"));
       this.app.loaded("gait-error");
       return;
     }

@@ -4,7 +4,7 @@
 
 import { View, cameraFor, drawFrame, fitCanvas, linkColors, scaleFor } from "./draw.js";
 import { Raster } from "./plots.js";
-import { attempt, fmt, gaitHref, h } from "./util.js";
+import { attempt, fmt, gaitHref, h, shortId } from "./util.js";
 
 const TRAIL_S = 20; // s of centre-of-mass trail kept
 const RASTER_S = 4; // s of SAN activity shown
@@ -31,14 +31,14 @@ export class LiveView {
 
   async mount(root) {
     this.root = root;
-    root.replaceChildren(h("h2", {}, `Live: ${this.gaitId}`), h("p", { class: "muted", id: "live-status" }, "compiling the creature's step… (the first start of a creature takes a while)"));
+    root.replaceChildren(h("h2", {}, `Live: ${shortId(this.gaitId)}`), h("p", { class: "muted", id: "live-status" }, "compiling the creature's step… (the first start of a creature takes a while)"));
     this.offs.push(this.app.api.on("live.frames", (m) => this.onFrames(m)));
     this.offs.push(this.app.api.on("live.reset", (m) => this.setup(m)));
     this.offs.push(this.app.api.on("live.stats", (m) => (this.stats = m)));
     this.offs.push(this.app.api.on("live.error", (m) => { this.statusLine(m.error); }));
     const d = await attempt(() => this.app.api.request("live.start", { gait: this.gaitId }));
     if (!d) {
-      root.replaceChildren(h("h2", {}, `Live: ${this.gaitId}`), h("p", { class: "muted" }, "cannot run this gait live (see the message above)"));
+      root.replaceChildren(h("h2", {}, `Live: ${shortId(this.gaitId)}`), h("p", { class: "muted" }, "cannot run this gait live (see the message above)"));
       this.app.loaded("live-error");
       return;
     }

@@ -4,7 +4,7 @@
 
 import { View, cameraFor, drawFrame, fitCanvas, frameOf, linkColors, scaleFor, smoothTrack } from "./draw.js";
 import { HeatMap, drawProgress, drawScores, drawTrace } from "./plots.js";
-import { attempt, flags, fmt, fmtDate, gaitHref, h, progress } from "./util.js";
+import { attempt, flags, fmt, fmtDate, gaitHref, h, progress, shortId } from "./util.js";
 
 const MODES_SHOWN = 12;
 
@@ -124,7 +124,7 @@ export class RunView {
   async refresh() {
     const run = await attempt(() => this.app.api.request("run", { run: this.runId }));
     if (!run) {
-      this.head.replaceChildren(h("h2", {}, `Run ${this.runId}`), h("p", { class: "muted" }, "not found in this library"));
+      this.head.replaceChildren(h("h2", {}, `Run ${shortId(this.runId)}`), h("p", { class: "muted" }, "not found in this library"));
       return;
     }
     this.run = run;

@@ -44,6 +44,13 @@ export function flags(g) {
   return out.join(", ") || "–";
 }
 
+// An id from the address bar as a heading shows it: a real one whole, anything longer than an id
+// (a pasted page, 100,000 characters) cut, with its length.
+export function shortId(id, keep = 24) {
+  const s = String(id);
+  return s.length <= keep ? s : `${s.slice(0, keep)}… (${s.length.toLocaleString("en")} characters)`;
+}
+
 // Hash routes use gait ids (RUN/RANK, RUN#IDX) as one path segment.
 export const gaitHref = (id, view = "gait") => `#/${view}/${encodeURIComponent(id)}`;
 
