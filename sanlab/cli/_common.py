@@ -30,7 +30,7 @@ console = Console()
 T = TypeVar("T")
 
 CreatureArg = Annotated[
-    str, typer.Argument(help="A built-in creature name (see `sanlab creatures`) or a .toml file.")
+    str, typer.Argument(metavar="CREATURE", help="A built-in creature name (see `sanlab creatures`) or a .toml file.")
 ]
 DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead (machine-readable).")]
@@ -435,6 +435,13 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
+    zero = [str(rank) for rank, r in enumerate(rows, 1) if abs(r["score"]) < 0.0005 and not r["fell"] and not r["nonfinite"]]
+    if zero:  # an imported walker2d's rows: 0.000, no flag and "← -8.9" left the reader to guess why
+        console.print(f"score 0.000 without a flag (rank {', '.join(zero)}): a score is the median over the gait's "
+                      "perturbed members (with two step sizes, dt and dt/2, of the group that scored lower), and its median "
+                      "member scored about 0: it fell, or did not move the way the file scores (\"fell\" needs more "
+                      "than half of all members to fall); the speed is a median of the same members, and may point "
+                      "the way that scores nothing")
 
 
 def print_distribution(scores: list[float]) -> None:
