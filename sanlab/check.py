@@ -418,6 +418,8 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float64") -
     of the drop and the sweeps)."""
     from sanlab import sim
 
+    if spec.dofs == 0:  # the loader refuses such a file; a Creature built in code gets the same answer
+        raise ValueError(f"{spec.name}: expected at least one degree of freedom to simulate, got every link fixed")
     model = sim.compile_creature(spec, dtype)
     A = len(spec.actuators)
     rng = np.random.default_rng(0)

@@ -375,6 +375,12 @@ def test_a_creature_with_every_link_fixed_is_refused_naming_the_field(tmp_path):
     # a fixed root with a jointed link has a degree of freedom: a rig still loads
     rig = ALL_FIXED + '\n[[links]]\nname = "arm"\nmass = 0.1\nshape = "segment"\npoints = [[0, 0], [0.2, 0]]\nparent = "L1"\n'
     assert loads(rig, "rig.toml").dofs == 1
+    # a Creature built in code, past the loader: one clear ValueError, not the simulator's shape error
+    from sanlab.creature.spec import Creature, Link, Shape
+
+    post = Creature("post", (Link("L1", 0.1, 0.0, (0.1, 0.0), Shape("segment", ((0.0, 0.0), (0.2, 0.0))), fixed=True),))
+    with pytest.raises(ValueError, match=r"^post: expected at least one degree of freedom to simulate, got every link fixed$"):
+        simulate(post)
 
 
 def test_a_creature_without_actuators_is_warned_of_and_refused_by_search(tmp_path):
