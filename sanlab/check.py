@@ -639,9 +639,9 @@ def _standing(spec: Creature, P: dict, t: Any, ground: Any) -> Finding:
                        f"servos at mid targets (drifted {drift * 100:.2g} cm" + (f"; it fell: {fell})" if fell else ")"),
                        values)
     if fell is not None:
-        return Finding("standing", False, f"standing: falls with the servos at mid targets ({fell}; its centre of mass "
-                       f"moved {drift * 100:.2g} cm in all), then comes to rest: it does not stand by itself, and every "
-                       "SAN starts from this (it must move to stay up)", values, note=True)
+        return Finding("standing", False, f"standing: falls by the file's fell rule with the servos at mid targets ({fell}; "
+                       f"its centre of mass moved {drift * 100:.2g} cm in all), then comes to rest: it does not stay up "
+                       "by itself, and every SAN starts from this (a gait must keep it up)", values, note=True)
     rule = ("it never meets the file's fell rule" if spec.evaluation.can_fall
             else "the file has no fell rule to judge a fall by")
     return Finding("standing", False, f"standing: comes to rest with the servos at mid targets ({rule}; its centre of "

@@ -421,7 +421,7 @@ def test_a_creature_that_falls_at_mid_targets_is_not_ok_standing():
     60): a note naming the rule it broke, never "ok"."""
     (f,) = [f for f in simulate(load("walker")) if f.check == "standing"]
     assert f.note and not f.warning and f.values["fell"], f
-    assert f.message.startswith("standing: falls with the servos at mid targets (link torso tilts ")
+    assert f.message.startswith("standing: falls by the file's fell rule with the servos at mid targets (link torso tilts ")
     assert "past evaluation.fell_angle_deg = 60" in f.message
     (b,) = [f for f in simulate(load("bounder")) if f.check == "standing"]
     assert not b.note and not b.warning and not b.values["fell"]
