@@ -83,7 +83,8 @@ def search(
     top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
     force: Annotated[bool, typer.Option("--force", help=(
-        "Search a creature that `sanlab check` finds can never move (no sensor on at rest) all the same."))] = False,
+        "Search a creature that `sanlab check` finds can never move (no actuator that drives anything, or no sensor "
+        "on at rest) all the same."))] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits.
