@@ -86,6 +86,6 @@ def test_map_elites_and_design_without_pyribs_say_which_extra_to_install(monkeyp
     assert r.stderr == "search: --strategy map-elites needs pyribs, which is not installed: pip install 'sanlab[qd]'\n"
     r = CliRunner().invoke(app, ["design", str(ROOT / "tests" / "data" / "hopper_free.toml"), "--db", db])
     assert r.exit_code == 2 and r.stdout == "" and r.stderr.count("\n") == 1, r.output
-    assert "design --strategy cma-es needs pyribs" in r.stderr and "pip install 'sanlab[qd]' (or --strategy random)" in r.stderr
+    assert r.stderr.startswith("design: --strategy cma-es needs pyribs") and "pip install 'sanlab[qd]' (or --strategy random)" in r.stderr
     r = CliRunner().invoke(app, ["search", "cart", "-n", "8", "--seconds", "0.3", "--db", db, "--json"])
     assert r.exit_code == 0, r.output  # random search needs no pyribs

@@ -97,7 +97,7 @@ def design(
         from sanlab.search.map_elites import MissingExtra, ribs
 
         try:
-            ribs("emitters.opt", "design --strategy cma-es")
+            ribs("emitters.opt", "--strategy cma-es")
         except MissingExtra as e:
             raise fail(f"design: {e} (or --strategy random)") from None
     try:
