@@ -10,9 +10,13 @@ each of these is reported in one line, as a warning when it looks wrong:
   simulator lifts the creature onto the ground), or how high it floats above it;
 - ``sinking``: links that go below the ground in the drop where they have no contact point;
 - ``ground``: the static sag on the ground and the ground's damping ratio for this creature;
-- ``standing``: whether it comes to rest (the drift of its centre of mass, its speed at the end);
-- ``strength``: each actuator's strength against its gravity load (paper §3.3: a 10 degree
-  deflection should hold half the body weight);
+- ``standing``: whether it stays up (the file's fell rule never fires: a note when it does) and
+  comes to rest (the drift of its centre of mass, its speed at the end);
+- ``actuators``: a creature with no actuator that drives anything (none, or every ``ks`` 0),
+  which no SAN can move (``search`` refuses it without ``--force``);
+- ``strength``: each actuator's strength against its gravity load at its longest lever (paper
+  §3.3: a 10 degree deflection should hold half the body weight; a note below 1x, a warning
+  beyond 20x either way);
 - ``radians``: angle ranges that look like radians (every |value| < 6.3 on a ``_deg`` field);
 - ``resolution``: servos the step cannot resolve (underdamped and omega dt > 1,
   ``sanlab.evaluate.resolution``): every evaluation of such a creature is flagged non-finite;
@@ -34,7 +38,11 @@ not bounce, which is fine (it is what real ground does); an underdamped one ring
 little. Only the extremes are warnings: a ratio below 0.02 bounces, and one above 20 stops a
 landing dead and lets a contact settle into its sag only over c/k seconds, like mud.
 
-Warnings, never errors: a creature may mean to float or to fall. :func:`warnings` is the short
+Each line is "ok" only where what it checks held, a warning where it looks wrong, and a note
+(:attr:`Finding.note`) for a fact that may well be meant but is not what the check asks for.
+Nothing is said about parts the creature does not have (no sensor line without sensors to judge,
+no strength line without actuators). Warnings, never errors: a creature may mean to float or to
+fall. :func:`warnings` is the short
 form a command that starts a run can print once; :func:`static` the findings that need no
 simulation.
 """
@@ -66,14 +74,17 @@ PATH_POSES = 9  # poses from the start pose to the servos' mid targets, both end
 
 @dataclass(frozen=True)
 class Finding:
-    """One line of the report: ``check`` (start, sinking, ground, standing, strength, radians,
-    resolution, sensors, at rest), whether it is a ``warning``, the ``message`` and its numbers
-    (SI units)."""
+    """One line of the report: ``check`` (start, sinking, ground, standing, actuators, strength,
+    radians, resolution, sensors, at rest), whether it is a ``warning``, the ``message`` and its
+    numbers (SI units). A ``note`` (never also a warning) is a fact that may well be meant but
+    is not what the check asks for (a servo weaker than §3.3's sizing at full reach, a creature
+    that falls at its mid targets): printed as "note", never as "ok"."""
 
     check: str
     warning: bool
     message: str
     values: dict = field(default_factory=dict)
+    note: bool = False
 
 
 # -- without simulating ----------------------------------------------------------------------------
@@ -83,13 +94,16 @@ def radian_ranges(spec: Creature) -> list[Finding]:
     """Angle ranges of the file (``min_deg``/``max_deg``, ``fell_angle_deg``) every end of which
     is below 6.3 in magnitude: likely radians written where degrees belong."""
     out = []
+    looked = 0
 
     def look(where: str, lo: float, hi: float) -> None:
+        nonlocal looked
+        looked += 1
         d = (math.degrees(lo), math.degrees(hi))
         if max(abs(d[0]), abs(d[1])) < RADIAN_LIKE and d != (0.0, 0.0):
             out.append(Finding("radians", True, f"{where}: min_deg, max_deg = [{d[0]:g}, {d[1]:g}] look like radians "
-                               f"(every |value| < {RADIAN_LIKE}); the file takes degrees, e.g. [{math.degrees(d[0]):.0f}, "
-                               f"{math.degrees(d[1]):.0f}]", {"min_deg": d[0], "max_deg": d[1]}))
+                               f"(every |value| < {RADIAN_LIKE}); the file takes degrees, e.g. [{_suggest(d[0])}, "
+                               f"{_suggest(d[1])}]", {"min_deg": d[0], "max_deg": d[1]}))
 
     for a in spec.actuators:
         if isinstance(a, AngularActuator):
@@ -101,12 +115,20 @@ def radian_ranges(spec: Creature) -> list[Finding]:
         if link.limit is not None:
             look(f"link {link.name} limit", link.limit.min, link.limit.max)
     fell = math.degrees(spec.evaluation.fell_angle)
+    looked += bool(spec.evaluation.fell_links)
     if spec.evaluation.fell_links and fell < RADIAN_LIKE:
         out.append(Finding("radians", True, f"evaluation.fell_angle_deg = {fell:g} looks like radians (below "
                            f"{RADIAN_LIKE}); the file takes degrees", {"fell_angle_deg": fell}))
-    if not out:
+    if not out and looked:  # nothing said of a file without angle ranges
         out.append(Finding("radians", False, "angle ranges: in degrees as the file wants (none looks like radians)"))
     return out
+
+
+def _suggest(radians_like: float) -> str:
+    """The value in degrees that ``radians_like`` (written in a _deg field) likely meant, with
+    enough digits that a small one does not round to 0 (0.001 rad is 0.0573 deg)."""
+    d = math.degrees(radians_like)
+    return f"{d:.0f}" if abs(d) >= 10 or d == 0 else f"{d:.3g}"
 
 
 def _subtree(spec: Creature, root: str) -> list[int]:
@@ -117,19 +139,43 @@ def _subtree(spec: Creature, root: str) -> list[int]:
     return [i for i, link in enumerate(spec.links) if link.name in inside]
 
 
+def actuators(spec: Creature) -> list[Finding]:
+    """A warning when no actuator can move anything: the file has none, or every one has
+    ``ks = 0`` (a servo's drive is ks times its error; kd only damps). A SAN drives nothing but
+    actuators, so every controller scores what the creature does by itself (``search`` refuses
+    such a creature without ``--force``); nothing is said otherwise."""
+    if not spec.actuators:
+        return [Finding("actuators", True, "actuators: none, so no SAN can move any part (a SAN drives only "
+                        "actuators: every controller scores what the body does by itself); add [[actuators]]",
+                        {"actuators": 0, "driven": 0})]
+    if all(a.ks == 0 for a in spec.actuators):
+        return [Finding("actuators", True, f"actuators: every one has ks = 0 (actuators[*].ks: all {len(spec.actuators)} "
+                        "switched off), so no SAN can move any part; give one a ks above 0",
+                        {"actuators": len(spec.actuators), "driven": 0})]
+    return []
+
+
 def strength(spec: Creature) -> list[Finding]:
     """Each actuator's holding force at a 10 degree error (a tenth of its range for a linear one)
-    against its gravity load: the larger of lifting what hangs from it (its subtree's weight at
-    its centre of mass's distance) and, for a limb that can stand (contact points below the
-    joint), half the creature's weight at the limb's reach (paper §3.3)."""
+    against its gravity load at its longest lever: the larger of lifting what hangs from it (its
+    subtree's weight, each link's centre of mass at its distance from the joint, as if held out
+    level) and, for a limb that can stand (contact points below the joint), half the creature's
+    weight at the limb's whole reach. Paper §3.3 sizes a servo to hold half the body weight with
+    a bent leg, whose lever is shorter than the reach, so: "ok" at 1x and up to 20x (it holds even
+    at full reach), a note between 1/20x and 1x (the paper's own bounder holds 0.49x, sized at a
+    bent leg's 0.19 m lever), a warning outside [1/20, 20] (an order-of-magnitude mistake, e.g.
+    N m/rad where N m/deg belongs), and a note for ``ks = 0`` (switched off: it holds nothing;
+    :func:`actuators` warns when every one is). Nothing is said of a creature without actuators."""
     g = spec.world.gravity
-    if spec.world.plane != "vertical" or g == 0 or not spec.actuators:
+    if not spec.actuators:
+        return []
+    if spec.world.plane != "vertical" or g == 0:
         return [Finding("strength", False, "actuators: no gravity load to compare with (" +
-                        ("horizontal plane)" if spec.world.plane != "vertical" else "no gravity)" if g == 0 else "none)"))]
+                        ("horizontal plane)" if spec.world.plane != "vertical" else "no gravity)"))]
     frames = geometry.initial_frames(spec)
     weight = g * sum(link.mass for link in spec.links if not (link.parent is None and link.fixed))
     out = []
-    for act in spec.actuators:
+    for n, act in enumerate(spec.actuators):
         if isinstance(act, AngularActuator):
             joint = frames[act.joint][:2]
             members = _subtree(spec, act.joint)
@@ -152,6 +198,11 @@ def strength(spec: Creature) -> list[Finding]:
         unit = "N m" if isinstance(act, AngularActuator) else "N"
         if not isinstance(act, AngularActuator):  # a force against half the weight
             load = 0.5 * weight if reach > 0 else lift / max(reach, 1e-9) if lift else 0.5 * weight
+        if held == 0:  # before the ratio: 1 / ratio would divide by zero
+            out.append(Finding("strength", False, f"actuator {act.name}: actuators[{n}].ks = 0 (switched off): it drives nothing and "
+                               f"holds nothing of its gravity load of up to {load:.3g} {unit}", {"held": 0.0, "load": load},
+                               note=True))  # a motor switched off on purpose; all of them off is a warning (actuators)
+            continue
         if load <= 0:
             out.append(Finding("strength", False, f"actuator {act.name}: carries no gravity load", {"held": held}))
             continue
@@ -159,15 +210,20 @@ def strength(spec: Creature) -> list[Finding]:
         lo, hi = STRENGTH_BAND
         values = {"held": held, "load": load, "ratio": ratio}
         times = f"{ratio:.0f}" if ratio >= 10 else f"{ratio:.2g}"
-        text = f"actuator {act.name}: {how} holds {held:.3g} {unit} against a gravity load of {load:.3g} {unit} ({times}x)"
+        text = (f"actuator {act.name}: {how} holds {held:.3g} {unit} against a gravity load of up to {load:.3g} {unit} "
+                f"({times}x)")
         if ratio > hi:
             out.append(Finding("strength", True, text + f": {ratio:.0f} times stronger than §3.3's sizing (ks in N m/rad "
                                "where N m/deg belongs?)", values))
         elif ratio < lo:
             out.append(Finding("strength", True, text + f": {1 / ratio:.0f} times weaker than §3.3's sizing "
                                "(it cannot hold itself up)", values))
+        elif ratio < 1:
+            out.append(Finding("strength", False, text + ": below §3.3's sizing at full reach; it holds the load at "
+                               f"levers up to {ratio:.0%} of the longest (§3.3 sizes for a bent leg's shorter one)",
+                               values, note=True))
         else:
-            out.append(Finding("strength", False, text, values))
+            out.append(Finding("strength", False, text + ": holds it even at full reach (§3.3's sizing met)", values))
     return out
 
 
@@ -349,9 +405,9 @@ def at_rest(spec: Creature) -> list[Finding]:
 
 
 def static(spec: Creature) -> list[Finding]:
-    """Every finding that needs no simulation: :func:`strength`, :func:`resolution`,
-    :func:`radian_ranges` and :func:`at_rest`."""
-    return [*strength(spec), *resolution(spec), *radian_ranges(spec), *at_rest(spec)]
+    """Every finding that needs no simulation: :func:`actuators`, :func:`strength`,
+    :func:`resolution`, :func:`radian_ranges` and :func:`at_rest`."""
+    return [*actuators(spec), *strength(spec), *resolution(spec), *radian_ranges(spec), *at_rest(spec)]
 
 
 # -- simulating ------------------------------------------------------------------------------------
@@ -362,6 +418,8 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float64") -
     of the drop and the sweeps)."""
     from sanlab import sim
 
+    if spec.dofs == 0:  # the loader refuses such a file; a Creature built in code gets the same answer
+        raise ValueError(f"{spec.name}: expected at least one degree of freedom to simulate, got every link fixed")
     model = sim.compile_creature(spec, dtype)
     A = len(spec.actuators)
     rng = np.random.default_rng(0)
@@ -389,7 +447,8 @@ def simulate(spec: Creature, seconds: float = SECONDS, dtype: str = "float64") -
     else:
         out += _sinking(spec, P, ground)
         out += _ground(spec, P)
-        out.append(_standing(spec, P, r.frames.t))
+        out.append(_standing(spec, P, r.frames.t, ground))
+    out += actuators(spec)
     out += strength(spec)
     out += resolution(spec)
     out += radian_ranges(spec)
@@ -533,19 +592,60 @@ def _ground(spec: Creature, P: dict) -> list[Finding]:
                     "before) and settles", values)]
 
 
-def _standing(spec: Creature, P: dict, t: Any) -> Finding:
-    """Does the creature come to rest, servos at mid targets? Drift of its centre of mass."""
+def _fell(spec: Creature, P: dict, ground: Any) -> str | None:
+    """How the drop (row 0 of ``P``) meets the file's fell rule (``evaluation.fell_link`` and
+    friends, as the simulator's metric judges it), or None when it never does or the file has
+    no fell rule."""
+    ev = spec.evaluation
+    links = P["links"][0]  # [F, L, 3]
+    index = {link.name: i for i, link in enumerate(spec.links)}
+    for name in ev.fell_links:
+        i = index[name]
+        a = np.asarray(links[:, i, 2], float)
+        tilt = float(np.max(np.abs(a - 2 * np.pi * np.floor((a + np.pi) / (2 * np.pi)))))
+        if tilt > ev.fell_angle:
+            return (f"link {name} tilts {math.degrees(tilt):.0f} deg, past evaluation.fell_angle_deg = "
+                    f"{math.degrees(ev.fell_angle):.3g}")
+        if ev.fell_link_height is not None and spec.world.plane == "vertical":
+            cx, cy = spec.link(name).com
+            x, y, th = links[:, i, 0], links[:, i, 1], links[:, i, 2]
+            wx, wy = x + np.cos(th) * cx - np.sin(th) * cy, y + np.sin(th) * cx + np.cos(th) * cy
+            low = float(np.min(wy - ground(wx)))
+            if low < ev.fell_link_height:
+                return (f"the centre of mass of link {name} comes down to {low * 100:.3g} cm above the ground, below "
+                        f"evaluation.fell_link_height = {ev.fell_link_height:g} m")
+    if ev.fell_com_height is not None and spec.world.plane == "vertical":
+        com = P["com"][0]
+        low = float(np.min(com[:, 1] - ground(com[:, 0])))
+        if low < ev.fell_com_height:
+            return (f"its centre of mass comes down to {low * 100:.3g} cm above the ground, below "
+                    f"evaluation.fell_com_height = {ev.fell_com_height:g} m")
+    return None
+
+
+def _standing(spec: Creature, P: dict, t: Any, ground: Any) -> Finding:
+    """Does the creature stay up (its file's fell rule never fires) and come to rest, servos at
+    mid targets? Drift of its centre of mass. Falling at mid targets is a note, not a warning: a
+    SAN whose sensors stay off does it, but a walker may well need its gait to stay up."""
     com = P["com"][0]  # [F, 2]
     t = np.asarray(t, float)
     drift = float(np.hypot(*(com[-1] - com[0])))
     k = max(1, int(round(0.2 * FPS)))
     speed = float(np.hypot(*(com[-1] - com[-1 - k])) / max(t[-1] - t[-1 - k], 1e-9)) if len(t) > k else 0.0
-    values = {"drift_m": drift, "end_speed_m_s": speed}
+    fell = _fell(spec, P, ground)
+    values = {"drift_m": drift, "end_speed_m_s": speed, "fell": fell is not None}
     if speed > REST_SPEED:
         return Finding("standing", True, f"standing: still moving at {speed * 100:.2g} cm/s after {t[-1]:.0f} s with the "
-                       f"servos at mid targets (drifted {drift * 100:.2g} cm)", values)
-    return Finding("standing", False, f"standing: comes to rest with the servos at mid targets (its centre of mass "
-                   f"moved {drift * 100:.2g} cm in all)", values)
+                       f"servos at mid targets (drifted {drift * 100:.2g} cm" + (f"; it fell: {fell})" if fell else ")"),
+                       values)
+    if fell is not None:
+        return Finding("standing", False, f"standing: falls by the file's fell rule with the servos at mid targets ({fell}; "
+                       f"its centre of mass moved {drift * 100:.2g} cm in all), then comes to rest: it does not stay up "
+                       "by itself, and every SAN starts from this (a gait must keep it up)", values, note=True)
+    rule = ("it never meets the file's fell rule" if spec.evaluation.can_fall
+            else "the file has no fell rule to judge a fall by")
+    return Finding("standing", False, f"standing: comes to rest with the servos at mid targets ({rule}; its centre of "
+                   f"mass moved {drift * 100:.2g} cm in all)", values)
 
 
 def _judged(spec: Creature, s: Any) -> bool:
@@ -589,8 +689,11 @@ def _why(spec: Creature, s: Any) -> str:
 
 def _sensors(spec: Creature, bits: np.ndarray) -> list[Finding]:
     """Sensors that never turn on, or never off, in the drop and the sweeps (of those the
-    actuators move: see :func:`_judged` and :func:`_reaches`)."""
+    actuators move: see :func:`_judged` and :func:`_reaches`). Nothing is said where there is
+    no sensor to judge or no actuator that sweeps (:func:`actuators` warns of that)."""
     out = []
+    if not any(_judged(spec, s) for s in spec.sensors) or not any(a.ks > 0 for a in spec.actuators):
+        return out
     for i, s in enumerate(spec.sensors):
         if not _judged(spec, s):
             continue

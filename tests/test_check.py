@@ -323,3 +323,143 @@ def test_the_springs_line_says_whether_any_rings():
     lines = [f.message for f in resolution(load("crawler")) if f.message.startswith("springs and stops")]
     assert lines == ["springs and stops: the step resolves every one (largest omega dt 0.032 rad per step of those that "
                      "ring, at most 1)"]
+
+
+# -- issue 57: ks = 0, no degrees of freedom, no actuators, "ok" that did not hold ------------------
+
+SWITCHED_OFF = BASE.replace("ks = 0.002", "ks = 0")
+NO_ACTUATORS = BASE[: BASE.index("[[actuators]]")]
+ALL_FIXED = 'name = "post"\n\n[[links]]\nname = "L1"\nmass = 0.1\nshape = "segment"\npoints = [[0, 0], [0.2, 0]]\nfixed = true\n'
+
+
+def test_an_actuator_switched_off_with_ks_0_is_a_note_and_all_off_a_warning(tmp_path):
+    """Issue 57 item 1: ks = 0 ended `check` and `search` in ZeroDivisionError (1 / ratio)."""
+    assert not [f for f in static(loads(BASE, "base.toml")) if f.check == "actuators"]  # a driven servo: nothing said
+    off = loads(SWITCHED_OFF, "off.toml")
+    (s,) = strength(off)
+    assert s.note and not s.warning and s.values["held"] == 0.0
+    assert s.message.startswith("actuator A1: actuators[0].ks = 0 (switched off): it drives nothing")
+    (a,) = [f for f in static(off) if f.check == "actuators"]
+    assert a.warning and "every one has ks = 0" in a.message and a.values == {"actuators": 1, "driven": 0}
+    path = tmp_path / "off.toml"
+    path.write_text(SWITCHED_OFF)
+    r = runner.invoke(app, ["check", str(path)])
+    assert r.exit_code == 0 and "Traceback" not in r.output and "ZeroDivisionError" not in r.output, r.output
+    r = runner.invoke(app, ["search", str(path), "-n", "4", "--db", str(tmp_path / "l.db")])
+    assert r.exit_code == 2 and r.stdout == "" and r.stderr.count("\n") == 1, r.output
+    assert "can never move: every actuator has ks = 0" in r.stderr and "--force" in r.stderr
+
+
+def test_one_motor_switched_off_among_driven_ones_is_not_refused():
+    three = SWITCHED_OFF.replace("[[sensors]]", '[[links]]\nname = "L3"\nmass = 0.1\nshape = "segment"\n'
+                                 'points = [[0, 0], [0.2, 0]]\nparent = "L2"\nanchor = [0.2, 0]\n\n[[sensors]]', 1)
+    three += BASE[BASE.index("[[actuators]]"):].replace('joint = "L2"', 'joint = "L3"')
+    spec = loads(three, "three.toml")
+    assert not [f for f in static(spec) if f.check == "actuators"]
+    assert [f.message.split(":")[0] for f in strength(spec) if "ks = 0" in f.message] == ["actuator A1"]
+
+
+def test_a_creature_with_every_link_fixed_is_refused_naming_the_field(tmp_path):
+    """Issue 57 item 2: 0 degrees of freedom passed `check`; `check --simulate` ended in a
+    ValueError traceback and `search` flagged every controller non-finite."""
+    from sanlab.creature import CreatureError
+
+    with pytest.raises(CreatureError, match=r"^post\.toml: links\[0\]\.fixed: expected at least one degree of freedom"):
+        loads(ALL_FIXED, "post.toml")
+    path = tmp_path / "post.toml"
+    path.write_text(ALL_FIXED)
+    for argv in (["check", str(path)], ["check", str(path), "--simulate"], ["search", str(path), "--db", str(tmp_path / "l.db")]):
+        r = runner.invoke(app, argv)
+        assert r.exit_code == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.output, (argv, r.output)
+        assert r.stderr.startswith(f"{path}: links[0].fixed: expected at least one degree of freedom"), r.stderr
+    # a fixed root with a jointed link has a degree of freedom: a rig still loads
+    rig = ALL_FIXED + '\n[[links]]\nname = "arm"\nmass = 0.1\nshape = "segment"\npoints = [[0, 0], [0.2, 0]]\nparent = "L1"\n'
+    assert loads(rig, "rig.toml").dofs == 1
+    # a Creature built in code, past the loader: one clear ValueError, not the simulator's shape error
+    from sanlab.creature.spec import Creature, Link, Shape
+
+    post = Creature("post", (Link("L1", 0.1, 0.0, (0.1, 0.0), Shape("segment", ((0.0, 0.0), (0.2, 0.0))), fixed=True),))
+    with pytest.raises(ValueError, match=r"^post: expected at least one degree of freedom to simulate, got every link fixed$"):
+        simulate(post)
+
+
+def test_a_creature_without_actuators_is_warned_of_and_refused_by_search(tmp_path):
+    """Issue 57 item 3: no actuators passed `check` and `check --strict`, `check --simulate` said
+    "ok sensors: each turns on and off while the actuators sweep their ranges", and `search`
+    scored 200 zeros."""
+    spec = loads(NO_ACTUATORS, "idle.toml")
+    (a,) = [f for f in static(spec) if f.check == "actuators"]
+    assert a.warning and a.message.startswith("actuators: none, so no SAN can move any part")
+    assert not strength(spec)  # nothing said about actuators that do not exist
+    found = simulate(spec, seconds=1.0)
+    assert not [f for f in found if f.check == "sensors"], [f.message for f in found]
+    assert not [f for f in found if not f.warning and "actuator" in f.message and f.check != "standing"]
+    assert [f.check for f in found if f.warning] == ["actuators"]
+    path = tmp_path / "idle.toml"
+    path.write_text(NO_ACTUATORS)
+    r = runner.invoke(app, ["check", str(path), "--strict"])
+    assert r.exit_code == 1 and "warning actuators: none" in r.stdout, r.output
+    db = str(tmp_path / "l.db")
+    r = runner.invoke(app, ["search", str(path), "-n", "4", "--db", db])
+    assert r.exit_code == 2 and r.stdout == "" and r.stderr.count("\n") == 1, r.output
+    assert r.stderr.startswith(f"search: {path} can never move: no actuators, so no SAN can move any part")
+    assert r.stderr.rstrip().endswith("(or give --force to search it anyway)")
+    r = runner.invoke(app, ["search", str(path), "-n", "4", "--batch", "4", "--db", db, "--force", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["evaluated"] == 4, r.output
+
+
+def test_no_sensor_line_without_sensors():
+    bare = BASE[: BASE.index("[[sensors]]")] + BASE[BASE.index("[[actuators]]"):]
+    found = simulate(loads(bare, "bare.toml"), seconds=1.0)
+    assert not [f for f in found if f.check == "sensors"], [f.message for f in found]
+    assert any(f.check == "at rest" and f.warning and "it has no sensors" in f.message for f in found)
+
+
+def test_a_creature_that_falls_at_mid_targets_is_not_ok_standing():
+    """Issue 57 item 4: "ok standing" for a walker2d whose centre of mass moves 71 cm as it
+    falls over. The built-in walker does the same (its torso tilts past its fell_angle_deg of
+    60): a note naming the rule it broke, never "ok"."""
+    (f,) = [f for f in simulate(load("walker")) if f.check == "standing"]
+    assert f.note and not f.warning and f.values["fell"], f
+    assert f.message.startswith("standing: falls by the file's fell rule with the servos at mid targets (link torso tilts ")
+    assert "past evaluation.fell_angle_deg = 60" in f.message
+    (b,) = [f for f in simulate(load("bounder")) if f.check == "standing"]
+    assert not b.note and not b.warning and not b.values["fell"]
+    assert "it never meets the file's fell rule" in b.message
+    (c,) = [f for f in simulate(load("cart")) if f.check == "standing"]
+    assert not c.note and "the file has no fell rule to judge a fall by" in c.message
+
+
+def test_a_servo_below_one_times_its_load_is_a_note_not_ok():
+    """Issue 57 item 4: "ok" for luxo's base servo holding 0.37x its gravity load, where §3.3's
+    rule asks for 1x: "ok" now only from 1x (to 20x), a note between 1/20x and 1x."""
+    luxo = {f.message.split(":")[0]: f for f in strength(load("luxo"))}
+    a1 = luxo["actuator A1"]
+    assert a1.note and not a1.warning and a1.values["ratio"] == pytest.approx(0.37, abs=0.01)
+    assert "(0.37x): below §3.3's sizing at full reach" in a1.message
+    walker = {f.message.split(":")[0]: f for f in strength(load("walker"))}
+    a3 = walker["actuator A3"]
+    assert not a3.note and not a3.warning and a3.values["ratio"] >= 1
+    assert a3.message.endswith("holds it even at full reach (§3.3's sizing met)")
+    for f in (*strength(load("luxo")), *strength(load("walker"))):
+        assert (f.values["ratio"] >= 1) == (not f.note and not f.warning), f.message
+
+
+def test_check_prints_notes_as_notes_and_counts_them():
+    r = runner.invoke(app, ["check", "luxo", "--json"])
+    out = json.loads(r.stdout)
+    assert out["notes"] == 2 and out["warnings"] == 0
+    assert [c["note"] for c in out["checks"] if c["check"] == "strength"] == [True, True]
+    r = runner.invoke(app, ["check", "luxo"], terminal_width=400)
+    assert "checked without simulating (--simulate says more): 0 warnings, 2 notes" in r.stdout
+    assert not [ln for ln in r.stdout.splitlines() if ln.startswith("  ok      actuator A")], r.stdout
+    assert len([ln for ln in r.stdout.splitlines() if ln.startswith("  note    actuator A")]) == 2
+
+
+def test_a_tiny_radian_like_range_is_not_suggested_as_0_0():
+    """Issue 57 item 13: [0, 0.001] suggested "[0, 0]" (each end rounded to whole degrees)."""
+    spec = loads(BASE.replace("min_deg = -90\nmax_deg = 90\nks", "min_deg = 0\nmax_deg = 0.001\nks"), "tiny.toml")
+    (f,) = [f for f in radian_ranges(spec) if f.warning]
+    assert "[0, 0]" not in f.message and f.message.endswith("e.g. [0, 0.0573]"), f.message
+    (g,) = [f for f in radian_ranges(load(str(DATA / "radians.toml"))) if f.warning and "hip" in f.message]
+    assert g.message.endswith("e.g. [-46, 46]")

@@ -48,3 +48,44 @@ def test_the_package_does_not_depend_on_jax():
     wanted = list(project["dependencies"]) + [d for ds in project["optional-dependencies"].values() for d in ds]
     names = {d.split(";")[0].split("[")[0].split(">")[0].split("=")[0].split("<")[0].strip().lower() for d in wanted}
     assert not names & set(GONE), sorted(names & set(GONE))
+
+
+# -- issue 57 item 14: pyribs (numba, llvmlite, pandas: about 300 MB) is the optional qd extra ------
+
+
+def test_pyribs_is_the_qd_extra_and_the_tests_install_it():
+    with open(ROOT / "pyproject.toml", "rb") as f:
+        project = tomllib.load(f)["project"]
+    name = lambda d: d.split(";")[0].split("[")[0].split(">")[0].split("=")[0].split("<")[0].strip().lower()
+    assert "ribs" not in {name(d) for d in project["dependencies"]}
+    assert [name(d) for d in project["optional-dependencies"]["qd"]] == ["ribs"]
+    assert "sanlab[qd]" in project["optional-dependencies"]["test"]
+
+
+def _without_ribs(monkeypatch):
+    import sys as _sys
+
+    for k in [k for k in _sys.modules if k == "ribs" or k.startswith("ribs.")]:
+        monkeypatch.delitem(_sys.modules, k)
+    monkeypatch.setitem(_sys.modules, "ribs", None)  # `import ribs...` now raises ImportError
+
+
+def test_map_elites_and_design_without_pyribs_say_which_extra_to_install(monkeypatch, tmp_path):
+    import pytest
+    from typer.testing import CliRunner
+
+    from sanlab.cli import app
+    from sanlab.search.map_elites import MissingExtra, ribs
+
+    _without_ribs(monkeypatch)
+    with pytest.raises(MissingExtra, match=r"^--strategy map-elites needs pyribs, which is not installed: pip install 'sanlab\[qd\]'$"):
+        ribs("archives", "--strategy map-elites")
+    db = str(tmp_path / "l.db")
+    r = CliRunner().invoke(app, ["search", "cart", "--strategy", "map-elites", "-n", "8", "--db", db])
+    assert r.exit_code == 2 and r.stdout == "" and r.stderr.count("\n") == 1, r.output
+    assert r.stderr == "search: --strategy map-elites needs pyribs, which is not installed: pip install 'sanlab[qd]'\n"
+    r = CliRunner().invoke(app, ["design", str(ROOT / "tests" / "data" / "hopper_free.toml"), "--db", db])
+    assert r.exit_code == 2 and r.stdout == "" and r.stderr.count("\n") == 1, r.output
+    assert r.stderr.startswith("design: --strategy cma-es needs pyribs") and "pip install 'sanlab[qd]' (or --strategy random)" in r.stderr
+    r = CliRunner().invoke(app, ["search", "cart", "-n", "8", "--seconds", "0.3", "--db", db, "--json"])
+    assert r.exit_code == 0, r.output  # random search needs no pyribs

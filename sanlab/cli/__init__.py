@@ -43,6 +43,27 @@ def _flag_types_hidden() -> None:
 
 _flag_types_hidden()
 
+
+def _plain_usage_arguments() -> None:
+    """Typer writes a required argument as ``{name}`` in the usage line, where the help of every
+    other command line (and Click's) writes it bare: ``sanlab check [OPTIONS] CREATURE``, and an
+    optional one ``[CREATURE]``. (Each argument names its metavar in capitals.)"""
+    from typer.core import TyperArgument
+
+    shown = getattr(TyperArgument, "_usage_display_name", None)
+    if shown is None or getattr(shown, "_sanlab", False):  # another Typer: leave its usage lines as they are
+        return
+
+    def usage(self) -> str:
+        name = shown(self)
+        return name[1:].replace("}", "", 1) if self.required and name.startswith("{") else name
+
+    usage._sanlab = True  # type: ignore[attr-defined]
+    TyperArgument._usage_display_name = usage  # type: ignore[method-assign]
+
+
+_plain_usage_arguments()
+
 app = typer.Typer(
     help="Discover how planar creatures can move with sensor-actuator networks.",
     no_args_is_help=True,

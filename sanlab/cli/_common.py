@@ -30,7 +30,7 @@ console = Console()
 T = TypeVar("T")
 
 CreatureArg = Annotated[
-    str, typer.Argument(help="A built-in creature name (see `sanlab creatures`) or a .toml file.")
+    str, typer.Argument(metavar="CREATURE", help="A built-in creature name (see `sanlab creatures`) or a .toml file.")
 ]
 DbOpt = Annotated[str, typer.Option("--db", help="Gait library file (SQLite).", show_default=True)]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead (machine-readable).")]
@@ -438,6 +438,13 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
+    zero = [str(rank) for rank, r in enumerate(rows, 1) if abs(r["score"]) < 0.0005 and not r["fell"] and not r["nonfinite"]]
+    if zero:  # an imported walker2d's rows: 0.000, no flag and "← -8.9" left the reader to guess why
+        console.print(f"score 0.000 without a flag (rank {', '.join(zero)}): a score is the median over the gait's "
+                      "perturbed members (with two step sizes, dt and dt/2, of the group that scored lower), and its median "
+                      "member scored about 0: it fell, or did not move the way the file scores (\"fell\" needs more "
+                      "than half of all members to fall); the speed is a median of the same members, and may point "
+                      "the way that scores nothing")
 
 
 def print_distribution(scores: list[float]) -> None:
@@ -579,11 +586,17 @@ class ProgressLines:
 
 
 def refuse_still(spec: Creature, creature: str, command: str = "search") -> None:
-    """Exit 2 with one line (the reason and the fix) when ``spec`` can never move: no sensor is
-    on at rest, so every SAN holds every servo at mid range (``sanlab.check.at_rest``, which
-    needs no simulation and says nothing where it cannot tell). ``--force`` skips this."""
-    from sanlab.check import at_rest
+    """Exit 2 with one line (the reason and the fix) when ``spec`` can never move: it has no
+    actuator that drives anything (``sanlab.check.actuators``: every controller would score what
+    the body does by itself), or no sensor is on at rest, so every SAN holds every servo at mid
+    range (``sanlab.check.at_rest``, which needs no simulation and says nothing where it cannot
+    tell). ``--force`` skips this."""
+    from sanlab.check import actuators, at_rest
 
+    idle = [f for f in actuators(spec) if f.warning]
+    if idle:
+        why = idle[0].message.replace("actuators: none", "no actuators").replace("actuators: every one", "every actuator")
+        raise fail(f"{command}: {creature} can never move: {why} (or give --force to {command} it anyway)")
     still = [f for f in at_rest(spec) if f.warning]
     if still:
         raise fail(f"{command}: {creature} can never move: {still[0].message.replace('sensors at rest: none', 'no sensor').removeprefix('sensors at rest: ')} "
@@ -591,17 +604,17 @@ def refuse_still(spec: Creature, creature: str, command: str = "search") -> None
 
 
 def print_static_warnings(spec, creature: str) -> None:
-    """The warnings of `sanlab check` that need no simulation (angle ranges that look like
-    radians, actuators too weak or too strong for their load, servos the step cannot resolve,
-    sensors all off at rest), once, on stderr; the simulated
+    """The warnings of `sanlab check` that need no simulation (no actuator that drives anything,
+    angle ranges that look like radians, actuators too weak or too strong for their load, servos
+    the step cannot resolve, sensors all off at rest), once, on stderr; the simulated
     ones (start pose, sinking, ground, standing, sensors) cost a compilation and are left to
     `sanlab check --simulate`."""
     from rich.console import Console
 
-    from sanlab.check import at_rest, radian_ranges, resolution, strength
+    from sanlab.check import static
 
     err = Console(stderr=True)  # stdout stays the table, or the JSON
-    found = [f.message for f in (*radian_ranges(spec), *strength(spec), *resolution(spec), *at_rest(spec)) if f.warning]
+    found = [f.message for f in static(spec) if f.warning]
     for message in found:
         err.print(f"[yellow]warning:[/yellow] {safe(message)}", soft_wrap=True, highlight=False)
     if found:

@@ -14,7 +14,7 @@ from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library
 
 
 def audit(
-    target: Annotated[str, typer.Argument(help="A gait (RUN/RANK or RUN#IDX), or a run id to audit its top gaits.")],
+    target: Annotated[str, typer.Argument(metavar="GAIT|RUN_ID", help="A gait (RUN/RANK or RUN#IDX), or a run id to audit its top gaits.")],
     top: Annotated[int | None, typer.Option(min=1, help=(
         "With a run id: audit its K best gaits (default 1); with --select: audit up to K rungs (default 16)."))] = None,
     threshold: Annotated[float, typer.Option(min=0.0, help=(
@@ -83,7 +83,7 @@ def audit(
     if as_json:
         typer.echo(dump_json([audit_record(a) for a in results]))
         return
-    print_audits(results, threshold, db)
+    print_audits(results, threshold, db, max_members)
 
 
 def audit_record(a) -> dict:
@@ -94,10 +94,13 @@ def audit_record(a) -> dict:
                             **{k: v for k, v in a.to_json().items() if k not in ("verdict", "resolution_dependent", "reproduced")}})
 
 
-def print_audits(results: list, threshold: float, db: str = "sanlab.db") -> None:
+def print_audits(results: list, threshold: float, db: str = "sanlab.db", max_members: int | None = None) -> None:
     """The audit table (and what its flags mean) of ``results`` (:class:`sanlab.audit.Audit`);
-    an undecided gait gets the command that would likely decide it (``db``: its library)."""
-    from sanlab.audit import MAX_MEMBERS_ADVISED, advice
+    an undecided gait gets the command that would likely decide it (``db``: its library;
+    ``max_members``: the audit's --max-members, default ``sanlab.audit.MAX_MEMBERS``)."""
+    from sanlab.audit import MAX_MEMBERS, MAX_MEMBERS_ADVISED, advice
+
+    max_members = MAX_MEMBERS if max_members is None else max_members
 
     db_opt = "" if db == "sanlab.db" else f" --db {db}"
     names = list(results[0].speeds) if results else []
@@ -124,8 +127,13 @@ def print_audits(results: list, threshold: float, db: str = "sanlab.db") -> None
                       "(its whole interval); `sanlab show` and exports say so")
     undecided = [a for a in results if a.verdict == "undecided"]
     if undecided:
-        console.print(f"undecided: an interval straddles ±{100 * threshold:.0f} % (the gait is not vouched for), "
-                      f"after looks on up to {max(a.audit_members for a in undecided)} members (--max-members)")
+        last = max(a.audit_members for a in undecided)
+        # a further look is made only up to --max-members, and only when it asked for at most twice that
+        why = (f"--max-members ({max_members:,})" if last >= max_members else
+               f"below --max-members ({max_members:,}): a further look is made only when the last asks for at most "
+               f"{2 * max_members:,}")
+        console.print(f"undecided: an interval straddles ±{100 * threshold:.0f} % (the gait is not vouched for); its "
+                      f"last look was on {last:,} members, {why}")
         for a in undecided:
             n = advice(a.audit_members, a.needed)
             if n is not None:  # the command on a line of its own: never folded inside

@@ -63,8 +63,10 @@ def check(
 
         findings = static(c)
     findings += _free_ends(out) + _off_totals(design)
-    out["checks"] = [{"check": f.check, "warning": f.warning, "message": f.message, **f.values} for f in findings]
+    out["checks"] = [{"check": f.check, "warning": f.warning, "note": f.note, "message": f.message, **f.values}
+                     for f in findings]
     out["warnings"] = sum(f.warning for f in findings)
+    out["notes"] = sum(f.note for f in findings)
     if as_json:
         typer.echo(dump_json(out))
         _strict(strict, out["warnings"], creature)
@@ -94,12 +96,12 @@ def check(
         for line in c.history:
             console.print(f"  {safe(line)}", soft_wrap=True)
     if findings:
-        n = sum(f.warning for f in findings)
+        n, notes = sum(f.warning for f in findings), sum(f.note for f in findings)
         head = "[bold]simulated[/bold] (two seconds, servos at mid targets, then sweeping)" if simulate \
             else "[bold]checked without simulating[/bold] (--simulate says more)"
-        console.print(f"{head}: {n} warning{'s' * (n != 1)}")
-        for f in findings:
-            mark = "[yellow]warning[/yellow]" if f.warning else "[green]ok[/green]     "
+        console.print(f"{head}: {n} warning{'s' * (n != 1)}" + (f", {notes} note{'s' * (notes != 1)}" if notes else ""))
+        for f in findings:  # "ok" only where what was checked held
+            mark = "[yellow]warning[/yellow]" if f.warning else "[blue]note[/blue]   " if f.note else "[green]ok[/green]     "
             console.print(f"  {mark} {safe(f.message)}", soft_wrap=True)
     if "free" in out:
         _print_free(out)

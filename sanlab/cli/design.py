@@ -55,7 +55,7 @@ def design(
     creature: CreatureArg,
     designs: Annotated[int, typer.Option(min=1, help="Bodies to score in the search (the reference not counted).")] = 8,
     generation: Annotated[int, typer.Option(min=1, help="Bodies per round of the strategy.")] = 4,
-    strategy: Annotated[str, typer.Option(help="cma-es (pyribs' CMA-ES over the free numbers) or random.")] = "cma-es",
+    strategy: Annotated[str, typer.Option(help="cma-es (pyribs' CMA-ES over the free numbers; needs pip install 'sanlab[qd]') or random.")] = "cma-es",
     controllers: Annotated[int, typer.Option(min=1, help="Random SANs of each body's phase 1.")] = 200,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials of each chain of each body's phase 2.")] = 100,
     top: Annotated[int, typer.Option(min=1, help="Chains per body: its best phase-1 SANs tuned.")] = 2,
@@ -96,6 +96,13 @@ def design(
         raise fail(f"design: --seeds: expected seeds other than --seed {seed} (the search's own), got {seeds}")
     if strategy not in ("cma-es", "random"):
         raise fail(f"design: --strategy: expected cma-es or random, got {strategy!r}")
+    if strategy == "cma-es":  # pyribs' CMA-ES: the optional qd extra
+        from sanlab.search.map_elites import MissingExtra, ribs
+
+        try:
+            ribs("emitters.opt", "--strategy cma-es")
+        except MissingExtra as e:
+            raise fail(f"design: {e} (or --strategy random)") from None
     try:
         text, where = read_source(creature)
         d, spec = load_design(creature)

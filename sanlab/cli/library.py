@@ -245,7 +245,7 @@ def _print_network(net: dict) -> None:
 
 
 def export_(
-    gait: Annotated[str, typer.Argument(help="RUN_ID/RANK, e.g. 3fa1c2d0/1 (or RUN#IDX).")],
+    gait: Annotated[str, typer.Argument(metavar="GAIT", help="RUN/RANK, e.g. 3fa1c2d0/1 (or RUN#IDX).")],
     out: Annotated[str | None, typer.Option("--out", "-o", help="Write to this file instead of stdout (whole or not at all).")] = None,
     toml: Annotated[bool, typer.Option("--toml", help=(
         "Write the creature file with this gait's tuned parameters applied, instead of the gait (node "
@@ -304,7 +304,7 @@ def export_(
 
 
 def import_(
-    file: Annotated[str, typer.Argument(help="A JSON file written by `sanlab export`.")],
+    file: Annotated[str, typer.Argument(metavar="FILE", help="A JSON file written by `sanlab export`.")],
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Import a gait exported by `sanlab export`; prints its new gait id.

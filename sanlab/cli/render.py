@@ -125,7 +125,7 @@ def _sheet_title(library: Library, run: Run, n: int) -> str:
 
 
 def render(
-    target: Annotated[str, typer.Argument(help="A gait (RUN/RANK, e.g. 3fa1c2d0/1, or RUN#IDX) or a run id.")],
+    target: Annotated[str, typer.Argument(metavar="GAIT|RUN_ID", help="A gait (RUN/RANK, e.g. 3fa1c2d0/1, or RUN#IDX) or a run id.")],
     out: Annotated[str | None, typer.Option("--out", "-o", help=(
         "Output file: .gif or .mp4 (animation), .png (strobe picture, contact sheet or plot); default, in the "
         "current folder: RUN_RANK.gif (a gait), RUN_topN.png (a sheet), RUN_PLOT.png."))] = None,

@@ -43,9 +43,19 @@ from sanlab.creature import read_source
 from sanlab.creature.spec import SCORE_UNITS
 
 
+def _ribs_or_exit() -> None:
+    """Exit 2 with one line naming the extra to install when pyribs (MAP-Elites' archive) is absent."""
+    from sanlab.search.map_elites import MissingExtra, ribs
+
+    try:
+        ribs("archives", "--strategy map-elites")
+    except MissingExtra as e:
+        raise fail(f"search: {e}") from None
+
+
 def search(
     ctx: typer.Context,
-    creature: Annotated[str | None, typer.Argument(help="Built-in name or .toml file (omit with --resume).")] = None,
+    creature: Annotated[str | None, typer.Argument(metavar="CREATURE", help="Built-in name or .toml file (omit with --resume).")] = None,
     controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
     seconds: Annotated[float | None, typer.Option(help="Evaluation time (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
@@ -54,7 +64,8 @@ def search(
         "Controllers simulated (and committed) together, at most --controllers; map-elites' generation "
         "(default 256; map-elites 64)."))] = None,
     strategy: Annotated[str, typer.Option(help=(
-        "random (§5.2: random SANs) or map-elites (a repertoire: the best gait in each cell of --grid)."))] = "random",
+        "random (§5.2: random SANs) or map-elites (a repertoire: the best gait in each cell of --grid; needs "
+        "pip install 'sanlab[qd]')."))] = "random",
     grid: Annotated[str | None, typer.Option(help=(
         "map-elites: two behaviour descriptors NAME,NAME or NAME:LO:HI,NAME:LO:HI (default vx_cm_s,airborne; "
         "names: vx_cm_s, height_m, height_sd_m, turns_per_s, airborne, joint_speed_rad_s, period_s; a range left "
@@ -72,7 +83,8 @@ def search(
     top: Annotated[int, typer.Option(min=1, help="Gaits to show.")] = 10,
     render_dir: Annotated[str | None, typer.Option("--render", help="Write the top gaits' GIFs and strobes here.")] = None,
     force: Annotated[bool, typer.Option("--force", help=(
-        "Search a creature that `sanlab check` finds can never move (no sensor on at rest) all the same."))] = False,
+        "Search a creature that `sanlab check` finds can never move (no actuator that drives anything, or no sensor "
+        "on at rest) all the same."))] = False,
     as_json: JsonOpt = False,
 ) -> None:
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits.
@@ -85,7 +97,7 @@ def search(
     if spec is not None and not force:
         refuse_still(spec, str(creature))
     from sanlab.search import run_search
-    from sanlab.search.map_elites import DEFAULT_GENERATION, archive_stats, parse_grid
+    from sanlab.search.map_elites import DEFAULT_GENERATION, MissingExtra, archive_stats, parse_grid
     from sanlab.search.pattern import POPSIZE
     from sanlab.search.registry import names
 
@@ -97,6 +109,8 @@ def search(
                                                "dtype", "strategy", "grid", "bins"))
     if strategy not in names(1):
         raise fail(f"--strategy: expected one of {', '.join(names(1))}, got {strategy!r}")
+    if strategy == "map-elites" and resume is None:
+        _ribs_or_exit()
     if batch is None:
         batch = DEFAULT_GENERATION if strategy == "map-elites" else POPSIZE if strategy == "pattern" else 256
     text = where = ""
@@ -143,7 +157,7 @@ def search(
         rid = lib.runs()[0].run_id if run_id is None else run_id
         typer.echo(f"interrupted; resume with: sanlab search --resume {rid} --db {db}", err=True)
         raise typer.Exit(130) from None
-    except (ValueError, ConnectionError) as e:
+    except (ValueError, ConnectionError, MissingExtra) as e:  # MissingExtra: resuming a map-elites run without pyribs
         raise fail(f"search: {e}") from None
     rows = top_rows(lib, run_id, top)
     if render_dir:

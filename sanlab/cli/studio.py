@@ -12,7 +12,8 @@ from sanlab.cli._common import fail
 
 def studio(
     db: Annotated[str, typer.Option("--db", help="Gait library file (SQLite); created if absent (the studio starts runs).", show_default=True)] = "sanlab.db",
-    host: Annotated[str, typer.Option(help="Address to listen on. Any but a loopback address exposes the library to the network (see README).")] = "127.0.0.1",
+    host: Annotated[str, typer.Option(help=("Address to listen on. Any but a loopback address exposes the whole library, and starting runs, to anyone who can "
+                                                    "reach the port, without a password (docs/studio.md, \"On a network\")."))] = "127.0.0.1",
     port: Annotated[int, typer.Option(min=0, max=65535, help="Port to listen on (0: any free port).")] = 8765,
     open_browser: Annotated[bool, typer.Option("--open/--no-open", help="Open the studio in a web browser.")] = True,
 ) -> None:

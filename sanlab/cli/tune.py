@@ -45,7 +45,7 @@ LONG_TUNE_S = 60.0  # a tune expected to take longer says how long, once its pac
 
 def tune(
     ctx: typer.Context,
-    gait: Annotated[str | None, typer.Argument(help="RUN/RANK or RUN#IDX; or a run id with --top K (omit with --resume).")] = None,
+    gait: Annotated[str | None, typer.Argument(metavar="GAIT|RUN_ID", help="RUN/RANK or RUN#IDX; or a run id with --top K (omit with --resume).")] = None,
     method: Annotated[str, typer.Option(help="sa (simulated annealing) or sga (stochastic gradient ascent).")] = "sa",
     trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
     seed: Annotated[int, typer.Option(help="Seed of the perturbations.")] = 0,

@@ -215,6 +215,9 @@ def _long_integer(text: str) -> str:
 
 def _creature(t: _Table, default_name: str) -> Creature:
     links = _links(t)
+    if not any(link.dofs for link in links):  # only fixed roots: nothing a SAN could move, nothing to simulate
+        raise t.error("links[0].fixed", "at least one degree of freedom (a root link without fixed = true, or a "
+                      "jointed link): with every link fixed nothing can move", True)
     n_contacts = sum(len(k.contacts) for k in links)
     if n_contacts > MAX_CONTACTS:
         i = max(range(len(links)), key=lambda i: len(links[i].contacts))

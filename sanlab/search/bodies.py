@@ -86,7 +86,9 @@ class CmaBodies:
     name: ClassVar[str] = "cma-es"
 
     def __init__(self, problem: BodyProblem):
-        from ribs.emitters.opt import CMAEvolutionStrategy
+        from sanlab.search.map_elites import ribs  # the optional qd extra: one line naming it when absent
+
+        CMAEvolutionStrategy = ribs("emitters.opt", "design --strategy cma-es").CMAEvolutionStrategy
 
         self.p = problem
         d = len(problem.lo)

@@ -264,10 +264,28 @@ def resolve(grid: Grid, first: Sequence[np.ndarray]) -> Grid:
     return Grid(grid.names, tuple(ranges), grid.bins)
 
 
+QD_EXTRA = "pip install 'sanlab[qd]'"  # pyribs (numba, llvmlite and pandas with it: about 300 MB)
+
+
+class MissingExtra(ImportError):
+    """An optional dependency is not installed; the message is one line naming the extra."""
+
+
+def ribs(module: str, what: str) -> Any:
+    """pyribs' ``ribs.<module>`` (the optional ``qd`` extra), or :class:`MissingExtra` saying
+    that ``what`` needs it and how to install it."""
+    import importlib
+
+    try:
+        return importlib.import_module(f"ribs.{module}")
+    except ImportError as e:
+        raise MissingExtra(f"{what} needs pyribs, which is not installed: {QD_EXTRA}") from e
+
+
 def archive(grid: Grid, solution_dim: int):
     """An empty pyribs ``GridArchive`` for ``grid`` (its ranges set; each elite's evaluation index
-    kept beside it)."""
-    from ribs.archives import GridArchive
+    kept beside it). Raises :class:`MissingExtra` without pyribs (``pip install 'sanlab[qd]'``)."""
+    GridArchive = ribs("archives", "--strategy map-elites").GridArchive
 
     ranges = [r for r in grid.ranges if r is not None]
     if len(ranges) != len(grid.ranges):

@@ -143,3 +143,71 @@ def test_an_import_without_its_format_field_says_so_plainly(tmp_path, change, sa
     assert r.exit_code == 2 and r.stderr.startswith(f"{path}: not a sanlab gait: ") and says in r.stderr, r.stderr
     assert "is None" not in r.stderr and r.stderr.count("\n") == 1
     assert not (tmp_path / "new.db").exists()
+
+
+# -- issue 57 item 13 ----------------------------------------------------------------------------
+
+
+def test_every_usage_line_names_its_arguments_alike():
+    """Usage lines mixed `[creature]`, `{creature}` and `{RUN_ID}`: now every argument is named in
+    capitals, bare when required and in brackets when optional, as Click and most tools write it."""
+    import typer
+
+    group = typer.main.get_command(app)
+    seen = {}
+    for name in group.commands:  # type: ignore[attr-defined]
+        r = runner.invoke(app, [name, "--help"], terminal_width=200)
+        (usage,) = [ln.strip() for ln in r.stdout.splitlines() if "Usage:" in ln]
+        seen[name] = usage.split("[OPTIONS]", 1)[1].strip()
+    assert all("{" not in a and "}" not in a and a == a.upper().replace(".XML", ".xml") for a in seen.values()), seen
+    assert seen["check"] == "CREATURE" and seen["search"] == "[CREATURE]" and seen["tune"] == "[GAIT|RUN_ID]"
+    assert seen["modes"] == "RUN_ID" and seen["export"] == "GAIT" and seen["audit"] == "GAIT|RUN_ID"
+
+
+def test_the_host_help_points_at_a_page_that_speaks_of_it():
+    """`--host` pointed at the README, which says nothing of it."""
+    from pathlib import Path
+
+    r = runner.invoke(app, ["studio", "--help"], terminal_width=400)
+    text = words(r.stdout.replace("│", " "))
+    assert "(see README)" not in text and 'docs/studio.md, "On a network"' in text, text
+    page = (Path(__file__).resolve().parents[2] / "docs" / "studio.md").read_text()
+    assert "## On a network" in page and "`--host 0.0.0.0`" in page
+
+
+def test_the_audit_footer_says_why_it_stopped_below_max_members(monkeypatch):
+    """Audit's footer named `--max-members` beside 64 when that option was 1,024 and it had
+    stopped because more than 4,096 would be needed."""
+    import sanlab.cli.audit as audit_cli
+
+    wide = Console(width=400, force_terminal=False, color_system=None)
+    monkeypatch.setattr(audit_cli, "console", wide)
+    far = _audit("3fa1c2d0#3", "undecided", needed=9000)  # its one look: 32 members
+    with wide.capture() as cap:
+        audit_cli.print_audits([far], 0.1, max_members=1024)
+    text = words(cap.get())
+    assert "32 members (--max-members)" not in text
+    assert ("its last look was on 32 members, below --max-members (1,024): a further look is made only when the last "
+            "asks for at most 2,048") in text, text
+    assert "more than 4096 members would be needed to decide it" in text
+    with wide.capture() as cap:
+        audit_cli.print_audits([far], 0.1, max_members=32)
+    assert "its last look was on 32 members, --max-members (32)" in words(cap.get())
+
+
+def test_a_row_scored_0_without_a_flag_says_why(monkeypatch):
+    """An imported walker2d's rank 3 printed score 0.000, no flag and "← -8.9" with nothing
+    saying why (its dt/2 members fell or went backwards: that group's median scored 0, while
+    only 4 of its 8 members fell, short of the "fell" flag)."""
+    wide = Console(width=400, force_terminal=False, color_system=None)
+    monkeypatch.setattr(_common, "console", wide)
+    row = lambda score, speed, fell: {"gait": "1eeeee72/1", "score": score, "speed_cm_s": speed, "direction": "-x" if speed < 0 else "+x",
+                                      "fell": fell, "nonfinite": False}
+    with wide.capture() as cap:
+        _common.print_top([row(0.424, 7.1, False), row(0.0, -8.9, False), row(0.0, -9.4, True)], "run 1eeeee72", "m")
+    text = words(cap.get())
+    assert "score 0.000 without a flag (rank 2): a score is the median over the gait's perturbed members" in text, text
+    assert "it fell, or did not move the way the file scores" in text and "may point the way that scores nothing" in text
+    with wide.capture() as cap:
+        _common.print_top([row(0.424, 7.1, False), row(0.0, -9.4, True)], "run 1eeeee72", "m")
+    assert "without a flag" not in cap.get()  # "fell" says why already

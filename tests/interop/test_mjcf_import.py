@@ -426,3 +426,17 @@ def test_fold_keeps_a_few_alike_and_folds_more():
     assert fold(["body 'a' x", "body 'b' x", "y"]) == ["body 'a' x", "body 'b' x", "y"]
     assert fold([f"geom 'g{i}' (mesh): no outline" for i in range(5)] + ["other"]) == [
         "geom 'g0' (mesh): no outline (and 4 more like it: 'g1', 'g2', 'g3', 'g4')", "other"]
+
+
+def test_check_says_the_imported_models_fall_at_rest_and_never_ok_standing(gym_model):
+    """Issue 57 item 4: `check --simulate` said "ok standing" for the imported walker2d, whose
+    centre of mass moves 71 cm as it falls over at mid targets. Both models fall by their own
+    (Gymnasium's) fell rule with the servos at mid targets: a note naming the rule, never "ok"."""
+    from sanlab.check import simulate
+
+    name, _, _, spec, _, _ = gym_model
+    (f,) = [f for f in simulate(spec) if f.check == "standing"]
+    assert f.note and not f.warning and f.values["fell"], f.message
+    assert f.message.startswith("standing: falls by the file's fell rule with the servos at mid targets (link torso ")
+    if name == "walker2d":
+        assert f.values["drift_m"] > 0.5 and "past evaluation.fell_angle_deg = 57.3" in f.message
