@@ -78,6 +78,7 @@ class Row:
     ledger: bool = False  # taken from a ledger, not from this call's library
     device: str = ""  # where it was made: "2 x cpu"
     chains: list | None = None  # every chain's best speed before its audit (cm/s); None in rows made before it was kept
+    ceiling: dict | None = None  # the creature's pattern ceiling (``sanlab.search.ceiling.Ceiling.to_json``); None: not measured
 
     @property
     def robust_speed(self) -> float:
@@ -182,15 +183,16 @@ def _earlier(lib: Library, kind: str, text: str, seed: int, wanted) -> Run | Non
 
 
 def _search(lib: Library, text: str, where: str, seconds: float, seed: int, controllers: int,
-            ens: Ensemble, backend=None) -> tuple[str, bool]:
-    """Phase 1 of one creature: (run id, whether an earlier call had stored some of it)."""
+            ens: Ensemble, backend=None, strategy: str = "random") -> tuple[str, bool]:
+    """Phase 1 of one creature (``controllers`` evaluations of phase-1 ``strategy``): (run id,
+    whether an earlier call had stored some of it)."""
     from sanlab.search import run_search
 
     def wanted(run: Run) -> bool:
         s = run.settings
         return (isinstance(s, SearchSettings) and s.imported_from is None and s.controllers == controllers
                 and s.seconds == seconds and s.batch in (SEARCH_BATCH, min(SEARCH_BATCH, controllers))
-                and s.ensemble == ens
+                and s.ensemble == ens and s.strategy == strategy
                 and run.dtype == "float64")
 
     run = _earlier(lib, "search", text, seed, wanted)
@@ -199,7 +201,7 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     if run is not None:
         return run_search(lib, text, where, resume=run.run_id, backend=backend), True
     return run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed, batch=SEARCH_BATCH,
-                      ensemble=ens, backend=backend), False
+                      ensemble=ens, backend=backend, strategy=strategy), False
 
 
 def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, ens: Ensemble,
@@ -264,9 +266,10 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
 
 
 def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers: int, trials: int, top: int,
-                 ens: Ensemble, seconds: float, backend=None, prune_below: float | None = None) -> dict:
+                 ens: Ensemble, seconds: float, backend=None, prune_below: float | None = None,
+                 strategy: str = "random") -> dict:
     """A creature's robust tuned speed, scored as a Table 1 row is: phase 1 (``controllers``
-    random SANs), phase 2 (``trials`` annealing trials on each of the ``top`` best, as parallel
+    evaluations of ``strategy``: random SANs, or ``catcma``'s), phase 2 (``trials`` annealing trials on each of the ``top`` best, as parallel
     chains) and each chain's audited selection; every step taken from the library where an
     earlier call stored it (an interrupted search or tuning continues). Returns {"speed": the
     best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
@@ -275,7 +278,7 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
     (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
     Raises as ``run_search`` and ``tune``."""
-    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend)
+    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy)
     best = lib.top(run_id, top)
     if prune_below is not None and best[0].speed_cm_s < prune_below:
         return {"speed": 0.0, "gait": None, "search": run_id, "phase1_cm_s": float(best[0].speed_cm_s),
@@ -296,13 +299,17 @@ ENGINE = "kernel"  # the simulator a ledger's rows were made on (sanlab.sim.kern
 
 
 def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens: Ensemble, top: int,
-            audit: bool) -> dict:
+            audit: bool, strategy: str = "random") -> dict:
     """What makes a row: the creature and the SHA-256 of its file's text (a changed file is
-    another creature), the seed, the budget and the simulator (:data:`ENGINE`: a row the XLA
+    another creature), the seed, the budget, phase 1's strategy (absent for random search, as in
+    the rows made before there were others) and the simulator (:data:`ENGINE`: a row the XLA
     engine made before issue 46, whose key has no engine, is made again)."""
-    return {"creature": name, "creature_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
-            "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit,
-            "engine": ENGINE}
+    key = {"creature": name, "creature_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
+           "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit,
+           "engine": ENGINE}
+    if strategy != "random":
+        key["strategy"] = strategy
+    return key
 
 
 # What a key of the same creature's rows on another file may differ in besides the file: the
@@ -517,7 +524,8 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
-              top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None) -> str:
+              top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
+              strategy: str = "random", ceiling: int = 0) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -538,7 +546,10 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     (:class:`Ledger`). Raises LibraryError and ValueError as ``run_search`` and ``tune`` do,
     ValueError for a ``top`` :func:`chains` refuses or a malformed ledger; KeyboardInterrupt
     leaves every stored evaluation in the library and every finished row in the ledger.
-    ``command``: the command line that made the report, named at its top."""
+    ``command``: the command line that made the report, named at its top. ``strategy``: phase
+    1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM). ``ceiling``
+    > 0: each row also measures its creature's pattern ceiling with that many patterns
+    (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -551,11 +562,13 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     for sd in seeds:
         for name in creatures:
             texts[name] = read_source(name)
-            key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit)
+            key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy)
             keys[name].append(key)
             row = book.get(key) if book is not None else None
+            if row is not None and ceiling and row.ceiling is None:
+                row = None  # made without its ceiling: the library holds the rest, the ceiling is measured
             if row is None:
-                row = _creature(lib, name, sd, controllers, trials, ens, audit, top)
+                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, strategy, ceiling)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
@@ -565,17 +578,18 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
                 f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
     files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
-    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files)
+    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files, strategy)
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
-              top: int) -> Row:
-    """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed."""
+              top: int, strategy: str = "random", ceiling: int = 0) -> Row:
+    """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
+    (and with ``ceiling`` its pattern ceiling, measured with that many patterns)."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
     text, where = read_source(name)
-    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens)
+    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, strategy=strategy)
     best = lib.top(run_id, top)
     tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens)
     stored = searched or tuned_before
@@ -603,6 +617,11 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
         row.tracking = tracking(lib, run_id, shown)
     from sanlab.evaluate.evaluator import describe_devices
 
+    if ceiling:
+        from sanlab.search.ceiling import measure
+
+        _, c = measure(lib, text, where, evaluations=ceiling, seed=seed)
+        row.ceiling = None if c is None else c.to_json()
     row.device = describe_devices()
     row.wall = time.perf_counter() - t0
     return row
@@ -665,14 +684,31 @@ def _table(rows: list[Row]) -> list[str]:
         "| tuned gait | wall time |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    ceilings = any(r.ceiling for r in rows)
+    if ceilings:  # the pattern ceiling's columns, where a row measured it
+        lines[0] += " pattern ceiling (cm/s) | robust / ceiling |"
+        lines[1] += "---|---|"
     for r in rows:
         paper = "U" if r.paper_speed is None else f"{r.paper_speed:g}"
         lines.append(
             f"| {r.creature} | {' | '.join(str(c) for c in r.counts)} | {paper} | {r.before:.1f} | {r.after:.1f} "
             f"| {_nudged(r.audit)} | {_verdict(r.audit)} | {_robust(r.robust)} | {100 * r.useful:.1f} % | {_gaits(r)} "
-            f"| {r.wall:.0f} s{' (resumed)' if r.resumed else ''} |"
+            f"| {r.wall:.0f} s{' (resumed)' if r.resumed else ''} |" + (_ceiling_cells([r]) if ceilings else "")
         )
     return lines
+
+
+def _ceiling_cells(rows: list[Row]) -> str:
+    """The pattern ceiling's cells of rows of one creature: the median ceiling (cm/s; "not
+    robust" marks one no audit vouched for) and the median of each row's robust speed over its
+    own ceiling (the issue 56 goal: at least 0.8)."""
+    have = [r for r in rows if r.ceiling and r.ceiling.get("speed_cm_s")]
+    if not have:
+        return " - | - |"
+    c = float(np.median([r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
+    vouched = "" if all((r.ceiling or {}).get("verdict") == "robust" for r in have) else " (not robust)"
+    frac = float(np.median([r.robust_speed / r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
+    return f" {c:.1f}{vouched} | {frac:.2f} |"
 
 
 def _tracking_ratio(r: Row) -> float | None:
@@ -697,6 +733,10 @@ def summary(rows: list[Row], seeds: list[int]) -> list[str]:
     lines = ["| creature | Table 1 speed (cm/s) | robust tuned speed, median (cm/s) | min | max | per seed (cm/s) "
              "| seeds at Table 1 speed | audits of the tuned gaits | tracking: distance ratio, median | wall time |",
              "|---|---|---|---|---|---|---|---|---|---|"]
+    ceilings = any(r.ceiling for r in rows)
+    if ceilings:
+        lines[0] += " pattern ceiling, median (cm/s) | robust / ceiling, median |"
+        lines[1] += "---|---|"
     for name, mine in _by_creature(rows, seeds):
         speeds = np.array([r.robust_speed for r in mine])
         paper = mine[0].paper_speed
@@ -708,7 +748,8 @@ def summary(rows: list[Row], seeds: list[int]) -> list[str]:
         lines.append(
             f"| {name} | {'U' if paper is None else f'{paper:g}'} | {float(np.median(speeds)):.1f} | {speeds.min():.1f} "
             f"| {speeds.max():.1f} | {' · '.join(f'{x:.1f}' for x in speeds)} | {met} | {tally} | {track} "
-            f"| {sum(r.wall for r in mine) / 60:.1f} min{' (resumed)' if any(r.resumed for r in mine) else ''} |")
+            f"| {sum(r.wall for r in mine) / 60:.1f} min{' (resumed)' if any(r.resumed for r in mine) else ''} |"
+            + (_ceiling_cells(mine) if ceilings else ""))
     return lines
 
 
@@ -761,7 +802,7 @@ def shortfalls(rows: list[Row], seeds: list[int]) -> list[str]:
 
 def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: int, total: float,
              ensemble: int | Ensemble = 8, top: int = 1, command: str | None = None,
-             files: list[CreatureFile] | None = None) -> str:
+             files: list[CreatureFile] | None = None, strategy: str = "random") -> str:
     """The report: for several seeds the table over seeds first, then the creature files (``files``,
     :func:`creature_files`: which changed since the ledger's earlier rows, and why; none when
     None), then each seed's table, the tracking (§6) and the bounder's robustness (§6.2)
@@ -783,7 +824,9 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         "# Table 1, reproduced",
         "",
         *([f"Made by `{command}`.", ""] if command else []),
-        f"sanlab {__version__}, {which}, {controllers} random SANs per creature (6 s; 30 s for the fish "
+        f"sanlab {__version__}, {which}, "
+        + (f"{controllers} random SANs" if strategy == "random" else f"{controllers} SANs of `search --strategy {strategy}`")
+        + " per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
         + (f"{describe_devices()}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else

@@ -39,7 +39,9 @@ def reproduce(
     creatures: Annotated[str | None, typer.Option(help="Comma-separated names (default: all of Table 1 that are built in).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of phase 1 and phase 2.")] = 0,
     seeds: Annotated[str | None, typer.Option(help="Several seeds (0-4, 0,2,7): the report opens with the median, min and max over them.")] = None,
-    controllers: Annotated[int, typer.Option(min=1, help="Random SANs per creature (the paper: 200).")] = 200,
+    controllers: Annotated[int, typer.Option(min=1, help="Phase-1 evaluations per creature: random SANs (the paper: 200), or --strategy's.")] = 200,
+    strategy: Annotated[str, typer.Option(help="Phase 1: random (the paper's §5.2) or catcma (CatCMAwM over the weights).")] = "random",
+    ceiling: Annotated[int, typer.Option(min=0, help="Also measure each creature's pattern ceiling with this many patterns (sanlab ceiling; 0: not).")] = 0,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials per creature (the paper: 1000).")] = 1000,
     top: Annotated[int | None, typer.Option(min=1, help="Spread the trials over the K best phase-1 gaits (trials/K each; §5.3; default 4).")] = None,
     ensemble: Annotated[int, typer.Option(min=1, help="Score each controller over K perturbed copies (1: single sample).")] = 8,
@@ -57,6 +59,8 @@ def reproduce(
     from sanlab.reproduce import reproduce as run
 
     ens = ensemble_or_exit(ensemble, dt_factors)
+    if strategy not in ("random", "catcma"):
+        raise fail(f"--strategy: expected random or catcma, got {safe(strategy)}")
     if seeds is not None and seed != 0:
         raise fail("give --seed or --seeds, not both")
     try:
@@ -89,7 +93,7 @@ def reproduce(
     try:
         report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                           log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
-                                          ledger=book, command=_command_line()))
+                                          ledger=book, command=_command_line(), strategy=strategy, ceiling=ceiling))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None
