@@ -474,6 +474,25 @@ def next_steps(db: str, run_id: str, rows: list[dict], tally: dict[str, int] | N
         print_next(db, [f"sanlab show {best}", f"sanlab render {best} -o best.png", *tune, f"sanlab audit {best}"])
 
 
+def print_ceiling_share(lib: Library, gait_id: str, speed_cm_s: float, what: str = "the best") -> None:
+    """One line: what fraction of its creature's pattern ceiling (``sanlab ceiling``, stored in
+    ``lib`` for the same creature file, metric and time) the gait ``gait_id`` reaches at
+    ``speed_cm_s``; nothing when no ceiling is stored or the gait is a pattern itself."""
+    from sanlab.search.ceiling import find
+
+    ev = library_call(lib.gait, gait_id)
+    if "pattern" in (ev.params or {}):
+        return
+    run = library_call(lib.get_run, ev.run_id)
+    s = run.settings
+    c = library_call(find, lib, run.creature_text, s.metric, s.seconds)
+    share = None if c is None else c.fraction(speed_cm_s)
+    if c is not None and share is not None:
+        vouched = "audited: robust" if c.robust else "not vouched for by an audit"
+        console.print(f"{what} ({gait_id}, {speed_cm_s:.1f} cm/s) reaches {100 * share:.0f} % of the creature's pattern "
+                      f"ceiling ({c.speed_cm_s:.1f} cm/s, gait {c.gait}, {vouched})", soft_wrap=True)
+
+
 def print_next(db: str, commands: list[str], without_db: tuple[str, ...] = ()) -> None:
     """The "next:" line under a command's output: ``commands`` (each given ``--db`` when the
     library is not the default one), then ``without_db`` (commands that take no library, as

@@ -10,6 +10,7 @@ from rich.markup import escape
 
 from sanlab.cli._common import (
     BackendOpt,
+    CreatureArg,
     DbOpt,
     JsonOpt,
     ProgressBar,
@@ -28,7 +29,7 @@ from sanlab.creature import read_source
 
 
 def ceiling(
-    creature: Annotated[str, typer.Argument(help="Built-in name or .toml file.")],
+    creature: CreatureArg,
     evaluations: Annotated[int, typer.Option("--evaluations", "-n", min=32, max=10_000_000, help=(
         "Patterns to evaluate (CMA-ES restarts every 40 generations of 32)."))] = 2560,
     seed: Annotated[int, typer.Option(help="Seed of the search.")] = 0,

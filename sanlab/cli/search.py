@@ -31,6 +31,7 @@ from sanlab.cli._common import (
     load_or_exit,
     next_steps,
     open_library,
+    print_ceiling_share,
     print_distribution,
     print_static_warnings,
     print_top,
@@ -178,6 +179,8 @@ def search(
     print_top(rows, f"run {run_id}: {run.creature}, {lib.count(run_id)} controllers, metric {metric}",
               SCORE_UNITS.get(metric, ""))
     print_distribution(lib.scores(run_id))
+    if rows:
+        print_ceiling_share(lib, rows[0]["gait"], rows[0]["speed_cm_s"])
     if stats is not None:
         console.print(f"archive over {' x '.join(stats['grid']['names'])}: {stats['elites']} elites, coverage "
                       f"{stats['coverage']:.1%}, QD-score {stats['qd_score']:.4g}")

@@ -35,6 +35,7 @@ from sanlab.cli._common import (
     id_column,
     library_call,
     open_library,
+    print_ceiling_share,
     print_next,
     record,
     refuse_with_resume,
@@ -200,5 +201,6 @@ def tune(
                                                                 else "; a robust tuned gait is the one to quote."))
     best = next((row["selection"]["robust_gait"] for row in rows if row.get("selection", {}).get("robust_gait")), None) \
         or rows[0]["tuned_gait"]
+    print_ceiling_share(lib, best, lib.gait(best).speed_cm_s, "the tuned gait")
     print_next(db, [f"sanlab show {best}", f"sanlab render {best}",
                     f"sanlab audit {best}" if not select else f"sanlab export {best}"])

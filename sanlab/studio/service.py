@@ -374,7 +374,9 @@ class Service:
         """Replay a gait (the same compiled step as the search, recording PLAYBACK_FPS frames
         per second for its run's evaluation time) and return all a page needs to draw it:
 
-        gait: the gait's row plus encoding, params, run_params; creature: see :func:`geometry`;
+        gait: the gait's row plus encoding, params, run_params, kind ("san" or "pattern") and
+        ceiling (the creature's pattern ceiling, ``sanlab.search.ceiling.find``, with the
+        ``fraction`` of it this gait's speed is; None when none is stored); creature: see :func:`geometry`;
         frames: t [F] s, links [F, L, 3] (origin x, y m, absolute angle rad), contacts [F, C, 2],
         touching [F, C] (0/1), com [F, 2], bits [F, S], nodes [F, H + A] (0/1), u [F, A] in
         [0, 1], follow [F, 2] or None; terrain: the ground (see :func:`terrain_profile`).
@@ -386,11 +388,15 @@ class Service:
             gait = self._gait(lib, e.gait_id)
             row = self._gait_row(e, e.run_id, lib.audit(e.gait_id))
             run_params = lib.get_run(e.run_id).params
+            from sanlab.search.ceiling import find
+
+            c = find(lib, gait.creature_text, gait.metric, gait.seconds)
+            row["ceiling"] = None if c is None else _strict({**c.to_json(), "fraction": c.fraction(e.speed_cm_s)})
         try:
             sc = scene(gait, None, PLAYBACK_FPS)
         except ValueError as err:  # e.g. too short to record a frame
             raise StudioError(f"cannot replay {gait_id}: {err}") from None
-        row.update(encoding=gait.san.encode(gait.weights), params=_strict(gait.params.to_json()),
+        row.update(encoding=gait.san.encode(gait.weights), params=_strict(gait.params.to_json()), kind=gait.kind,
                    run_params=_strict(run_params), creature=gait.spec.name,
                    seconds=gait.seconds, metric=gait.metric)
         x0, _, x1, _ = sc.bounds()

@@ -78,3 +78,14 @@ def test_a_san_gait_is_shown_beside_its_creatures_ceiling(lib_path):
     assert ceiling["gait"] == rec["ceiling"]["gait"]
     assert ceiling["fraction"] == pytest.approx(best["speed_cm_s"] / rec["ceiling"]["speed_cm_s"])
     assert "of its pattern ceiling" in runner.invoke(app, ["show", best["gait"], "--db", db]).output
+
+
+def test_search_and_tune_quote_their_best_against_the_ceiling(lib_path):
+    db, rec = lib_path
+    r = runner.invoke(app, ["search", "cart", "-n", "8", "--seed", "3", "--db", db])
+    assert r.exit_code == 0, r.output
+    assert "of the creature's pattern ceiling" in r.output and rec["ceiling"]["gait"] in r.output
+    run_id = next(line.split("as run ")[1].split(":")[0] for line in r.output.splitlines() if "as run " in line)
+    t = runner.invoke(app, ["tune", f"{run_id}/1", "--trials", "4", "--db", db])
+    assert t.exit_code == 0, t.output
+    assert "the tuned gait" in t.output and "of the creature's pattern ceiling" in t.output

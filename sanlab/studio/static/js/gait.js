@@ -72,7 +72,12 @@ export class GaitView {
         this.rasterCanvas),
       h("div", { class: "side" },
         h("table", { class: "kv" },
-          ...[["score", fmt(g.score, 4)], ["speed", `${fmt(g.speed_cm_s)} cm/s`], ["rank", g.rank], ["flags", flags(g)],
+          ...[["kind", g.kind === "pattern" ? "pattern (open loop, no SAN)" : "SAN"],
+            ["score", fmt(g.score, 4)], ["speed", `${fmt(g.speed_cm_s)} cm/s`],
+            ["pattern ceiling", g.ceiling ? h("span", { id: "ceiling" }, `${fmt(g.ceiling.speed_cm_s)} cm/s`,
+              g.kind === "san" && g.ceiling.fraction !== null ? ` (this gait: ${Math.round(100 * g.ceiling.fraction)} %)` : "",
+              g.ceiling.verdict === "robust" ? "" : " (not vouched for by an audit)") : "none stored (sanlab ceiling)"],
+            ["rank", g.rank], ["flags", flags(g)],
             ["metric", g.metric], ["evaluated for", `${fmt(g.seconds)} s`], ["run", h("a", { href: `#/run/${g.run_id}` }, g.run_id)],
             ["parent", g.parent ? h("a", { href: gaitHref(g.parent) }, g.parent) : "–"]]
             .map(([k, v]) => h("tr", {}, h("th", {}, k), h("td", {}, v)))),
@@ -81,9 +86,9 @@ export class GaitView {
         h("div", { class: "actions" },
           h("button", { id: "export", onclick: () => this.exportJson() }, "Export JSON"),
           renderBtn("gif"), renderBtn("mp4"), renderBtn("png"),
-          h("a", { id: "live-link", class: "button", href: gaitHref(g.id, "live") }, eyes ? "Steer live" : "Run live"),
+          g.kind === "pattern" ? null : h("a", { id: "live-link", class: "button", href: gaitHref(g.id, "live") }, eyes ? "Steer live" : "Run live"),
           this.renderOut),
-        this.tuneForm())));
+        g.kind === "pattern" ? null : this.tuneForm())));
     this.seekFrame(0);
   }
 
