@@ -14,7 +14,9 @@ Each strategy's anytime curve is its best search-time score after each tenth of 
 the CPU seconds it took (process time: every core's). Its final gait (the best phase-1 controller,
 or the tuned gait) is then re-scored on ``--heldout`` fresh ensembles that no search saw, and
 the median of their robust speeds is what the table prints, with each SAN strategy's fraction
-of the pattern's (the ceiling) and its ratio to ``random+sa`` (today's search).
+of the pattern's (the ceiling) and its ratio to ``random+sa`` (today's search). The same final
+gaits, searched on flat ground, are then re-scored on the rough and hilly grounds of §6.2
+(``Evaluator``'s terrain sets): where a closed loop holds its gait and an open loop does not.
 
 Results are appended to ``--out`` (JSON lines, one per creature, seed and strategy) as each
 finishes, and a run with the same ``--out`` skips what is there: an interrupted benchmark goes
@@ -46,8 +48,10 @@ SPEED_CREATURES = ("bounder", "walker", "luxo", "fourlink", "threelink", "cart",
 STRATEGIES = ("random+sa", "catcma", "catcma+sa", "pattern")
 
 
-def heldout(lib, gait_id: str, n: int) -> dict:
-    """The gait re-scored on n fresh ensembles (keys no search uses): median speed and score."""
+def heldout(lib, gait_id: str, n: int, terrain: str = "flat") -> dict:
+    """The gait re-scored on n fresh ensembles (keys no search uses) on ``terrain`` (a set of
+    ``sanlab.evaluate.evaluator.TERRAINS``: the grounds' mean): median speed and score, and how
+    many of the n ensembles fell."""
     from sanlab.evaluate.ensemble import heldout_key
     from sanlab.evaluate.evaluator import Evaluator
     from sanlab.gait import Gait
@@ -56,7 +60,10 @@ def heldout(lib, gait_id: str, n: int) -> dict:
     g = Gait.from_library(lib, gait_id)
     space = Space(g.spec)
     phase1 = g.params.k1 is None
-    ev = Evaluator(g.spec, metric=g.metric, seconds=g.seconds, ensemble=g.ensemble, space=space, batch=n)
+    if terrain != "flat" and g.spec.world.plane != "vertical":
+        return {}
+    ev = Evaluator(g.spec, metric=g.metric, seconds=g.seconds, ensemble=g.ensemble, space=space, batch=n,
+                   terrain=terrain)
     theta = None if phase1 else np.repeat(space.nominal(g.params)[None], n, 0)
     pat = g.patterns()
     s = ev(np.repeat(g.weights[None], n, 0), theta, [heldout_key(90_000 + k, 0) for k in range(n)],
@@ -104,7 +111,9 @@ def one(creature: str, strategy: str, seed: int, budget: int, n_heldout: int) ->
         cpu, wall = time.process_time() - c0, time.perf_counter() - t0
         out = {"creature": creature, "strategy": strategy, "seed": seed, "evaluations": budget,
                "cpu_s": round(cpu, 1), "wall_s": round(wall, 1), "curve": curve(lib, runs, budget),
-               "gait": gait, "heldout": heldout(lib, gait, n_heldout)}
+               "gait": gait, "heldout": heldout(lib, gait, n_heldout),
+               "terrains": {t: heldout(lib, gait, n_heldout, t) for t in ("rough", "hill")},
+               "controller": {"encoding": lib.gait(gait).encoding, "params": lib.gait(gait).params}}
         lib.close()
     return out
 
@@ -167,6 +176,16 @@ def report(rows: list[dict]) -> None:
             r = by.get((c, s, st))
             if r:
                 print(f"{c:10s} {s:4d} {st:10s} {r['cpu_s']:7.0f} s  " + " ".join(f"{x:6.2f}" for x in r["curve"]))
+    print("\noff the flat (searched on flat ground): held-out cm/s on rough / hill, and the flat's")
+    for c, s in keys:
+        cells = []
+        for st in STRATEGIES:
+            r = by.get((c, s, st))
+            t = (r or {}).get("terrains") or {}
+            if r and t.get("rough"):
+                cells.append(f"{st} {t['rough']['speed_cm_s']:.1f} / {t['hill']['speed_cm_s']:.1f} ({r['heldout']['speed_cm_s']:.1f})")
+        if cells:
+            print(f"{c:10s} {s:4d} " + "; ".join(cells))
     med = float(np.median(vs_random)) if vs_random else math.nan
     low = min(of_ceiling) if of_ceiling else math.nan
     print(f"catcma_vs_random={med:.2f} catcma_of_ceiling={low:.2f}")
