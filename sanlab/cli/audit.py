@@ -10,7 +10,17 @@ import typer
 from rich import box
 from rich.table import Table
 
-from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record
+from sanlab.cli._common import (
+    DbOpt,
+    JsonOpt,
+    console,
+    dump_json,
+    fail,
+    library_call,
+    open_library,
+    print_next,
+    record,
+)
 
 
 def audit(
@@ -69,6 +79,9 @@ def audit(
             raise typer.Exit(130) from None
         if as_json:
             typer.echo(dump_json(sel))
+        elif sel["robust_gait"]:  # by its permanent id: its rank is 2 where the chain's best scores higher
+            g = sel["robust_gait"]
+            print_next(db, [f"sanlab show {g}", f"sanlab render {g}", f"sanlab export {g}"])
         return
     top = top or 1
     if "/" in target or "#" in target:
