@@ -511,6 +511,7 @@ class ProgressBar:
             transient=False,
         )
         self._task: Any = None
+        self._key: str | None = None
 
     def waiting(self, description: str, total: int | None = None) -> None:
         """Show ``description`` before the first report: a first batch can take a minute (its
@@ -518,7 +519,12 @@ class ProgressBar:
         if self._task is None:
             self._task = self.progress.add_task(description, total=total, rate=0.0, best=0.0)
 
-    def update(self, description: str, completed: int, total: int, rate: float, best: float) -> None:
+    def update(self, description: str, completed: int, total: int, rate: float, best: float,
+               key: str | None = None) -> None:
+        """Move the bar; a ``key`` other than the last one's starts a new bar under it (a job of
+        several steps, ``sanlab reproduce``: each its own count, pace and time left)."""
+        if key is not None and key != self._key:
+            self._key, self._task = key, None
         if self._task is None:
             self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
         self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate, best=best)

@@ -20,6 +20,8 @@ from sanlab.cli._common import (
     open_library,
     print_next,
     record,
+    safe,
+    warn,
 )
 
 
@@ -69,7 +71,7 @@ def audit(
         if run.kind == "tune" and 0 not in library_call(lib.done_indices, run.run_id):  # the command to run names --db
             raise fail(f"audit --select: run {run.run_id} has not finished: resume it first "
                        f"(sanlab tune --resume {run.run_id} --db {db})")
-        log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
+        log = steps(as_json)
         try:
             sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP, members,
                                                                    max_members),
@@ -89,7 +91,7 @@ def audit(
     else:
         run = library_call(lib.get_run, target)
         gaits = [e.gait_id for e in library_call(lib.top, run.run_id, top)]
-    log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
+    log = steps(as_json)
     results = [library_call(lambda g: audit_and_store(lib, g, threshold=threshold, members=members,
                                                            max_members=max_members, log=log), g)
                for g in gaits]
@@ -97,6 +99,15 @@ def audit(
         typer.echo(dump_json([audit_record(a) for a in results]))
         return
     print_audits(results, threshold, db)
+
+
+def steps(as_json: bool):
+    """Where the audit's steps go as it makes them (a rung or a look on more members can take a
+    minute): under the table's way on stdout, or with ``--json`` (stdout is the record) on stderr
+    when that is no terminal, as the other long commands report progress; nowhere otherwise."""
+    if not as_json:
+        return lambda m: console.print(f"[dim]{safe(m)}[/dim]")
+    return None if console.is_terminal else (lambda m: warn(f"audit: {m}"))
 
 
 def audit_record(a) -> dict:
