@@ -128,7 +128,7 @@ def test_modes_of_a_small_search_from_the_command_line(tmp_path):
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "64", "--seconds", "2", "--db", db, "--json"])
     assert r.exit_code == 0, r.output
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     r = CliRunner().invoke(app, ["modes", run, "--db", db, "--json"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.output)
@@ -152,7 +152,7 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
 
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "16", "--seconds", "1", "--db", db, "--json"])
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     with sqlite3.connect(db) as c:  # as a run stored before descriptors were
         for idx, extra in c.execute("SELECT idx, extra FROM evaluations").fetchall():
             e = json.loads(extra)
@@ -161,7 +161,7 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
     r = CliRunner().invoke(app, ["modes", run, "--db", db])
     assert r.exit_code == 2 and "no behaviour descriptors" in r.output and "--rescore" in r.output
     r = CliRunner().invoke(app, ["search", "cart", "-n", "16", "--seconds", "1", "--db", str(tmp_path / "b.db"), "--json"])
-    fresh = json.loads(CliRunner().invoke(app, ["modes", json.loads(r.output)["run_id"], "--db", str(tmp_path / "b.db"),
+    fresh = json.loads(CliRunner().invoke(app, ["modes", json.loads(r.stdout)["run_id"], "--db", str(tmp_path / "b.db"),
                                                 "--json"]).output)
     again = CliRunner().invoke(app, ["modes", run, "--db", db, "--json", "--rescore"])
     assert again.exit_code == 0, again.output
@@ -177,7 +177,7 @@ def test_a_1000_controller_cart_search_finds_at_least_five_modes(tmp_path):
     cart's shapes were designed for it: cart.toml says how)."""
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "1000", "--seed", "0", "--db", db, "--json"])
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     out = json.loads(CliRunner().invoke(app, ["modes", run, "--db", db, "--json"]).output)
     named = {m["name"].rstrip(" 0123456789") for m in out["modes"][:10]}
     assert len(out["modes"]) >= 5 and len(named) >= 3, named
