@@ -18,13 +18,20 @@ runner = CliRunner()
 LINE = re.compile(r"(\d+)/(\d+) (controllers|trials) \((\d+) %\), [\d.]+ eval/s, best -?[\d.]+, .* elapsed")
 
 
+def parsed(line: str) -> tuple[str, ...]:
+    """(done, total, unit, percent) of a progress line; fails on a line of another form."""
+    m = LINE.search(line)
+    assert m is not None, line
+    return m.groups()
+
+
 def test_search_in_a_log_prints_progress_lines(tmp_path):
     db = str(tmp_path / "g.db")
     r = runner.invoke(app, ["search", "cart", "-n", "24", "--batch", "8", "--seconds", "0.5", "--ensemble", "1",
                             "--db", db, "--json"])
     assert r.exit_code == 0, r.output
     lines = [line for line in r.stderr.splitlines() if line.startswith("search: ")]
-    done = [int(LINE.search(line).group(1)) for line in lines]
+    done = [int(parsed(line)[0]) for line in lines]
     assert done == [8, 16, 24], r.stderr  # a line a batch here (each is a tenth or more), the last at the end
     assert "about" in lines[1] and "left" in lines[1] and "left" not in lines[-1]
     assert r.stdout.lstrip().startswith("{")  # stdout stays the JSON record
@@ -41,8 +48,8 @@ def test_reproduce_in_a_log_prints_each_step_as_it_goes(tmp_path):
     err = r.stderr.splitlines()
     search = [line for line in err if line.startswith("reproduce: twolink (seed 0): search: ")]
     tune = [line for line in err if line.startswith("reproduce: twolink (seed 0): tune: ")]
-    assert search and LINE.search(search[-1]).groups()[:3] == ("16", "16", "controllers"), r.stderr
-    assert tune and LINE.search(tune[-1]).groups()[:3] == ("8", "8", "trials"), r.stderr
+    assert search and parsed(search[-1])[:3] == ("16", "16", "controllers"), r.stderr
+    assert tune and parsed(tune[-1])[:3] == ("8", "8", "trials"), r.stderr
     assert err.index(search[-1]) < err.index(tune[0])
     assert "twolink (seed 0):" in r.stdout and "wrote" in r.stdout  # the row and the report, on stdout
 
