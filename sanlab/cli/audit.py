@@ -19,6 +19,7 @@ from sanlab.cli._common import (
     library_call,
     open_library,
     print_next,
+    quoted_gait,
     record,
     safe,
     warn,
@@ -99,6 +100,14 @@ def audit(
         typer.echo(dump_json([audit_record(a) for a in results]))
         return
     print_audits(results, threshold, db)
+    # a tuned gait the audit cannot vouch for: the way to one it can is its run's selection
+    hints = []
+    for run_id in dict.fromkeys(a.gait_id.split("#")[0] for a in results if a.verdict != "robust"):
+        if library_call(lib.get_run, run_id).kind == "tune":
+            quoted, selected = quoted_gait(lib, run_id)
+            hints += [f"sanlab show {quoted}"] if quoted else [] if selected else [f"sanlab audit {run_id} --select"]
+    if hints:
+        print_next(db, hints)
 
 
 def steps(as_json: bool):

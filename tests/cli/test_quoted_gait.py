@@ -102,3 +102,36 @@ def test_audit_select_ends_with_hints_at_the_selection(selected, monkeypatch):
     hints = r.output.splitlines()[-1]
     assert hints == (f"next: sanlab show {run}#1 --db {db}    sanlab render {run}#1 --db {db}    "
                      f"sanlab export {run}#1 --db {db}"), hints
+
+
+@pytest.mark.parametrize("selection", [None, "chosen"])
+def test_audit_of_an_unvouched_tuned_gait_leads_to_the_selection(lib_run, tmp_path, monkeypatch, selection):
+    """A tuned gait the audit cannot vouch for: next, the run's selection (``audit RUN
+    --select``), or the selection already made (``show RUN#1``)."""
+    import sanlab.audit
+    from sanlab.audit import Audit, Shift
+    from sanlab.search.tune import tune
+
+    src, run_id = lib_run
+    db = str(tmp_path / "g.db")
+    shutil.copy(src, db)
+    with Library(db) as lib:
+        [res] = tune(lib, [f"{run_id}/1"], method="sa", trials=2, seed=0, batch=8, ensemble=1)
+        if selection:
+            best = lib.gait(res.tuned_gait)
+            lib.put_selection(res.run_id, 1, {"settings": {}, "candidates": [], "trial": 1},
+                              {"encoding": best.encoding, "params": best.params, "score": best.score / 2,
+                               "speed_cm_s": best.speed_cm_s / 2, "fell": False, "nonfinite": False})
+    dependent = Shift(0.3, 0.2, 0.4, "resolution-dependent")
+
+    def fake(lib, gait_id, **k):
+        return Audit(lib.gait(gait_id).gait_id, 10.0, 10.0, 10.0, {"dt/2": 13.0, "dt/4": 13.0},
+                     {"dt/2": dependent, "dt/4": dependent}, {"dt/2": False, "dt/4": False}, 0.1, 0.001, 1, 64, 0.95)
+
+    monkeypatch.setattr(sanlab.audit, "audit_and_store", fake)
+    r = runner.invoke(app, ["audit", res.tuned_gait, "--db", db], env={"COLUMNS": "200"})
+    assert r.exit_code == 0, r.output
+    assert "resolution-dependent" in r.output
+    hints = r.output.splitlines()[-1]
+    want = f"sanlab show {res.run_id}#1" if selection else f"sanlab audit {res.run_id} --select"
+    assert hints == f"next: {want} --db {db}", hints
