@@ -10,8 +10,8 @@ fallen, finite, scoring at least ``min_score``) are grouped in three steps (issu
    of its own however few gaits have it;
 2. within a kind, by density: scikit-learn's HDBSCAN on the standardised continuous descriptors
    (signed speed, COM height and its spread, turns per second, airborne fraction, joint speed,
-   and each touch sensor's duty factor, the duty factors together weighing as much as one
-   descriptor would for each of their square root), its smallest cluster the larger of
+   and each touch sensor's duty factor, n duty factors weighing as much together as sqrt(n)
+   other descriptors), its smallest cluster the larger of
    ``min_cluster`` and half the square root of the kind's count; a gait HDBSCAN calls noise joins
    the cluster of its nearest clustered gait of the kind, and a kind HDBSCAN does not split is
    one mode. A gait of a kind is nearer its own crowd than anything else: left alone as a mode
@@ -25,8 +25,8 @@ fallen, finite, scoring at least ``min_score``) are grouped in three steps (issu
 
 Modes are ranked by their best score and named from their descriptors' medians where a rule
 fits (see :func:`name`), else "mode 1", "mode 2" ...; a name that repeats is numbered ("hopping
-2"), the modes of more than one gait first, so that the names a table shows (it hides modes of one gait) have
-no gaps.
+2"), the modes of more than one gait first, so that the names a table shows (it hides the modes
+of one gait) have no gaps.
 """
 
 from __future__ import annotations
