@@ -2,19 +2,31 @@
 five gaits, "told apart by eye").
 
 Each evaluation carries behaviour descriptors (``sanlab.descriptors``). The useful ones (not
-fallen, finite, scoring at least ``min_score``) are grouped in two ways at once:
+fallen, finite, scoring at least ``min_score``) are grouped in three steps (issue 57):
 
-- by density, with scikit-learn's HDBSCAN on the standardised continuous descriptors (signed
-  speed, COM height and its spread, turns per second, airborne fraction, joint speed, each touch
-  sensor's duty factor); and
-- exactly, by the periodic sensor signature: two controllers with the same cyclic pattern of
-  sensor words (of at least two words) are the same mode by construction.
+1. by kind: each gait's own rule name (:func:`name` of its own descriptors: rolling, hopping,
+   walking ...) and its direction along x (+, -, or still under 0.5 cm/s). Gaits of two kinds
+   are never one mode, so a rare kind (§6.1's cartwheeling cart, among 1000 SANs) stays a mode
+   of its own however few gaits have it;
+2. within a kind, by density: scikit-learn's HDBSCAN on the standardised continuous descriptors
+   (signed speed, COM height and its spread, turns per second, airborne fraction, joint speed,
+   and each touch sensor's duty factor, n duty factors weighing as much together as sqrt(n)
+   other descriptors), its smallest cluster the larger of
+   ``min_cluster`` and half the square root of the kind's count; a gait HDBSCAN calls noise joins
+   the cluster of its nearest clustered gait of the kind, and a kind HDBSCAN does not split is
+   one mode. A gait of a kind is nearer its own crowd than anything else: left alone as a mode
+   of one it made most modes single gaits (the caterpillar's 17 of 19), which the table hid;
+3. exactly, by the periodic sensor signature within a kind: two controllers of a kind with the
+   same cyclic pattern of sensor words (of at least two words) are the same mode by
+   construction. Across kinds a signature joins nothing: a two-word cycle (one sensor
+   blinking) is common; it put two of the cart's seven rolling gaits in flipping modes, and
+   with stragglers joining their crowd it folded all seven, the cart's best among them, into
+   one.
 
-A mode is a connected group under either relation (same HDBSCAN cluster, or same signature). A
-controller HDBSCAN calls noise and that shares no signature is a mode of its own: the best gaits
-of a random search are rare (§6.1's five cart gaits came from 1000 SANs), and folding one into
-the nearest crowd would hide it. Modes are ranked by their best score and named from their
-descriptors' medians where a rule fits (see :func:`name`), else "mode k".
+Modes are ranked by their best score and named from their descriptors' medians where a rule
+fits (see :func:`name`), else "mode 1", "mode 2" ...; a name that repeats is numbered ("hopping
+2"), the modes of more than one gait first, so that the names a table shows (it hides the modes
+of one gait) have no gaps.
 """
 
 from __future__ import annotations
@@ -38,7 +50,8 @@ FEATURES = ("vx_cm_s", "height_m", "height_sd_m", "turns_per_s", "airborne", "jo
 # would otherwise be stretched to the weight of one that separates them.
 RESOLUTION = {"vx_cm_s": 0.5, "height_m": 0.005, "height_sd_m": 0.002, "turns_per_s": 0.02, "airborne": 0.02,
               "joint_speed_rad_s": 0.1, "duty": 0.02}
-MIN_CLUSTER = 3  # HDBSCAN's smallest group (its min_samples too)
+MIN_CLUSTER = 3  # HDBSCAN's smallest group, at least (a kind of many gaits: half the square root of their count)
+STILL_CM_S = 0.5  # a gait slower than this along x has no direction (as RESOLUTION["vx_cm_s"])
 
 
 @dataclass(frozen=True)
@@ -100,7 +113,12 @@ def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_clus
     if not gaits:
         return []
     X = features(gaits)
-    labels = _density(X, min_cluster)
+    kinds = [kind(g, seconds=seconds, water=water, plane=plane) for g in gaits]
+    labels = np.full(len(gaits), -1)
+    for k in dict.fromkeys(kinds):
+        idx = np.flatnonzero([x == k for x in kinds])
+        sub = _density(X[idx], min_cluster)
+        labels[idx] = np.where(sub >= 0, sub + labels.max() + 1, -1)
     parent = list(range(len(gaits)))
 
     def root(i: int) -> int:
@@ -119,7 +137,7 @@ def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_clus
             keys.append(("cluster", int(labels[i])))
         sig = g.descriptors.get("signature")
         if periodic(sig):
-            keys.append(("signature", sig))
+            keys.append(("signature", kinds[i], sig))
         for k in keys:
             if k in first:
                 join(i, first[k])
@@ -130,12 +148,26 @@ def find(gaits: Sequence[Gait], *, seconds: float, water: bool = False, min_clus
         groups.setdefault(root(i), []).append(i)
     modes = [_mode([gaits[i] for i in sorted(m, key=lambda i: -gaits[i].score)]) for m in groups.values()]
     modes.sort(key=lambda m: -m.best.score)
-    named, used = [], {}
-    for k, m in enumerate(modes, 1):
-        n = name(m.summary, m.duty, seconds=seconds, water=water, plane=plane) or f"mode {k}"
+    names = [name(m.summary, m.duty, seconds=seconds, water=water, plane=plane) or "mode" for m in modes]
+    used: dict[str, int] = {}
+    numbered: dict[int, str] = {}
+    # the modes of more than one gait are numbered first: what the table shows reads "hopping",
+    # "hopping 2" without a gap where a mode of one gait it hides took a number
+    for i in sorted(range(len(modes)), key=lambda i: (modes[i].size == 1, i)):
+        n = names[i]
         used[n] = used.get(n, 0) + 1
-        named.append(Mode(n if used[n] == 1 else f"{n} {used[n]}", m.gaits, m.summary, m.signature, m.duty, seconds))
-    return named
+        numbered[i] = f"{n} {used[n]}" if used[n] > 1 or n == "mode" else n
+    return [Mode(numbered[i], m.gaits, m.summary, m.signature, m.duty, seconds) for i, m in enumerate(modes)]
+
+
+def kind(g: Gait, *, seconds: float, water: bool = False, plane: str = "vertical") -> tuple[str, int]:
+    """A gait's kind, the first split of :func:`find`: (its own rule name, "" where none fits;
+    its direction along x: 1, -1, or 0 when slower than :data:`STILL_CM_S`)."""
+    d = g.descriptors
+    own = name({k: _num(d.get(k)) for k in NAMES}, [_num(x) for x in (d.get("duty") or ())], seconds=seconds,
+               water=water, plane=plane)
+    vx = _num(d.get("vx_cm_s"))
+    return own or "", (0 if not abs(vx) >= STILL_CM_S else 1 if vx > 0 else -1)
 
 
 def of_run(lib: Library, run_id: str, min_score: float | None = None, min_cluster: int = MIN_CLUSTER,
@@ -201,16 +233,31 @@ def features(gaits: Sequence[Gait]) -> np.ndarray:
     X = np.where(np.isfinite(X), X, med)
     floor = np.array([RESOLUTION[k] for k in FEATURES] + [RESOLUTION["duty"]] * n_duty)
     scale = np.maximum.reduce([X.std(0), floor, 0.1 * np.median(np.abs(X), 0)])
+    # n duty factors weigh as much as sqrt(n) descriptors: a caterpillar's five feet would
+    # otherwise outweigh its speed, height and turns together and split every gait from the next
+    scale[len(FEATURES):] *= math.sqrt(n_duty) if n_duty else 1.0
     return (X - X.mean(0)) / scale
 
 
 def _density(X: np.ndarray, min_cluster: int) -> np.ndarray:
-    if len(X) < max(2, min_cluster):
-        return np.full(len(X), -1)
+    """[G] cluster labels (0, 1, ...) of the gaits of one kind (rows of ``X``): HDBSCAN's, its
+    smallest cluster the larger of ``min_cluster`` and half the square root of G, every noise
+    point given its nearest clustered point's label; all 0 (one mode) where HDBSCAN finds no
+    cluster or G is too small to split."""
+    n = len(X)
+    size = max(min_cluster, round(math.sqrt(n) / 2))
+    if n < 2 * size:  # not two clusters' worth: one mode
+        return np.zeros(n, int)
     from sklearn.cluster import HDBSCAN
 
-    options: dict[str, Any] = {"min_cluster_size": min_cluster, "copy": True}  # copy: sklearn 1.9 warns without it
-    return HDBSCAN(**options).fit_predict(X)
+    options: dict[str, Any] = {"min_cluster_size": size, "copy": True}  # copy: sklearn 1.9 warns without it
+    labels = HDBSCAN(**options).fit_predict(X)
+    clustered = np.flatnonzero(labels >= 0)
+    if not len(clustered):
+        return np.zeros(n, int)
+    for i in np.flatnonzero(labels < 0):
+        labels[i] = labels[clustered[np.argmin(np.linalg.norm(X[clustered] - X[i], axis=1))]]
+    return labels
 
 
 def _mode(gaits: list[Gait]) -> Mode:

@@ -38,8 +38,10 @@ import hashlib
 import json
 import re
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -55,6 +57,7 @@ SEARCH_BATCH = 256  # controllers per phase-1 batch
 # 69.1 and 64.3 cm/s (docs/reproduce.md, "One chain or four")
 DEFAULT_TOP = 4
 TUNE_BATCH = 32  # one chain: a small batch (a speculative window of 32 trials) has the lowest latency per round
+Progress = Callable[[str, Any], None]  # reproduce's progress(stage, driver Progress or a line of text)
 
 
 @dataclass
@@ -183,9 +186,10 @@ def _earlier(lib: Library, kind: str, text: str, seed: int, wanted) -> Run | Non
 
 
 def _search(lib: Library, text: str, where: str, seconds: float, seed: int, controllers: int,
-            ens: Ensemble, backend=None, strategy: str = "random") -> tuple[str, bool]:
+            ens: Ensemble, backend=None, strategy: str = "random", reporter=None) -> tuple[str, bool]:
     """Phase 1 of one creature (``controllers`` evaluations of phase-1 ``strategy``): (run id,
-    whether an earlier call had stored some of it)."""
+    whether an earlier call had stored some of it). ``reporter``: told the search's progress
+    (``run_search``'s)."""
     from sanlab.search import run_search
 
     def wanted(run: Run) -> bool:
@@ -199,16 +203,16 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     if run is not None and run.status == "done":
         return run.run_id, True
     if run is not None:
-        return run_search(lib, text, where, resume=run.run_id, backend=backend), True
+        return run_search(lib, text, where, resume=run.run_id, backend=backend, reporter=reporter), True
     return run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed, batch=SEARCH_BATCH,
-                      ensemble=ens, backend=backend, strategy=strategy), False
+                      ensemble=ens, backend=backend, strategy=strategy, reporter=reporter), False
 
 
 def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, ens: Ensemble,
-          backend=None) -> tuple[list[str], bool]:
+          backend=None, reporter=None) -> tuple[list[str], bool]:
     """Phase 2 of one creature: ``trials`` annealing trials on each gait of ``parents`` (the
     search's best first), as parallel chains 0, 1, ...: (the tuned gait id of each chain, whether
-    an earlier call had stored some of it)."""
+    an earlier call had stored some of it). ``reporter``: told the tuning's progress (``tune``'s)."""
     from sanlab.search.tune import tune
 
     def wanted(i: int):
@@ -225,17 +229,18 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
     if len(runs) == len(parents):
         todo = [r.run_id for r in runs if r.status != "done"]
         if todo:
-            tune(lib, resume=todo, backend=backend)
+            tune(lib, resume=todo, backend=backend, reporter=reporter)
         return [f"{r.run_id}#0" for r in runs], True
     # the chains are created together before the first trial, so a partial set is a crash
     # between two creations: start all of them again (their random streams depend on the chain)
-    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens, backend=backend)
+    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens, backend=backend,
+               reporter=reporter)
     return [r.tuned_gait for r in res], False
 
 
-def _audit(lib: Library, gait_id: str, run: bool = True) -> tuple[dict | None, bool]:
-    """The gait's audit, the stored one if there is one (else a new one when ``run``): (its
-    record as a dict or None, whether it was stored before)."""
+def _audit(lib: Library, gait_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
+    """The gait's audit, the stored one if there is one (else a new one when ``run``, telling
+    ``log`` its steps): (its record as a dict or None, whether it was stored before)."""
     from sanlab.audit import THRESHOLD, audit_and_store
 
     rec = lib.audit(gait_id)
@@ -243,15 +248,15 @@ def _audit(lib: Library, gait_id: str, run: bool = True) -> tuple[dict | None, b
         return {**rec.result, "flagged": rec.flagged, "worst": rec.worst}, True
     if not run:
         return None, False
-    a = audit_and_store(lib, gait_id)
+    a = audit_and_store(lib, gait_id, log=log)
     return {**a.to_json(), "flagged": a.flagged, "worst": a.worst}, False
 
 
-def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, bool]:
+def _select(lib: Library, run_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
     """The tuning run's audited selection (``sanlab.audit.select_robust``), the stored one if
     there is one (else a new one when ``run``): ({"gait", "speed", "trial", "worst",
     "candidates"} or None, whether it was stored before). "gait" is None when no rung of the
-    climb kept its speed."""
+    climb kept its speed. ``log``: told each rung's audit as it is made."""
     from sanlab.audit import LEVEL, MAX_MEMBERS, MEMBERS, SELECT_TOP, THRESHOLD, select_robust
 
     settings = {"top": SELECT_TOP, "threshold": THRESHOLD, "members": MEMBERS, "max_members": MAX_MEMBERS,
@@ -259,7 +264,7 @@ def _select(lib: Library, run_id: str, run: bool = True) -> tuple[dict | None, b
     before = (lib.selection(run_id) or {}).get("settings") == settings
     if not before and not run:
         return None, False
-    sel = select_robust(lib, run_id)
+    sel = select_robust(lib, run_id, log=log)
     c = sel.chosen
     return {"gait": sel.gait_id, "speed": None if c is None else c.nominal_cm_s, "trial": None if c is None else c.trial,
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
@@ -278,7 +283,7 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
     (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
     Raises as ``run_search`` and ``tune``."""
-    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy)
+    run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy)
     best = lib.top(run_id, top)
     if prune_below is not None and best[0].speed_cm_s < prune_below:
         return {"speed": 0.0, "gait": None, "search": run_id, "phase1_cm_s": float(best[0].speed_cm_s),
@@ -525,7 +530,7 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
               top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
-              strategy: str = "random", ceiling: int = 0) -> str:
+              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -549,7 +554,11 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ``command``: the command line that made the report, named at its top. ``strategy``: phase
     1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM). ``ceiling``
     > 0: each row also measures its creature's pattern ceiling with that many patterns
-    (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed."""
+    (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed.
+    ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the
+    creature, the seed and the step ("walker (seed 0): search"), ``p`` the driver's
+    :class:`sanlab.search.driver.Progress` during the search and the tuning and a line of text
+    during the audits (``sanlab.cli`` draws it as ``tune`` does)."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -568,7 +577,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             if row is not None and ceiling and row.ceiling is None:
                 row = None  # made without its ceiling: the library holds the rest, the ceiling is measured
             if row is None:
-                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, strategy, ceiling)
+                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
@@ -582,21 +591,28 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
-              top: int, strategy: str = "random", ceiling: int = 0) -> Row:
+              top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0) -> Row:
     """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
-    (and with ``ceiling`` its pattern ceiling, measured with that many patterns)."""
+    (``progress``: as :func:`reproduce`'s; with ``ceiling`` its pattern ceiling too, measured
+    with that many patterns)."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
     text, where = read_source(name)
-    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, strategy=strategy)
+
+    def told(step: str, say: Progress | None = progress):
+        return None if say is None else (lambda p: say(f"{name} (seed {seed}): {step}", p))
+
+    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, strategy=strategy,
+                               reporter=told("search"))
     best = lib.top(run_id, top)
-    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens)
+    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens,
+                                    reporter=told("tune"))
     stored = searched or tuned_before
     chains = []
-    for tid in tuned_ids:
-        report, audited = _audit(lib, tid, run=audit)
-        robust, selected = _select(lib, tid.split("#")[0], run=audit)
+    for k, tid in enumerate(tuned_ids):
+        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}"))
+        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}"))
         stored = stored or audited or selected
         chains.append((lib.gait(tid), report, robust))
     # the row stands on the chain with the best robust speed (the chain best where none has one);

@@ -43,17 +43,49 @@ def test_separate_behaviours_are_separate_modes_named_by_rule():
     json.dumps(out, allow_nan=False)
 
 
-def test_one_periodic_signature_is_one_mode_however_far_apart_the_descriptors():
+def test_one_periodic_signature_is_one_mode_of_a_kind_however_far_apart_the_descriptors():
     rng = np.random.default_rng(1)
-    g = (gaits("a", 5, rng, 1.0, noise=0.0, signature="00.10.11.01")
-         + gaits("b", 5, rng, 0.5, noise=0.0, vx_cm_s=-30.0, airborne=0.3))
-    g[-1] = Gait(g[-1].gait_id, g[-1].score, g[-1].speed_cm_s, dict(g[-1].descriptors, signature="00.10.11.01"))
-    modes = find(g, seconds=6.0)
-    assert len(modes) == 1 and modes[0].size == 10
+    # two crowds of hoppers moving forward, far apart in speed: density alone parts them
+    a = gaits("a", 6, rng, 1.0, noise=0.01, airborne=0.5, signature="00.10.11.01")
+    b = gaits("b", 6, rng, 0.5, noise=0.01, airborne=0.5, vx_cm_s=60.0)
+    assert len(find(a + b, seconds=6.0)) == 2
+    b[-1] = Gait(b[-1].gait_id, b[-1].score, b[-1].speed_cm_s, dict(b[-1].descriptors, signature="00.10.11.01"))
+    modes = find(a + b, seconds=6.0)
+    assert len(modes) == 1 and modes[0].size == 12
+    # across kinds (here a hopper and a shuffler) a signature joins nothing: a short cycle is
+    # common, and joined the cart's rolling gaits, its best among them, to a flipping crowd
+    c = gaits("c", 6, rng, 0.4, noise=0.01, signature="00.10.11.01")
+    assert sorted(m.size for m in find(a + c, seconds=6.0)) == [6, 6]
     # a word the sensors kept is no cycle: it joins nothing
     assert not periodic("111101") and periodic("10.01") and not periodic(None)
-    g2 = [Gait(x.gait_id, x.score, x.speed_cm_s, dict(x.descriptors, signature="1111")) for x in g]
+    g2 = [Gait(x.gait_id, x.score, x.speed_cm_s, dict(x.descriptors, signature="1111")) for x in a + b]
     assert len(find(g2, seconds=6.0)) == 2
+
+
+def test_stragglers_join_their_kinds_crowd_not_modes_of_their_own():
+    """Issue 57: a gait HDBSCAN called noise was a mode of one, and most modes were (the
+    caterpillar's 17 of 19); one of the crowd's kind joins the crowd nearest to it."""
+    rng = np.random.default_rng(3)
+    crowd = gaits("crowd", 12, rng, 1.0, airborne=0.5)
+    off = [Gait(f"run#off{k}", 0.3, v, dict(BASE, airborne=0.5, vx_cm_s=v, height_m=h))
+           for k, (v, h) in enumerate([(9.0, 0.13), (2.0, 0.08)])]
+    modes = find(crowd + off, seconds=6.0)
+    assert [(m.name, m.size) for m in modes] == [("hopping", 14)]
+
+
+def test_visible_names_have_no_gaps():
+    """Issue 57: "walking 2" was shown while "walking", a mode of one gait, was hidden: the
+    modes of more than one gait take the numbers first."""
+    rng = np.random.default_rng(4)
+    lone = [Gait("run#lone", 3.0, 40.0, dict(BASE, airborne=0.5, vx_cm_s=-40.0))]  # the best, backwards
+    ahead = gaits("ahead", 6, rng, 1.0, airborne=0.5)
+    far = gaits("far", 6, rng, 0.5, airborne=0.5, vx_cm_s=60.0)
+    modes = find(lone + ahead + far, seconds=6.0)
+    assert modes[0].best.gait_id == "run#lone" and modes[0].size == 1
+    assert [m.name for m in modes if m.size > 1] == ["hopping", "hopping 2"]
+    assert modes[0].name == "hopping 3"
+    unnamed = find(gaits("u", 6, rng, 1.0, airborne=0.05), seconds=6.0)  # no rule fits
+    assert [m.name for m in unnamed] == ["mode 1"]
 
 
 def test_a_rare_gait_is_a_mode_of_its_own_and_names_repeat_with_a_number():
@@ -128,7 +160,7 @@ def test_modes_of_a_small_search_from_the_command_line(tmp_path):
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "64", "--seconds", "2", "--db", db, "--json"])
     assert r.exit_code == 0, r.output
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     r = CliRunner().invoke(app, ["modes", run, "--db", db, "--json"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.output)
@@ -152,7 +184,7 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
 
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "16", "--seconds", "1", "--db", db, "--json"])
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     with sqlite3.connect(db) as c:  # as a run stored before descriptors were
         for idx, extra in c.execute("SELECT idx, extra FROM evaluations").fetchall():
             e = json.loads(extra)
@@ -161,7 +193,7 @@ def test_a_run_stored_without_descriptors_says_so(tmp_path):
     r = CliRunner().invoke(app, ["modes", run, "--db", db])
     assert r.exit_code == 2 and "no behaviour descriptors" in r.output and "--rescore" in r.output
     r = CliRunner().invoke(app, ["search", "cart", "-n", "16", "--seconds", "1", "--db", str(tmp_path / "b.db"), "--json"])
-    fresh = json.loads(CliRunner().invoke(app, ["modes", json.loads(r.output)["run_id"], "--db", str(tmp_path / "b.db"),
+    fresh = json.loads(CliRunner().invoke(app, ["modes", json.loads(r.stdout)["run_id"], "--db", str(tmp_path / "b.db"),
                                                 "--json"]).output)
     again = CliRunner().invoke(app, ["modes", run, "--db", db, "--json", "--rescore"])
     assert again.exit_code == 0, again.output
@@ -177,9 +209,38 @@ def test_a_1000_controller_cart_search_finds_at_least_five_modes(tmp_path):
     cart's shapes were designed for it: cart.toml says how)."""
     db = str(tmp_path / "g.db")
     r = CliRunner().invoke(app, ["search", "cart", "-n", "1000", "--seed", "0", "--db", db, "--json"])
-    run = json.loads(r.output)["run_id"]
+    run = json.loads(r.stdout)["run_id"]
     out = json.loads(CliRunner().invoke(app, ["modes", run, "--db", db, "--json"]).output)
     named = {m["name"].rstrip(" 0123456789") for m in out["modes"][:10]}
     assert len(out["modes"]) >= 5 and len(named) >= 3, named
     assert "rolling" in {m["name"].rstrip(" 0123456789") for m in out["modes"]}, named
     assert all(math.isfinite(m["speed_cm_s"]) for m in out["modes"])
+
+
+@pytest.mark.slow  # a search of 200 controllers: about 7 s on 2 shared cores
+@pytest.mark.parametrize("creature", ["caterpillar", "snake"])
+def test_most_of_a_segmented_creatures_gaits_fall_in_modes_of_three(tmp_path, creature):
+    """Issue 57: a caterpillar's modes were 17 single gaits of 19, a snake's 10 of 14 (hidden
+    with a count). On our own two (tests/data/, measured in docs/modes.md), at least 80 % of the
+    useful controllers of a default search fall in modes of three gaits or more, most modes are
+    no single gait, and the names a table shows run without gaps."""
+    import re
+    from pathlib import Path
+
+    from sanlab.creature import read_source
+    from sanlab.library import Library
+    from sanlab.modes import of_run
+    from sanlab.search import run_search
+
+    text, where = read_source(str(Path(__file__).parent / "data" / f"{creature}.toml"))
+    with Library(str(tmp_path / "g.db")) as lib:
+        run_id = run_search(lib, text, where, controllers=200, seed=0)
+        modes, _, missing = of_run(lib, run_id)
+    n = sum(m.size for m in modes)
+    assert missing == 0 and n >= 10
+    assert sum(m.size for m in modes if m.size >= 3) >= 0.8 * n, [(m.name, m.size) for m in modes]
+    assert sum(m.size == 1 for m in modes) < len(modes) / 2
+    shown = [m.name for m in modes if m.size > 1]
+    for base in {re.sub(r" \d+$", "", x) for x in shown}:
+        numbers = sorted(int(x.rsplit(" ", 1)[1]) if x != base else 1 for x in shown if re.sub(r" \d+$", "", x) == base)
+        assert numbers == list(range(1, len(numbers) + 1)), shown

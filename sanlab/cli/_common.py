@@ -422,9 +422,10 @@ def id_column(header: str, ids: list[str]) -> Column:
     return Column(header, no_wrap=True, overflow="fold", min_width=max((len(i) for i in ids), default=0))
 
 
-def print_top(rows: list[dict], title: str, unit: str = "") -> None:
+def print_top(rows: list[dict], title: str, unit: str = "", selected: int | None = None) -> None:
     """The table of a run's best gaits; the speed column carries an arrow for the direction of
-    motion along x (→ +x, ← -x) where the run stored it. ``unit``: the score's unit."""
+    motion along x (→ +x, ← -x) where the run stored it. ``unit``: the score's unit;
+    ``selected``: the rank of a tuning run's audited selection (flagged "quote this")."""
     score = f"score ({unit})" if unit else "score"
     table = Table("rank", id_column("gait", [r["gait"] for r in rows]), score, "speed (cm/s)", "flags",
                   title=safe(title))
@@ -434,7 +435,8 @@ def print_top(rows: list[dict], title: str, unit: str = "") -> None:
                                           ("not reproduced", r.get("reproduced") is False),
                                           ("resolution-dependent", r.get("resolution_dependent")),
                                           ("audit undecided", r.get("verdict") == "undecided"),
-                                          ("audited: robust", r.get("verdict") == "robust")) if on)
+                                          ("audited: robust", r.get("verdict") == "robust"),
+                                          ("quote this", rank == selected)) if on)
         arrow = ARROWS[r.get("direction")]
         table.add_row(str(rank), r["gait"], f"{r['score']:.3f}", f"{arrow} {r['speed_cm_s']:.1f}", flags or "-")
     console.print(table)
@@ -493,6 +495,18 @@ def print_ceiling_share(lib: Library, gait_id: str, speed_cm_s: float, what: str
                       f"ceiling ({c.speed_cm_s:.1f} cm/s, gait {c.gait}, {vouched})", soft_wrap=True)
 
 
+def quoted_gait(lib: Library, run_id: str) -> tuple[str | None, bool]:
+    """(the gait of run ``run_id`` to quote, whether an audited selection chose it): a tuning
+    run's stored selection (``sanlab audit RUN --select``, stored as ``RUN#1``) when it found a
+    robust rung, else None with True when a selection found none, else None with False. Its
+    rank (``RUN/RANK``) is not this id: a selection often scores below the chain's best
+    (``RUN#0``, rank 1), which no audit vouched for (issue 57)."""
+    sel = library_call(lib.selection, run_id) if library_call(lib.get_run, run_id).kind == "tune" else None
+    if sel is None:
+        return None, False
+    return (f"{run_id}#{sel['idx']}" if isinstance(sel.get("idx"), int) else None), True
+
+
 def print_next(db: str, commands: list[str], without_db: tuple[str, ...] = ()) -> None:
     """The "next:" line under a command's output: ``commands`` (each given ``--db`` when the
     library is not the default one), then ``without_db`` (commands that take no library, as
@@ -529,6 +543,7 @@ class ProgressBar:
             disable=not show, transient=False,
         )
         self._task: Any = None
+        self._key: str | None = None
 
     def waiting(self, description: str, total: int | None = None) -> None:
         """Show ``description`` before the first report: a first batch can take a minute (its
@@ -536,7 +551,12 @@ class ProgressBar:
         if self._task is None:
             self._task = self.progress.add_task(description, total=total, rate=0.0, best=0.0)
 
-    def update(self, description: str, completed: int, total: int, rate: float, best: float) -> None:
+    def update(self, description: str, completed: int, total: int, rate: float, best: float,
+               key: str | None = None) -> None:
+        """Move the bar; a ``key`` other than the last one's starts a new bar under it (a job of
+        several steps, ``sanlab reproduce``: each its own count, pace and time left)."""
+        if key is not None and key != self._key:
+            self._key, self._task = key, None
         if self._task is None:
             self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
         self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate, best=best)

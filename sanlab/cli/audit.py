@@ -10,7 +10,20 @@ import typer
 from rich import box
 from rich.table import Table
 
-from sanlab.cli._common import DbOpt, JsonOpt, console, dump_json, fail, library_call, open_library, record
+from sanlab.cli._common import (
+    DbOpt,
+    JsonOpt,
+    console,
+    dump_json,
+    fail,
+    library_call,
+    open_library,
+    print_next,
+    quoted_gait,
+    record,
+    safe,
+    warn,
+)
 
 
 def audit(
@@ -59,7 +72,7 @@ def audit(
         if run.kind == "tune" and 0 not in library_call(lib.done_indices, run.run_id):  # the command to run names --db
             raise fail(f"audit --select: run {run.run_id} has not finished: resume it first "
                        f"(sanlab tune --resume {run.run_id} --db {db})")
-        log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
+        log = steps(as_json)
         try:
             sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP, members,
                                                                    max_members),
@@ -69,6 +82,9 @@ def audit(
             raise typer.Exit(130) from None
         if as_json:
             typer.echo(dump_json(sel))
+        elif sel["robust_gait"]:  # by its permanent id: its rank is 2 where the chain's best scores higher
+            g = sel["robust_gait"]
+            print_next(db, [f"sanlab show {g}", f"sanlab render {g}", f"sanlab export {g}"])
         return
     top = top or 1
     if "/" in target or "#" in target:
@@ -76,7 +92,7 @@ def audit(
     else:
         run = library_call(lib.get_run, target)
         gaits = [e.gait_id for e in library_call(lib.top, run.run_id, top)]
-    log = None if as_json else (lambda m: console.print(f"[dim]{m}[/dim]"))
+    log = steps(as_json)
     results = [library_call(lambda g: audit_and_store(lib, g, threshold=threshold, members=members,
                                                            max_members=max_members, log=log), g)
                for g in gaits]
@@ -84,6 +100,23 @@ def audit(
         typer.echo(dump_json([audit_record(a) for a in results]))
         return
     print_audits(results, threshold, db, max_members)
+    # a tuned gait the audit cannot vouch for: the way to one it can is its run's selection
+    hints = []
+    for run_id in dict.fromkeys(a.gait_id.split("#")[0] for a in results if a.verdict != "robust"):
+        if library_call(lib.get_run, run_id).kind == "tune":
+            quoted, selected = quoted_gait(lib, run_id)
+            hints += [f"sanlab show {quoted}"] if quoted else [] if selected else [f"sanlab audit {run_id} --select"]
+    if hints:
+        print_next(db, hints)
+
+
+def steps(as_json: bool):
+    """Where the audit's steps go as it makes them (a rung or a look on more members can take a
+    minute): under the table's way on stdout, or with ``--json`` (stdout is the record) on stderr
+    when that is no terminal, as the other long commands report progress; nowhere otherwise."""
+    if not as_json:
+        return lambda m: console.print(f"[dim]{safe(m)}[/dim]")
+    return None if console.is_terminal else (lambda m: warn(f"audit: {m}"))
 
 
 def audit_record(a) -> dict:

@@ -27,6 +27,7 @@ from sanlab.cli._common import (
     print_distribution,
     print_next,
     print_top,
+    quoted_gait,
     record,
     safe,
     top_rows,
@@ -116,12 +117,30 @@ def show(
                              "score_unit": SCORE_UNITS.get(metric), "top": rows})
         typer.echo(dump_json(out))
         return
-    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {metric}", SCORE_UNITS.get(metric, ""))
+    quoted, selected = quoted_gait(lib, run.run_id)
+    rank = library_call(lib.gait, quoted).rank if quoted else None
+    print_top(rows, f"run {run.run_id}: {run.creature} ({run.status}), metric {metric}", SCORE_UNITS.get(metric, ""),
+              selected=rank)
     if run.kind == "search":  # a tuning's stored gaits (its result, a selection) are no distribution
         print_distribution(library_call(lib.scores, run.run_id))
-    if rows:
-        best = rows[0]["gait"]
-        print_next(db, [f"sanlab show {best}", f"sanlab render {best}", f"sanlab tune {best}", f"sanlab audit {best}"])
+    if not rows:
+        return
+    # the hints lead to what can be quoted: a tuning's audited selection, by its permanent id
+    # (its rank is not 1 when the chain's unvouched best scores higher; issue 57)
+    if quoted:
+        console.print(f"{quoted} (rank {rank}) is this tuning's audited selection, the tuned gait to quote"
+                      + ("" if rank == 1 else f"; {rows[0]['gait']} is the chain's best by score"
+                         + ("" if rows[0]["verdict"] == "robust" else ", which no audit vouched for")))
+        print_next(db, [f"sanlab show {quoted}", f"sanlab render {quoted}", f"sanlab export {quoted}"])
+        return
+    best = rows[0]["gait"]
+    if selected:
+        console.print(f"the audited selection found no robust rung in this tuning's climb: no gait of run {run.run_id} "
+                      "is vouched for")
+    elif run.kind == "tune":
+        print_next(db, [f"sanlab audit {run.run_id} --select", f"sanlab show {best}", f"sanlab render {best}"])
+        return
+    print_next(db, [f"sanlab show {best}", f"sanlab render {best}", f"sanlab tune {best}", f"sanlab audit {best}"])
 
 
 def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str = "sanlab.db") -> None:
@@ -177,7 +196,14 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
     if network:
         _print_network(summary["network"])
     gid = ev.gait_id
+    quoted, _ = quoted_gait(lib, run.run_id)
+    if quoted and quoted != gid:  # the chain's unvouched best (RUN#0, often RUN/1): say which to quote
+        console.print(f"run {safe(run.run_id)}'s audited selection is {quoted}, the tuned gait to quote")
+        print_next(db, [f"sanlab show {quoted}", f"sanlab render {quoted}", f"sanlab export {quoted}"])
+        return
     audit_next = [f"sanlab audit {gid}"] if audit is None else []  # audited: its verdict is in the flags already
+    if audit is not None and audit.flagged and run.kind == "tune" and quoted is None:
+        audit_next = [f"sanlab audit {run.run_id} --select"]  # the climb may hold a rung that survives
     san_next = [f"sanlab tune {gid}"] if gait.kind == "san" else []  # a pattern has no SAN to tune or export
     print_next(db, [f"sanlab render {gid}", *san_next, *audit_next, *[f"sanlab export {gid}"] * (gait.kind == "san")])
 

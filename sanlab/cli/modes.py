@@ -31,9 +31,11 @@ def modes(
         "Controllers scoring at least this are grouped (default: a fifth of the run's best score)."))] = None,
     top: Annotated[int, typer.Option(min=1, max=10_000, help="Modes to show, best first (--json: all).")] = 10,
     singletons: Annotated[bool, typer.Option("--singletons", help=(
-        "Also show modes of a single gait (hidden by default: most are noise of the clustering; --json lists "
+        "Also show modes of a single gait (hidden by default: a kind only one gait has; --json lists "
         "them all)."))] = False,
-    min_cluster: Annotated[int, typer.Option(min=2, max=1000, help="Smallest group the density clustering forms.")] = 3,
+    min_cluster: Annotated[int, typer.Option(min=2, max=1000, help=(
+        "Smallest group the density clustering forms within a kind (at least: a kind of many gaits uses half the "
+        "square root of their count)."))] = 3,
     rescore: Annotated[bool, typer.Option("--rescore", help=(
         "A search stored before sanlab computed descriptors: evaluate its useful gaits again, as the run did, "
         "for theirs (nothing is stored)."))] = False,
@@ -42,12 +44,15 @@ def modes(
 ) -> None:
     """Group a run's useful controllers into gait modes and name them.
 
-    Useful: not fallen, finite, scoring at least --min-score. Controllers are grouped by HDBSCAN on
-    their standardised behaviour descriptors and, exactly, by their periodic sensor signature (the
-    same cycle of sensor words is the same mode); each mode is named where a rule fits (rolling,
-    flipping, swimming, hopping, walking, shuffling, sliding; seen from above: circling, turning,
-    swimming, undulating, sliding; else "mode k") and shown with its best gait, its size and its
-    descriptors' medians. Modes of a single gait are hidden unless --singletons (the count is said)."""
+    Useful: not fallen, finite, scoring at least --min-score. Controllers are split by kind (the
+    rule that names each one's own gait, and its direction along x), then grouped within a kind by
+    HDBSCAN on their standardised behaviour descriptors (a straggler joins its nearest group) and,
+    exactly, by their periodic sensor signature (the same cycle of sensor words is the same mode);
+    each mode is named where a rule fits (rolling, flipping, swimming, hopping, walking, shuffling,
+    sliding; seen from above: circling, turning, swimming, undulating, sliding; else "mode 1", "mode 2"...) and
+    shown with its best gait, its size and its descriptors' medians. Modes of a single gait (a kind
+    only one gait has) are hidden unless --singletons (the count is said); the names shown are
+    numbered first, without gaps."""
     from sanlab.modes import of_run
 
     lib = open_library(db, readonly=True)

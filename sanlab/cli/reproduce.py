@@ -10,6 +10,8 @@ import typer
 from sanlab.cli._common import (
     DbOpt,
     DtFactorsOpt,
+    ProgressBar,
+    ProgressLines,
     check_run_args,
     console,
     ensemble_or_exit,
@@ -19,6 +21,7 @@ from sanlab.cli._common import (
     open_library,
     output_file,
     safe,
+    warn,
 )
 from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
@@ -90,10 +93,29 @@ def reproduce(
         if not os.path.isdir(os.path.dirname(os.path.abspath(ledger))):
             raise fail(f"--ledger {safe(ledger)}: directory {safe(os.path.dirname(os.path.abspath(ledger)))} does not exist")
     lib = open_library(db, create=True)
+    shown = console.is_terminal
+    bar = ProgressBar(shown)
+    steps: dict[str, ProgressLines] = {}  # a log gets tune's lines, one series per step of a row
+
+    def progress(stage: str, p) -> None:
+        if isinstance(p, str):  # an audit's step: a rung can take a minute
+            if shown:
+                bar.progress.console.print(f"[dim]{safe(stage)}: {safe(p)}[/dim]", soft_wrap=True, highlight=False)
+            else:
+                warn(f"reproduce: {stage}: {p}")
+            return
+        bar.update(safe(stage), p.evaluated, p.total, p.rate, p.best, key=stage)
+        if stage not in steps:
+            steps[stage] = ProgressLines(not shown, f"reproduce: {stage}",
+                                         "controllers" if stage.endswith("search") else "trials")
+        steps[stage].update(p.evaluated, p.total, p.rate, p.best)
+
     try:
-        report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
-                                          log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
-                                          ledger=book, command=_command_line(), strategy=strategy, ceiling=ceiling))
+        with bar:
+            report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
+                                              log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
+                                              ledger=book, command=_command_line(), progress=progress,
+                                              strategy=strategy, ceiling=ceiling))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None

@@ -18,6 +18,7 @@ from sanlab.cli._common import (
     EnsembleOpt,
     JsonOpt,
     ProgressBar,
+    ProgressLines,
     WorkersOpt,
     backend_or_exit,
     check_dtype,
@@ -132,6 +133,7 @@ def search(
     engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)  # resuming needs the library the run is in
     bar = ProgressBar(console.is_terminal and not as_json)
+    lines = ProgressLines(not console.is_terminal, "search", "controllers")  # a log gets lines, as tune's does
     run_id = resume
 
     def report(p) -> None:
@@ -143,6 +145,7 @@ def search(
         if p.evaluated == 0:  # a creature's first run compiles here, for up to a minute: say so
             label += ": first batch (compiled first, on a creature's first run)"
         bar.update(label, p.evaluated, p.total, p.rate, p.best)
+        lines.update(p.evaluated, p.total, p.rate, p.best)
 
     try:
         with bar:

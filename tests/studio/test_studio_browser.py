@@ -183,7 +183,7 @@ def test_a_search_from_the_page_equals_the_cli_search(page, studio, library, tmp
                                    str(args["seconds"]), "--seed", str(args["seed"]), "--db",
                                    str(tmp_path / "cli.db"), "--json"])
     assert cli.exit_code == 0, cli.output
-    want = [(r["encoding"], r["score"], r["speed_cm_s"]) for r in json.loads(cli.output)["top"]]
+    want = [(r["encoding"], r["score"], r["speed_cm_s"]) for r in json.loads(cli.stdout)["top"]]
     with Library(library["db"]) as lib:
         got = [(e.encoding, e.score, e.speed_cm_s) for e in lib.top(run_id, 10)]
         assert lib.get_run(run_id).seed == args["seed"] and lib.count(run_id) == args["controllers"]
