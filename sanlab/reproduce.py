@@ -574,8 +574,10 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy)
             keys[name].append(key)
             row = book.get(key) if book is not None else None
-            if row is not None and ceiling and row.ceiling is None:
-                row = None  # made without its ceiling: the library holds the rest, the ceiling is measured
+            if row is not None and ceiling and row.ceiling is None and book is not None:
+                # a row made without its ceiling: the ceiling alone is measured, the row kept (a later line wins)
+                row.ceiling = _ceiling(lib, name, sd, ceiling)
+                book.add(key, row)
             if row is None:
                 row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling)
                 if name == "bounder":
@@ -634,13 +636,21 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     from sanlab.evaluate.evaluator import describe_devices
 
     if ceiling:
-        from sanlab.search.ceiling import measure
-
-        _, c = measure(lib, text, where, evaluations=ceiling, seed=seed)
-        row.ceiling = None if c is None else c.to_json()
+        row.ceiling = _ceiling(lib, name, seed, ceiling)
     row.device = describe_devices()
     row.wall = time.perf_counter() - t0
     return row
+
+
+def _ceiling(lib, name: str, seed: int, evaluations: int) -> dict | None:
+    """The creature's pattern ceiling (``sanlab.search.ceiling.measure``: ``evaluations`` patterns
+    on ``seed``, the best audited until one is robust; taken from ``lib`` where it holds that
+    search) as a row stores it."""
+    from sanlab.search.ceiling import measure
+
+    text, where = read_source(name)
+    _, c = measure(lib, text, where, evaluations=evaluations, seed=seed)
+    return None if c is None else c.to_json()
 
 
 def _verdict(audit: dict | None) -> str:

@@ -81,13 +81,26 @@ def measure(lib: Library, creature_text: str, source: str, *, evaluations: int =
     """Search patterns on the creature (``evaluations`` of them; or go on with the pattern run
     ``resume``), then audit its best (up to :data:`AUDITED`, storing each audit) until one is
     robust; returns (the run id, the creature's ceiling from :func:`find`, which may be an earlier
-    run's when that one is faster)."""
+    run's when that one is faster). A pattern search of the same file, budget and seed already in
+    ``lib`` is taken as it is, or continued where it was interrupted (``sanlab reproduce
+    --ceiling`` resumes so)."""
     from sanlab.audit import audit_and_store
     from sanlab.search.pattern import POPSIZE
     from sanlab.search.runner import run_search
 
-    run_id = run_search(lib, creature_text, source, controllers=evaluations, seed=seed, batch=POPSIZE,
-                        strategy="pattern", reporter=reporter, backend=backend, resume=resume)
+    if resume is None:
+        for run in lib.runs():
+            s = run.settings
+            if (run.kind == "search" and isinstance(s, SearchSettings) and s.strategy == "pattern"
+                    and run.creature_text == creature_text and s.controllers == evaluations and run.seed == seed
+                    and s.batch == POPSIZE and s.imported_from is None):
+                resume = run.run_id
+                break
+    if resume is not None and lib.get_run(resume).status == "done":
+        run_id = resume
+    else:
+        run_id = run_search(lib, creature_text, source, controllers=evaluations, seed=seed, batch=POPSIZE,
+                            strategy="pattern", reporter=reporter, backend=backend, resume=resume)
     audits = lib.audits(run_id)
     for e in lib.top(run_id, AUDITED):
         if e.nonfinite or e.fell:

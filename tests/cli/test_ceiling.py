@@ -85,7 +85,8 @@ def test_search_and_tune_quote_their_best_against_the_ceiling(lib_path):
     r = runner.invoke(app, ["search", "cart", "-n", "8", "--seed", "3", "--db", db])
     assert r.exit_code == 0, r.output
     assert "of the creature's pattern ceiling" in r.output and rec["ceiling"]["gait"] in r.output
-    run_id = next(line.split("as run ")[1].split(":")[0] for line in r.output.splitlines() if "as run " in line)
+    with Library(db) as lib:
+        run_id = lib.runs()[0].run_id  # the newest
     t = runner.invoke(app, ["tune", f"{run_id}/1", "--trials", "4", "--db", db])
     assert t.exit_code == 0, t.output
     assert "the tuned gait" in t.output and "of the creature's pattern ceiling" in t.output
