@@ -83,7 +83,7 @@ print(*out)
 REPLAY = """
 import time
 from sanlab import creature, sim
-from sanlab.engine_report import random_san_params
+from sanlab.random_sans import random_san_params
 t0 = time.perf_counter()
 spec = creature.load("bounder")
 m = sim.compile_creature(spec)

@@ -2,13 +2,13 @@
 
 Layers, lowest first (a module may import from its own layer and the ones below):
 
-    base              sanlab (the package: __version__, configure)
+    base              sanlab (the package: __version__)
     creature          the spec and the file format
     sim               compile, step, roll out
     san, metrics      controllers and observers of a rollout (metrics, descriptors); interop (MJCF export) sits here too,
                       above sim, which it may use
     evaluate          evaluate (scoring batches), gait (a stored controller with its creature,
-                      replayed), engine_report (random SANs summarised, `sanlab simulate`),
+                      replayed), random_sans (random SANs summarised, `sanlab simulate`),
                       tuned (a gait in the creature file's terms), check (a creature dropped
                       for a second: `sanlab check --simulate`)
     library           the gait library (SQLite)
@@ -41,7 +41,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("creature", {"creature": ("sanlab.creature",)}),
     ("sim", {"sim": ("sanlab.sim",)}),
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics", "sanlab.descriptors"), "interop": ("sanlab.interop",)}),
-    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
+    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.random_sans", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
     ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.design", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",), "gym": ("sanlab.gym",)}),

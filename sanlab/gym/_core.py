@@ -111,16 +111,15 @@ class Settings:
 
 
 class Core:
-    """``rows`` copies of ``spec`` stepped together by the kernel (``devices``: accepted for
-    callers written for the XLA engine, without effect), scored by ``metric`` (default: the creature file's) over ``seconds``
-    (default: the file's evaluation time).
+    """``rows`` copies of ``spec`` stepped together by the simulator, scored by ``metric``
+    (default: the creature file's) over ``seconds`` (default: the file's evaluation time).
 
     overrides: {``sanlab.sim.Params`` field: array}, e.g. a tuned gait's ``params.model``
     (``sanlab.gait.Gait.model``). Raises ValueError for a bad metric, duration, dtype or
     override (``sanlab.gait.check_params``), a creature without sensors or actuators, a
     duration shorter than one environment step."""
 
-    def __init__(self, spec: Creature, settings: Settings, rows: int, devices: tuple = (), *, metric: str | None = None,
+    def __init__(self, spec: Creature, settings: Settings, rows: int, *, metric: str | None = None,
                  seconds: float | None = None, dtype: str = "float64", overrides: dict | None = None):
         from sanlab import sim
         from sanlab.sim.state import packed
@@ -163,7 +162,6 @@ class Core:
         self.rows = int(rows)
         if self.rows < 1:
             raise ValueError(f"rows: expected >= 1, got {rows}")
-        self.devices = tuple(devices)
         self._seat = st.plane == "vertical" and bool(st.contacts)
         self._pk = packed(model)
         self._observe = self.metric.observe()

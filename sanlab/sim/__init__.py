@@ -18,7 +18,6 @@ from sanlab.sim.rollout import (
     ReflexController,
     Result,
     SineController,
-    batch_quantum,
     devices,
     rollout,
 )
@@ -45,5 +44,5 @@ __all__ = [
     "step", "terrain_height", "velocity", "wrap_angle", "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "PatternController", "ReflexController", "Result", "SineController",
-    "batch_quantum", "devices", "rollout",
+    "devices", "rollout",
 ]

@@ -88,12 +88,6 @@ def devices() -> list[str]:
     return ["cpu"] * (os.cpu_count() or 1)
 
 
-def batch_quantum() -> int:
-    """Creatures per tile: a batch of any size runs; one whose size is a multiple of this wastes
-    no lane."""
-    return kernel.lanes()
-
-
 def rollout(
     model: Model,
     controller: Controller,
@@ -106,8 +100,6 @@ def rollout(
     state0: State | None = None,
     cstate0: Any = None,
     params_batched: bool = False,
-    pad_to: int | None = None,
-    fence: bool | None = None,
 ) -> Result:
     """Roll out a batch of controllers on ``model`` on the kernel.
 
@@ -117,15 +109,13 @@ def rollout(
     state0: initial state (default: the creature's pose at rest), unbatched or [B, ...]; its
     time must be one for the batch. cstate0: the controller's state to go on from (a SAN's
     ``SanState``; default: at rest). params_batched: model.params leaves carry the batch axis
-    too (tuning, ensembles, designs: each row its own numbers). pad_to, fence: accepted for the
-    XLA engine's callers, and without effect (the kernel pads its own tiles and has no fences).
+    too (tuning, ensembles, designs: each row its own numbers).
 
     Returns a :class:`Result` of NumPy arrays. A controller's result is bit for bit the same
     alone or anywhere in any batch, on any number of threads. Raises ValueError for a negative
     duration, a record_fps that is negative or not finite, neither seconds nor steps, a
     controller of no kind the kernel runs, or parameters of the wrong shape.
     """
-    del pad_to, fence
     one = first_row(model) if params_batched else model
     dt = float(model.structure.dt)
     if steps is None:

@@ -21,7 +21,7 @@ import pytest
 
 from sanlab import creature, sim
 from sanlab.creature.spec import Terrain
-from sanlab.engine_report import random_san_params
+from sanlab.random_sans import random_san_params
 from sanlab.sim import kernel
 
 VERTICAL = ("cart", "bounder", "twolink", "threelink", "fourlink", "star", "luxo", "walker")
@@ -96,7 +96,7 @@ def test_the_thread_count_changes_no_bit(tmp_path):
     code = """
 import numpy as np, sanlab
 from sanlab import creature, sim
-from sanlab.engine_report import random_san_params
+from sanlab.random_sans import random_san_params
 from tests.sim.test_kernel import run_kernel
 spec = creature.load("bounder")
 m = sim.compile_creature(spec, dtype="float64")

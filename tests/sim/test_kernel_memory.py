@@ -73,8 +73,8 @@ def _libasan() -> str | None:
 @pytest.mark.slow
 def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     from sanlab import creature, descriptors, sim
-    from sanlab.engine_report import random_san_params
     from sanlab.metrics import Metric
+    from sanlab.random_sans import random_san_params
     from sanlab.sim import kernel
     from tests.sim.test_kernel import DATA, chain, observe_of
 
