@@ -168,6 +168,42 @@ def test_no_import_cycles():
     assert cycles(graph()) == []
 
 
+PRIVATE = {"sanlab.sim.kernel": "sanlab.sim"}  # module -> the only package that may import it
+
+
+def private_imports(g: dict[str, set[str]]) -> list[str]:
+    """Every import of a module of :data:`PRIVATE` from outside the package that owns it."""
+    return [f"{a} imports {b}, which only {owner} may: use {owner}'s API"
+            for a, targets in sorted(g.items()) for b in sorted(targets)
+            if (owner := PRIVATE.get(b)) and not (a == owner or a.startswith(owner + "."))]
+
+
+def test_nothing_outside_sim_imports_its_kernel():
+    # the kernel's tables and calls change with it; the layers above use sim's API (sim.Rows,
+    # sim.Observe, sim.poses(..., params_batched=True), ...), so it can change alone
+    assert private_imports(graph()) == []
+
+
+def test_the_private_check_catches_a_kernel_import():
+    g = {k: set(v) for k, v in graph().items()}
+    assert "sanlab.sim.kernel" in g["sanlab.sim.rollout"]  # inside sim: allowed, and seen
+    g["sanlab.gym._core"].add("sanlab.sim.kernel")
+    assert private_imports(g) == [
+        "sanlab.gym._core imports sanlab.sim.kernel, which only sanlab.sim may: use sanlab.sim's API"]
+    mods = modules()
+    src = "from sanlab.sim import kernel\n"
+    assert "sanlab.sim.kernel" in _imports_of_text(src, set(mods))  # the form gym and search used
+
+
+def _imports_of_text(text: str, known: set[str]) -> set[str]:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "probe.py"
+        path.write_text(text)
+        return imports("sanlab.gym.probe", path, known)
+
+
 def test_render_takes_data_not_a_library_or_a_command_line():
     # render sits above the library in the layers, but reads none: the cli hands it scenes,
     # scores and traces (so it works from a notebook without SQLite or Typer).
