@@ -358,6 +358,7 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndar
         if hit is not None and hit[0] is pk:  # the creature itself is held, so its id is its own
             _SHARED.move_to_end(id(pk))
             return hit[1]
+    check(pk)
     rows = _check_rows(pk, B, rows)
     T = -(-B // W)
     tables = []
@@ -376,6 +377,72 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndar
         while len(_SHARED) > 8:
             _SHARED.popitem(last=False)
     return answer
+
+
+def check(pk: Packed) -> None:
+    """Raise ValueError naming the table unless ``pk``'s tables are what the kernel may read
+    without checking: each of the shape its counts imply, every index inside the table it
+    indexes (a parent before its child, a joint's link with a parent and a rotation), each kind
+    one the kernel knows, and a follow path of at least two samples (the kernel interpolates
+    between neighbours). :func:`pack` makes such tables; every entry point checks them once
+    per call, before the kernel reads them."""
+    L, C, T, D = pk.li.shape[0] if np.ndim(pk.li) == 2 else -1, np.size(pk.ci), np.shape(pk.ti)[0], int(pk.ndof)
+    S, A, P, E = np.shape(pk.si)[0], np.shape(pk.ai)[0], np.shape(pk.pi)[0], np.size(pk.ei)
+
+    def need(ok: bool, name: str, what: str) -> None:
+        if not ok:
+            raise ValueError(f"tables.{name}: expected {what}")
+
+    def shaped(name: str, shape: tuple, dtype) -> np.ndarray:
+        a = np.asarray(getattr(pk, name))
+        need(a.shape == shape and a.dtype == dtype, name, f"{np.dtype(dtype).name} of shape {shape}, got "
+             f"{a.dtype.name} of shape {a.shape}")
+        return a
+
+    def within(name: str, x: np.ndarray, lo: int, hi: int) -> None:
+        need(bool(np.all((x >= lo) & (x < hi))), name, f"indices in [{lo}, {hi}), got {x[(x < lo) | (x >= hi)][:1]}")
+
+    need(L >= 1 and D >= 0, "li", "at least one link")
+    R = np.shape(pk.ri)[1] if np.ndim(pk.ri) == 2 else -1
+    li = shaped("li", (L, LI), np.int32)
+    ri, rl, rn = shaped("ri", (L, R), np.int32), shaped("rl", (L, R), np.int32), shaped("rn", (L,), np.int32)
+    ti, ci = shaped("ti", (T, 3), np.int32), shaped("ci", (C,), np.int32)
+    si, ai = shaped("si", (S, 4), np.int32), shaped("ai", (A, 3), np.int32)
+    pi, ei, wi = shaped("pi", (P, 2), np.int32), shaped("ei", (E,), np.int32), shaped("wi", (6,), np.int32)
+    K, F = np.shape(pk.rough)[0], np.shape(pk.follow)[0]
+    for name, shape in (("lf", (L, LF)), ("cf", (C, 3)), ("sf", (S, 6)), ("af", (A, 8)), ("pf", (P, 7)),
+                        ("ef", (E, 4)), ("wf", (W_COUNT,)), ("rough", (K, 3)), ("follow", (F, 2)), ("q0", (D,))):
+        shaped(name, shape, np.float64)
+    need(F >= 2, "follow", f"a path of at least 2 samples, got {F}")
+    parent = li[:, L_PARENT]
+    need(bool(np.all((parent >= -1) & (parent < np.arange(L)))), "li", "each link's parent before it (or -1)")
+    for col in (L_DX, L_DY, L_ROT):
+        within("li (dofs)", li[:, col], -1, D)
+    within("li (trees)", li[:, L_TREE], 0, T)
+    within("li (axes)", li[:, [L_AX_FROM, L_AX_TO]], -1, L)
+    jointed = (parent >= 0) & (li[:, L_ROT] >= 0)
+    need(bool(np.all(jointed[(li[:, L_SPRING] != 0) | (li[:, L_LIMIT] != 0)])), "li", "springs and stops at joints")
+    within("ri", ri, 0, max(D, 1))
+    within("rl", rl, -3, L)
+    within("rn", rn, 0, R + 1)
+    within("ti", ti[:, 0], 0, L)
+    within("ci", ci, 0, L)
+    within("pi", pi, 0, L)
+    within("ei", ei, 0, L)
+    kinds = si[:, 0]
+    within("si (kinds)", kinds, 0, len(SENSORS))
+    for kind, cols, lo, hi in ((SENSORS["touch"], [1], 0, C), (SENSORS["angle"], [1], 0, L), (SENSORS["tilt"], [1], 0, L),
+                               (SENSORS["eye"], [1], 0, L), (SENSORS["eye"], [2, 3], -1, L),
+                               (SENSORS["length"], [1, 2], 0, L)):
+        within("si", si[kinds == kind][:, cols], lo, hi)
+    within("ai (kinds)", ai[:, 0], 0, 2)
+    angular = ai[ai[:, 0] == 0, 1]
+    within("ai", angular, 0, L)
+    need(bool(np.all(jointed[angular])), "ai", "angular actuators at joints")
+    within("ai", ai[ai[:, 0] == 1][:, 1:], 0, L)
+    within("wi (terrain)", wi[W_TERRAIN:W_TERRAIN + 1], 0, len(TERRAINS))
+    need(wi[W_HIDDEN] >= 0 and all(wi[k] in (0, 1) for k in (W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED)),
+         "wi", "hidden nodes >= 0 and flags 0 or 1")
 
 
 _SHARED: OrderedDict = OrderedDict()  # id(pk) -> (pk, _tables' answer) for the last creatures called
@@ -448,6 +515,9 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     N = np.shape(istate)[1]
     T = -(-B // W)
     rows = _check_rows(pk, B, rows)  # first: a bad table is reported before bad weights, as it always was
+    if N != pk.wi[W_HIDDEN] + pk.ai.shape[0]:
+        raise ValueError(f"istate: expected {pk.wi[W_HIDDEN] + pk.ai.shape[0]} nodes per row (the tables' "
+                         f"{pk.wi[W_HIDDEN]} hidden and {pk.ai.shape[0]} actuator nodes), got {N}")
     w = np.asarray(weights)
     if w.shape != (B, N, pk.si.shape[0] + N) or np.any(w != np.round(w)) or np.abs(w).max(initial=0) > 2:
         raise ValueError(f"weights: expected integers in [-2, 2] of shape {(B, N, pk.si.shape[0] + N)}, got {w.shape}")
@@ -520,6 +590,21 @@ def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 
     return res
 
 
+COUNT_MAX = 2**63 - 1  # the kernel's counts are int64: a larger one would wrap
+
+
+def check_count(name: str, x) -> int:
+    """x as a whole number in [0, COUNT_MAX], or a ValueError naming it."""
+    try:
+        n = int(x)
+        whole = n == x and not isinstance(x, bool)
+    except (TypeError, ValueError, OverflowError):
+        whole = False
+    if not whole or not 0 <= n <= COUNT_MAX:
+        raise ValueError(f"{name}: expected a whole number in [0, 2**63 - 1], got {x!r}")
+    return n
+
+
 def _shaped(name: str, x, shape: tuple) -> np.ndarray:
     """x as float64 of ``shape``, or a ValueError naming it."""
     a = np.asarray(x, np.float64)
@@ -540,10 +625,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     D, C, S, A = pk.ndof, pk.ci.shape[0], pk.si.shape[0], pk.ai.shape[0]
     if observe is not None:
         observe.check(pk)
-    if int(steps) != steps or steps < 0:
-        raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
-    if int(every) != every or every < 0:
-        raise ValueError(f"every: expected a whole number >= 0, got {every}")
+    steps, every = check_count("steps", steps), check_count("every", every)
     tables, per_row, _keep = _tables(pk, B, rows, W)
     q, p = _shaped("q", q, (B, D)), _shaped("p", p, (B, D))
     anchor = _shaped("anchor", anchor, (B, C, 2))

@@ -112,8 +112,8 @@ def rollout(
     too (tuning, ensembles, designs: each row its own numbers).
 
     Returns a :class:`Result` of NumPy arrays. A controller's result is bit for bit the same
-    alone or anywhere in any batch, on any number of threads. Raises ValueError for a negative
-    duration, a record_fps that is negative or not finite, neither seconds nor steps, a
+    alone or anywhere in any batch, on any number of threads. Raises ValueError for a duration
+    that is negative, not finite or not a whole number of steps in [0, 2**63 - 1], a record_fps that is negative or not finite, neither seconds nor steps, a
     controller of no kind the kernel runs, or parameters of the wrong shape.
     """
     one = first_row(model) if params_batched else model
@@ -121,9 +121,12 @@ def rollout(
     if steps is None:
         if seconds is None:
             raise ValueError("give seconds or steps")
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer, np.floating)) \
+                or not (math.isfinite(seconds) and 0 <= seconds / dt <= kernel.COUNT_MAX):
+            raise ValueError(f"seconds: expected a duration >= 0 of at most 2**63 - 1 steps of dt = {dt:g} s, "
+                             f"got {seconds!r}")
         steps = int(round(seconds / dt))
-    if steps < 0:
-        raise ValueError(f"steps: expected >= 0, got {steps} (seconds={seconds})")
+    steps = kernel.check_count("steps", steps)
     if record_fps is not None and not (math.isfinite(record_fps) and record_fps >= 0):
         raise ValueError(f"record_fps: expected a finite rate >= 0 (frames per second), got {record_fps}")
     every = 0
