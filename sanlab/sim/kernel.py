@@ -46,41 +46,29 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-# li columns
-L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT = range(12)
-LI = 12
-# lf columns
-F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA = range(9)
-F_MU = 9  # 3: forward, backward, lateral
-F_JSPRING = 12  # 3: stiffness, damping, rest
-F_LIMIT = 15  # 4: min, max, stiffness, damping
-LF = 19
-# wf entries
-(W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
- W_FOLLOW_SPEED) = range(13)
-W_COUNT = 13
-# wi entries
-W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED = range(6)
-TERRAINS = {"flat": 0, "slope": 1, "hill": 2, "rough": 3}
-SENSORS = {"touch": 0, "angle": 1, "tilt": 2, "eye": 3, "length": 4}
-# the order of the tables in the kernel's call (see _kernel/kernel.cpp)
-TABLES = ("li", "ri", "rl", "rn", "ti", "ci", "si", "ai", "pi", "ei", "wi", "lf", "cf", "sf", "af", "pf", "ef", "wf",
-          "rough", "follow")
+from sanlab.sim import layout
+
+# offsets of the columns the host reads (layout.py declares every table; these are its offsets)
+_LI, _WI, _WF, _LF = (layout.TABLE[n] for n in ("li", "wi", "wf", "lf"))
+L_PARENT, L_DX, L_DY, L_ROT, L_TREE = (_LI.at(c) for c in ("parent", "dof_x", "dof_y", "dof_rot", "tree"))
+L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT = (_LI.at(c) for c in ("axis_from", "axis_to", "spring", "limit"))
+LI, LF, W_COUNT = _LI.width, _LF.width, _WF.width
+F_MASS, F_MU = _LF.at("mass"), _LF.at("mu")
+W_DT = _WF.at("dt")
+W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED = (
+    _WI.at(c) for c in ("terrain", "hidden", "plane", "follow", "follow_loop", "articulated"))
+TERRAINS = {name: k for k, name in enumerate(layout.TERRAINS)}
+SENSORS = {name: k for k, name in enumerate(layout.SENSORS)}
+TABLES = layout.ORDER  # the order of the tables in the kernel's call
 
 
 class Packed(NamedTuple):
-    """A creature as tables for the kernel: int32 ``li`` [L, LI] and float64 ``lf`` [L, LF] per
-    link (the column names above); ``ri``, ``rl`` [L, R] and ``rn`` [L] each link's chain: the
-    dofs a point on it depends on (the tree's translation, then each joint from the root, in
-    increasing order), what each is (-1 / -2 the tree's x / y, else the link whose joint it is),
-    and how many; ``ti`` [T, 3] per tree (root, free, a lone point mass); ``ci`` [C] and ``cf``
-    [C, 3] per contact (link; point in its frame (m), normal load (N) in the horizontal plane);
-    ``si`` [S, 4] and ``sf`` [S, 6] per sensor (kind, then the contact, link or links it reads;
-    min, max, two points); ``ai`` [A, 3] and ``af`` [A, 8] per actuator (angular 0 or linear 1,
-    joint link or the two links; min, max, ks, kd, two points); ``pi`` [P, 2] and ``pf`` [P, 7]
-    per linear spring (links; points, stiffness, damping, rest); ``ei`` [E] and ``ef`` [E, 4] per
-    water-drag edge (link; ends); ``wi`` and ``wf`` the world; ``rough`` [K, 3] rough terrain's
-    terms; ``follow`` [F, 2] the follow point's path, equally spaced in arc length. Units SI."""
+    """A creature as tables for the kernel, each [rows, columns] as :mod:`sanlab.sim.layout`
+    declares them (names, widths, units; the int32 ``li ti ci si ai pi ei wi`` and the float64
+    ``lf cf sf af pf ef wf rough follow``), and each link's chain: ``ri``, ``rl`` [L, R] and
+    ``rn`` [L], the dofs a point on it depends on (the tree's translation, then each joint from
+    the root, in increasing order), what each is (-1 / -2 the tree's x / y, else the link whose
+    joint it is), and how many. Units SI."""
 
     li: Any
     ri: Any
@@ -129,13 +117,15 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
     f = lambda x: np.asarray(x, np.float64)
     i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)
     L = len(st.links)
-    li = np.full((L, LI), -1, np.int32)
-    for ls in st.links:
-        i = ls.index
-        aniso = st.aniso[i]
-        welded = ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0
-        li[i] = (ls.parent, int(ls.point), ls.dof_x, ls.dof_y, ls.dof_rot, ls.tree, int(welded), aniso[0], aniso[1],
-                 aniso[2], int(i in st.joint_springs), int(i in st.limits))
+    links = st.links
+    li = layout.TABLE["li"].build((), L, parent=[ls.parent for ls in links], point=[int(ls.point) for ls in links],
+                                  dof=[(ls.dof_x, ls.dof_y, ls.dof_rot) for ls in links], tree=[ls.tree for ls in links],
+                                  welded=[int(ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0) for ls in links],
+                                  aniso=[st.aniso[ls.index][0] for ls in links],
+                                  axis=[st.aniso[ls.index][1:] for ls in links],
+                                  spring=[int(ls.index in st.joint_springs) for ls in links],
+                                  limit=[int(ls.index in st.limits) for ls in links])
+    assert [ls.index for ls in links] == list(range(L))
     R = 2 + max(len(ls.chain) for ls in st.links)
     ri = np.zeros((L, R), np.int32)
     rl = np.full((L, R), -3, np.int32)
@@ -147,24 +137,32 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
         rn[ls.index] = len(row)
         for a, (d, k) in enumerate(row):
             ri[ls.index, a], rl[ls.index, a] = d, k
-    ti = i32([(t.root, int(t.free), int(t.point)) for t in st.trees], -1, 3)
+    T, S, A = len(st.trees), len(st.sensors), len(st.actuators)
+    ti = layout.TABLE["ti"].build((), T, root=[t.root for t in st.trees], free=[int(t.free) for t in st.trees],
+                                  point=[int(t.point) for t in st.trees])
     ci = i32(st.contacts, -1)
-    si = np.full((len(st.sensors), 4), -1, np.int32)
-    for s, (kind, link, idx) in enumerate(st.sensors):
+    reads = []  # per sensor: (on, second, third)
+    for kind, link, idx in st.sensors:
         if kind == "touch":
-            si[s] = (SENSORS[kind], idx, -1, -1)
+            reads.append((idx, -1, -1))
         elif kind == "eye":
-            si[s] = (SENSORS[kind], *st.eyes[idx])
+            reads.append(tuple(st.eyes[idx]))
         elif kind == "length":
-            si[s] = (SENSORS[kind], *st.lengths[idx], -1)
+            reads.append((*st.lengths[idx], -1))
         else:
-            si[s] = (SENSORS[kind], link, -1, -1)
-    ai = np.array([(0, ref, -1) if kind == "angular" else (1, *st.lin_act[ref]) for kind, ref in st.actuators],
-                  np.int32).reshape(-1, 3)
+            reads.append((link, -1, -1))
+    reads = np.array(reads, np.int32).reshape(S, 3)
+    si = layout.TABLE["si"].build((), S, kind=[SENSORS[k] for k, _, _ in st.sensors], on=reads[:, 0],
+                                  second=reads[:, 1], third=reads[:, 2])
+    ends = np.array([(ref, -1) if kind == "angular" else st.lin_act[ref] for kind, ref in st.actuators],
+                    np.int32).reshape(A, 2)
+    ai = layout.TABLE["ai"].build((), A, kind=[layout.ACTUATORS.index(k) for k, _ in st.actuators], link=ends[:, 0],
+                                  link_b=ends[:, 1])
     pi = i32(st.springs, -1, 2)
     ei = i32(st.edges, -1)
-    wi = np.array([TERRAINS[st.terrain], hidden, int(st.plane == "horizontal"), int(st.follow), int(st.follow_loop),
-                   int(art)], np.int32)
+    wi = layout.TABLE["wi"].build((), 1, terrain=TERRAINS[st.terrain], hidden=hidden,
+                                  plane=layout.PLANES.index(st.plane), follow=int(st.follow),
+                                  follow_loop=int(st.follow_loop), articulated=int(art))
     x = numbers(model.structure, p)
     return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, x["lf"], x["cf"], x["sf"], x["af"], x["pf"], x["ef"],
                   x["wf"], x["rough"], f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
@@ -180,20 +178,26 @@ def numbers(structure, params, batch: tuple[int, ...] = ()) -> dict[str, np.ndar
     P, E, K = len(st.springs), len(st.edges), np.shape(p.rough)[-2]
     f = lambda x, *shape: np.broadcast_to(np.asarray(x, np.float64), (*batch, *shape)) if shape else \
         np.broadcast_to(np.asarray(x, np.float64), batch)
-    col = lambda x, n: f(x, n)[..., None]
-    lf = np.concatenate([col(p.mass, L), col(p.inertia, L), f(p.com, L, 2), f(p.anchor, L, 2), f(p.root_pose, L, 3),
-                         f(p.mu, L, 3), f(p.jspring, L, 3), f(p.limit, L, 4)], -1)
-    cf = np.concatenate([f(p.contact, C, 2), col(p.contact_load, C)], -1)
-    sf = np.concatenate([col(p.sens_min, S), col(p.sens_max, S), f(p.sens_pts, S, 2, 2).reshape(*batch, S, 4)], -1)
-    af = np.concatenate([col(p.act_min, A), col(p.act_max, A), col(p.act_ks, A), col(p.act_kd, A),
-                         f(p.act_pts, A, 2, 2).reshape(*batch, A, 4)], -1)
-    pf = np.concatenate([f(p.spr_pts, P, 2, 2).reshape(*batch, P, 4), f(p.spr, P, 3)], -1)
-    ef = f(p.edge, E, 2, 2).reshape(*batch, E, 4)
-    w = lambda x: f(x)[..., None]
-    wf = np.concatenate([w(p.gravity), w(p.ground_k), w(p.ground_c), w(p.slip), w(p.dt), f(p.terrain, 4),
-                         w(p.water_k), w(p.water_t), w(p.follow_ds), w(p.follow_speed)], -1)
-    assert lf.shape[-1] == LF and wf.shape[-1] == W_COUNT
-    out = {"lf": lf, "cf": cf, "sf": sf, "af": af, "pf": pf, "ef": ef, "wf": wf, "rough": f(p.rough, K, 3)}
+    tab = lambda name, n, **cols: layout.TABLE[name].build(batch, n, **cols)
+    lf = tab("lf", L, mass=f(p.mass, L), inertia=f(p.inertia, L), com=f(p.com, L, 2), anchor=f(p.anchor, L, 2),
+             pose=f(p.root_pose, L, 3), mu=f(p.mu, L, 3), jspring=f(p.jspring, L, 3), limit=f(p.limit, L, 4))
+    cf = tab("cf", C, point=f(p.contact, C, 2), load=f(p.contact_load, C))
+    pts = f(p.sens_pts, S, 2, 2)
+    sf = tab("sf", S, min=f(p.sens_min, S), max=f(p.sens_max, S), point=pts[..., 0, :], point_b=pts[..., 1, :])
+    pts = f(p.act_pts, A, 2, 2)
+    af = tab("af", A, min=f(p.act_min, A), max=f(p.act_max, A), ks=f(p.act_ks, A), kd=f(p.act_kd, A),
+             point_a=pts[..., 0, :], point_b=pts[..., 1, :])
+    pts, spr = f(p.spr_pts, P, 2, 2), f(p.spr, P, 3)
+    pf = tab("pf", P, point_a=pts[..., 0, :], point_b=pts[..., 1, :], ks=spr[..., 0], kd=spr[..., 1], rest=spr[..., 2])
+    pts = f(p.edge, E, 2, 2)
+    ef = tab("ef", E, a=pts[..., 0, :], b=pts[..., 1, :])
+    terrain = f(p.terrain, 4)
+    wf = tab("wf", 1, gravity=f(p.gravity), ground_k=f(p.ground_k), ground_c=f(p.ground_c), slip=f(p.slip),
+             dt=f(p.dt), slope=terrain[..., 0], hill=terrain[..., 1:], water_k=f(p.water_k), water_t=f(p.water_t),
+             follow_ds=f(p.follow_ds), follow_speed=f(p.follow_speed))
+    rough = f(p.rough, K, 3)
+    rough = tab("rough", K, amplitude=rough[..., 0], wavenumber=rough[..., 1], phase=rough[..., 2])
+    out = {"lf": lf, "cf": cf, "sf": sf, "af": af, "pf": pf, "ef": ef, "wf": wf, "rough": rough}
     return {k: np.ascontiguousarray(v) for k, v in out.items()}
 
 
@@ -222,20 +226,35 @@ def _library():
             if built != now:
                 raise RuntimeError(f"sanlab's simulator kernel {path.name} was built from other sources ({built}, "
                                    f"these are {now}): rebuild it with `pip install -e .`")
-        P = ctypes.c_void_p
-        i32, i64 = ctypes.c_int32, ctypes.c_int64
-        lib.sanlab_rollout.restype = None
-        lib.sanlab_rollout.argtypes = [i32, i32, P, P, P, P, P, P, P, i32, P, P, i32, P, P, P, i64, i64, i64, i64]
-        lib.sanlab_inspect.restype = None
-        lib.sanlab_inspect.argtypes = [i32, i32, P, P, P, P, P, i64]
+        for name, args in ENTRY_POINTS.items():
+            fn = getattr(lib, name)
+            fn.restype = None
+            fn.argtypes = [_CTYPES.get(c, ctypes.c_void_p) for _, c in args]
         lib.sanlab_kernel_lanes.restype = ctypes.c_int
-        lib.sanlab_start.restype = None
-        lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
         _LIB = lib
     return _LIB
 
 
 _LIB = None
+ENTRY_POINTS = {"sanlab_rollout": layout.ROLLOUT_ARGS, "sanlab_inspect": layout.INSPECT_ARGS,
+                "sanlab_start": layout.START_ARGS}
+
+
+def _ctypes_of() -> dict:
+    import ctypes
+
+    return {"int32_t": ctypes.c_int32, "int64_t": ctypes.c_int64}  # every pointer: c_void_p
+
+
+_CTYPES = _ctypes_of()
+
+
+def _call(name: str, **args) -> None:
+    """The kernel's entry point ``name`` with its arguments by name (layout.py declares them)."""
+    names = [a for a, _ in ENTRY_POINTS[name]]
+    if sorted(args) != sorted(names):
+        raise TypeError(f"{name}: expected arguments {names}, got {sorted(args)}")
+    getattr(_library(), name)(*(args[a] for a in names))
 
 
 def source_hash(folder) -> str:
@@ -281,17 +300,10 @@ def _untile(x: np.ndarray, B: int) -> np.ndarray:
     return x.reshape(T, -1, W).transpose(0, 2, 1).reshape(T * W, *rest)[:B]
 
 
-ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers a row may carry its own of
-
-# what the observers accumulate per row (step.h, "observers"): the metric's ingredients (start
-# and end centre of mass (m), start height, hopping's integral (m^2 s), pursuit's (m), fell (0/1),
-# deepest contact (m)), then the descriptors' sums, then tracking's (the sum over steps of the
-# distance to the follow point, and that distance at the first step, m); then duty [touch
-# sensors], the ring of sensor words and their start times [EVENTS] each
-ACC = ("p0x", "p0y", "y0", "hop", "pursuit", "fell", "deepest", "px", "py", "steps", "height", "height2", "turn",
-       "angle", "airborne", "joint_speed", "word", "candidate", "since", "changes", "gap", "gap0")
-EVENTS = 64
-METRIC_KINDS = ("distance", "distance_upright", "hopping", "pursuit", "tracking")
+ROW_TABLES = layout.ROW_TABLES  # the numbers a row may carry its own of
+ACC = layout.ACC  # what the observers accumulate per row (layout.py says what each is)
+EVENTS = layout.EVENTS
+METRIC_KINDS = layout.METRIC_KINDS
 
 
 @dataclass(frozen=True)
@@ -343,9 +355,13 @@ class Observe:
 
 
 def _dims(pk: Packed, N: int) -> np.ndarray:
-    return np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
-                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
-                     pk.follow.shape[0]], np.int32)
+    """The kernel's counts (layout.DIMS) of ``pk`` with a SAN of N nodes (0: another controller)."""
+    S = pk.si.shape[0]
+    counts = {"links": pk.li.shape[0], "contacts": pk.ci.shape[0], "trees": pk.ti.shape[0], "dofs": pk.ndof,
+              "sensors": S, "actuators": pk.ai.shape[0], "chain": pk.ri.shape[1], "rough": pk.rough.shape[0],
+              "nodes": N, "inputs": S + N, "springs": pk.pi.shape[0], "edges": pk.ei.shape[0],
+              "follow": pk.follow.shape[0]}
+    return np.array([counts[name] for name, _, _ in layout.DIMS], np.int32)
 
 
 def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndarray, list]:
@@ -483,8 +499,8 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
     qt, st = _tile(q, W), _tile(on, W)
     anchor = np.zeros((qt.shape[0], pk.ci.shape[0], 2, W))
-    _library().sanlab_start(_dims(pk, 0).ctypes.data, tables, per_row.ctypes.data, qt.ctypes.data,
-                            st.ctypes.data, anchor.ctypes.data, qt.shape[0])
+    _call("sanlab_start", dims=_dims(pk, 0).ctypes.data, tables=tables, per_row=per_row.ctypes.data, q=qt.ctypes.data,
+          seat_rows=st.ctypes.data, anchor=anchor.ctypes.data, T=qt.shape[0])
     return _untile(qt, B), _untile(anchor, B)
 
 
@@ -536,7 +552,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     return res
 
 
-KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3, "pattern": 4}  # the kernel's controllers (kernel.cpp)
+KINDS = {name: k for k, name in enumerate(layout.KINDS)}  # the kernel's controllers (kernel.cpp)
 
 
 def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 0.0, rows: dict | None = None,
@@ -650,10 +666,10 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     ns = cst.shape[1]
     frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
-    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, tables, per_row.ctypes.data,
-                              _pointers(st), par_t.ctypes.data, cst_t.ctypes.data, addr(w16), NP, addr(oi), addr(of),
-                              int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T,
-                              int(steps))
+    _call("sanlab_rollout", kind=kind, scalar=int(scalar), dims=dims.ctypes.data, tables=tables,
+          per_row=per_row.ctypes.data, state=_pointers(st), par=par_t.ctypes.data, cst=cst_t.ctypes.data,
+          weights=addr(w16), NP=NP, oi=addr(oi), of=addr(of), init=int(acc is None), acc=addr(acc_t),
+          qd=qd.ctypes.data, frames=addr(frames), every=int(every), n_frames=n_frames, T=T, steps=int(steps))
     res = {n: _untile(a, B) for n, a in zip(("q", "p", "anchor", "t", "dmax"), st)}
     res["cstate"] = _untile(cst_t, B)
     res["qd"] = _untile(qd, B)
@@ -669,7 +685,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
 # ------------------------------------------------------------------ inspectors: single configurations
 
 
-INSPECT = ("poses", "energy", "momenta", "velocity", "sense", "follow_point", "centre_of_mass")  # kernel.cpp's order
+INSPECT = layout.INSPECT  # the inspectors, in kernel.cpp's order
 
 
 def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None, scalar: bool) -> np.ndarray:
@@ -679,8 +695,8 @@ def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None
     tables, per_row, _keep = _tables(pk, B, rows, W)
     xt = _tile(x, W)
     out = np.zeros((xt.shape[0], n_out, W))
-    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, tables,
-                              per_row.ctypes.data, xt.ctypes.data, out.ctypes.data, xt.shape[0])
+    _call("sanlab_inspect", kind=INSPECT.index(kind), scalar=int(scalar), dims=_dims(pk, 0).ctypes.data, tables=tables,
+          per_row=per_row.ctypes.data, **{"in": xt.ctypes.data}, out=out.ctypes.data, T=xt.shape[0])
     return _untile(out, B)
 
 

@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "layout.h"
+
 namespace sanlab {
 
 // ---------------------------------------------------------------- lanes
@@ -92,29 +94,34 @@ template <class V> static inline void sincos(V x, V &s, V &c) {
   c = Ls::sel((q == 1.0) | (q == 2.0), -c0, c0);
 }
 
-// ---------------------------------------------------------------- the tables (see kernel.pack)
+// ---------------------------------------------------------------- the tables (see layout.h)
 
-enum { L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT, LI };
-enum { F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA, F_MU, F_JSPRING = 12, F_LIMIT = 15, LF = 19 };
-enum { W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
-       W_FOLLOW_SPEED, W_COUNT };
-enum { W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED };
-enum { S_TOUCH, S_ANGLE, S_TILT, S_EYE, S_LENGTH };
-
-// The creature as tables (kernel.py: Packed, in the order of kernel.TABLES)
+// The creature as tables (kernel.py: Packed, in the order of layout.ORDER), each row read through
+// its struct (layout.h): m.link(i).parent, t.link(i).mass, t.actuator(a).ks
 struct Model {
-  int L, C, T, D, S, A, R, K, N, I, P, E, F;
+  int nlink, ncontact, ntree, ndof, nsensor, nact, nchain, nrough, nnode, ninput, nspring, nedge, nfollow;
   const int32_t *li, *ri, *rl, *rn, *ti, *ci, *si, *ai, *pi, *ei, *wi;
   const double *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough, *follow;
-  const int32_t *dense_idx;  // 0, 1, ..., D - 1: a row over every dof
+  const int32_t *dense_idx;  // 0, 1, ..., ndof - 1: a row over every dof
   const int32_t *kid_start, *kids;  // each link's children, in link order: kids[kid_start[i] .. kid_start[i + 1])
+  const LinkInts &link(int i) const { return ((const LinkInts *)li)[i]; }
+  const TreeInts &tree(int i) const { return ((const TreeInts *)ti)[i]; }
+  const SensorInts &sensor(int i) const { return ((const SensorInts *)si)[i]; }
+  const ActuatorInts &actuator(int i) const { return ((const ActuatorInts *)ai)[i]; }
+  const SpringInts &spring(int i) const { return ((const SpringInts *)pi)[i]; }
+  const WorldInts &world() const { return *(const WorldInts *)wi; }
 };
+static_assert(sizeof(LinkInts) == LI_WIDTH * sizeof(int32_t) && sizeof(TreeInts) == TI_WIDTH * sizeof(int32_t) &&
+              sizeof(SensorInts) == SI_WIDTH * sizeof(int32_t) && sizeof(ActuatorInts) == AI_WIDTH * sizeof(int32_t) &&
+              sizeof(SpringInts) == PI_WIDTH * sizeof(int32_t) && sizeof(WorldInts) == WI_WIDTH * sizeof(int32_t),
+              "layout.h's rows are packed tables");
 
 // A tile's scratch: every per-creature value of a step, one V each, carved out of one block sized
-// for the creature (tile_bytes); matrices are D x D, row-major.
+// for the creature (tile_bytes); matrices are ndof x ndof, row-major.
 template <class V> struct Tile {
   // the creature's numbers, one V each: a lane's own where rows carry their own (mixed batches),
-  // else the shared value on every lane (kernel.cpp fills them as a tile starts)
+  // else the shared value on every lane (kernel.cpp fills them as a tile starts); read through
+  // the rows' structs below
   V *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough;
   V *th, (*cs)[2], (*X)[2], (*com)[2], (*mc)[2], (*S)[2], *w, (*V_)[2];
   V *msum;
@@ -126,24 +133,35 @@ template <class V> struct Tile {
   // point, joint motion subspace, the step's extra inertia E and spatial force F, and the
   // recursion's articulated inertias and biases; per dof the extra diagonal (armature)
   V (*I)[6], (*s)[3], (*E)[6], (*Fb)[3], (*IA)[6], (*pA)[3], (*U)[3], *invD, *uu, (*acc)[3], (*Hb)[3], *arm;
-  bool art;  // which route: the model's W_ARTICULATED
+  bool art;  // which route: the model's world().articulated
+  const LinkNumbers<V> &link(int i) const { return ((const LinkNumbers<V> *)lf)[i]; }
+  const ContactNumbers<V> &contact(int i) const { return ((const ContactNumbers<V> *)cf)[i]; }
+  const SensorNumbers<V> &sensor(int i) const { return ((const SensorNumbers<V> *)sf)[i]; }
+  const ActuatorNumbers<V> &actuator(int i) const { return ((const ActuatorNumbers<V> *)af)[i]; }
+  const SpringNumbers<V> &spring(int i) const { return ((const SpringNumbers<V> *)pf)[i]; }
+  const EdgeNumbers<V> &edge(int i) const { return ((const EdgeNumbers<V> *)ef)[i]; }
+  const WorldNumbers<V> &world() const { return *(const WorldNumbers<V> *)wf; }
+  const RoughTerm<V> &rough_term(int k) const { return ((const RoughTerm<V> *)rough)[k]; }
+  static_assert(sizeof(LinkNumbers<V>) == LF_WIDTH * sizeof(V) && sizeof(WorldNumbers<V>) == WF_WIDTH * sizeof(V) &&
+                sizeof(ActuatorNumbers<V>) == AF_WIDTH * sizeof(V) && sizeof(SensorNumbers<V>) == SF_WIDTH * sizeof(V),
+                "layout.h's rows are packed tables");
 };
 
 // Lays out a tile's scratch from `mem` on; returns how many values of V it takes (the layout is
 // the only count of them: tile_values asks it with no memory).
 template <class V> static size_t tile_layout(const Model &m, V *mem, Tile<V> &t) {
-  const int L = m.L, C = m.C, D = m.D;
+  const int L = m.nlink, C = m.ncontact, D = m.ndof;
   size_t used = 0;
   auto take = [&](size_t n) { V *r = mem ? mem + used : nullptr; used += n; return r; };
-  t.lf = take(L * LF); t.cf = take(C * 3); t.sf = take(m.S * 6); t.af = take(m.A * 8); t.pf = take(m.P * 7);
-  t.ef = take(m.E * 4); t.wf = take(W_COUNT); t.rough = take(m.K * 3);
+  t.lf = take(L * LF_WIDTH); t.cf = take(C * CF_WIDTH); t.sf = take(m.nsensor * SF_WIDTH); t.af = take(m.nact * AF_WIDTH);
+  t.pf = take(m.nspring * PF_WIDTH); t.ef = take(m.nedge * EF_WIDTH); t.wf = take(WF_WIDTH); t.rough = take(m.nrough * ROUGH_WIDTH);
   t.th = take(L); t.cs = (V(*)[2])take(2 * L); t.X = (V(*)[2])take(2 * L); t.com = (V(*)[2])take(2 * L);
   t.mc = (V(*)[2])take(2 * L); t.S = (V(*)[2])take(2 * L); t.w = take(L); t.V_ = (V(*)[2])take(2 * L);
   t.msum = take(L);
   t.cp = (V(*)[2])take(2 * C); t.depth = take(C); t.gn = (V(*)[4])take(4 * C); t.cv = (V(*)[2])take(2 * C);
   t.M = take(D * D); t.A = take(D * D); t.F = take(D * D); t.Lf = take(D * D);
   t.Q = take(D); t.u = take(D); t.qd = take(D); t.g = take(D); t.x = take(D); t.row = take(D);
-  t.total = take(m.N); t.bits = take(m.S); t.act = take(m.A);
+  t.total = take(m.nnode); t.bits = take(m.nsensor); t.act = take(m.nact);
   t.I = (V(*)[6])take(6 * L); t.s = (V(*)[3])take(3 * L); t.E = (V(*)[6])take(6 * L); t.Fb = (V(*)[3])take(3 * L);
   t.IA = (V(*)[6])take(6 * L); t.pA = (V(*)[3])take(3 * L); t.U = (V(*)[3])take(3 * L); t.invD = take(L);
   t.uu = take(L); t.acc = (V(*)[3])take(3 * L); t.Hb = (V(*)[3])take(3 * L); t.arm = take(D);
@@ -158,63 +176,63 @@ template <class V> static size_t tile_values(const Model &m) {
 template <class V> static Tile<V> tile_at(const Model &m, V *mem) {
   Tile<V> t;
   tile_layout<V>(m, mem, t);
-  t.art = m.wi[W_ARTICULATED] != 0;
+  t.art = m.world().articulated != 0;
   return t;
 }
 
 template <class V> static inline void positions(const Model &m, const V *q, Tile<V> &t) {
   using Ls = Lanes<V>;
-  const int L = m.L;
+  const int L = m.nlink;
   for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    const V *f = t.lf + i * LF;
-    int par = l[L_PARENT], rot = l[L_ROT];
+    const LinkInts &l = m.link(i);
+    const LinkNumbers<V> &f = t.link(i);
+    int par = l.parent, rot = l.dof_rot;
     if (par < 0) {
       if (rot >= 0) t.th[i] = q[rot];
-      else t.th[i] = l[L_DX] < 0 ? f[F_POSEA] : V{};
+      else t.th[i] = l.dof_x < 0 ? f.pose_angle : V{};
     } else {
       t.th[i] = t.th[par] + q[rot];
     }
     sincos(t.th[i], t.cs[i][1], t.cs[i][0]);
   }
   for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    const V *f = t.lf + i * LF;
-    int par = l[L_PARENT];
+    const LinkInts &l = m.link(i);
+    const LinkNumbers<V> &f = t.link(i);
+    int par = l.parent;
     if (par < 0) {
-      if (l[L_DX] >= 0 && l[L_POINT]) {  // a free point mass sits at its coordinates
-        t.X[i][0] = q[l[L_DX]];
-        t.X[i][1] = q[l[L_DY]];
+      if (l.dof_x >= 0 && l.point) {  // a free point mass sits at its coordinates
+        t.X[i][0] = q[l.dof_x];
+        t.X[i][1] = q[l.dof_y];
       } else {  // welded to the world where the file puts it, or a free tree's root (placed below)
-        t.X[i][0] = l[L_DX] < 0 ? f[F_POSEX] : V{};
-        t.X[i][1] = l[L_DX] < 0 ? f[F_POSEY] : V{};
+        t.X[i][0] = l.dof_x < 0 ? f.pose_x : V{};
+        t.X[i][1] = l.dof_x < 0 ? f.pose_y : V{};
       }
     } else {
       V c = t.cs[par][0], s = t.cs[par][1];
-      V ax = f[F_ANCX], ay = f[F_ANCY];
+      V ax = f.anchor_x, ay = f.anchor_y;
       t.X[i][0] = t.X[par][0] + (c * ax - s * ay);
       t.X[i][1] = t.X[par][1] + (s * ax + c * ay);
     }
   }
   for (int i = 0; i < L; ++i) {
-    const V *f = t.lf + i * LF;
-    if (m.li[i * LI + L_POINT]) {
+    const LinkNumbers<V> &f = t.link(i);
+    if (m.link(i).point) {
       t.com[i][0] = t.X[i][0];
       t.com[i][1] = t.X[i][1];
       continue;
     }
     V c = t.cs[i][0], s = t.cs[i][1];
-    V rx = f[F_COMX], ry = f[F_COMY];
+    V rx = f.com_x, ry = f.com_y;
     t.com[i][0] = t.X[i][0] + (c * rx - s * ry);
     t.com[i][1] = t.X[i][1] + (s * rx + c * ry);
   }
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (T[1] == 0 || T[2] == 1) continue;
-    int r = T[0];
+  for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    if (T.free == 0 || T.point == 1) continue;
+    int r = T.root;
     for (int i = L - 1; i >= 0; --i) {
-      if (m.li[i * LI + L_TREE] != tr) continue;
-      V mass = t.lf[i * LF + F_MASS], ms = mass;
+      if (m.link(i).tree != tr) continue;
+      V mass = t.link(i).mass, ms = mass;
       V mx = mass * t.com[i][0], my = mass * t.com[i][1];
       for (int k = m.kid_start[i]; k < m.kid_start[i + 1]; ++k) {
         int j = m.kids[k];
@@ -227,11 +245,11 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       t.mc[i][1] = my;
     }
     V inv = 1.0 / t.msum[r];
-    int dx = m.li[r * LI + L_DX], dy = m.li[r * LI + L_DY];
+    int dx = m.link(r).dof_x, dy = m.link(r).dof_y;
     V sx = q[dx] - t.mc[r][0] * inv, sy = q[dy] - t.mc[r][1] * inv;
     for (int k = 0; k < L; ++k) {
-      if (m.li[k * LI + L_TREE] != tr) continue;
-      if (m.li[k * LI + L_ROT] >= 0) {
+      if (m.link(k).tree != tr) continue;
+      if (m.link(k).dof_rot >= 0) {
         t.S[k][0] = (t.mc[k][0] - t.msum[k] * t.X[k][0]) * inv;
         t.S[k][1] = (t.mc[k][1] - t.msum[k] * t.X[k][1]) * inv;
       }
@@ -241,19 +259,19 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       t.com[k][1] = t.com[k][1] + sy;
     }
   }
-  const int kind = m.wi[W_TERRAIN];
-  for (int c = 0; c < m.C; ++c) {
+  const int kind = m.world().terrain;
+  for (int c = 0; c < m.ncontact; ++c) {
     int i = m.ci[c];
-    V rx = t.cf[c * 3], ry = t.cf[c * 3 + 1];
+    V rx = t.contact(c).point_x, ry = t.contact(c).point_y;
     V cc = t.cs[i][0], ss = t.cs[i][1];
     V px = t.X[i][0] + (cc * rx - ss * ry), py = t.X[i][1] + (ss * rx + cc * ry);
     t.cp[c][0] = px;
     t.cp[c][1] = py;
-    if (m.wi[W_PLANE] == 1) {  // seen from above: every contact always rests on the floor
+    if (m.world().plane == PLANE_HORIZONTAL) {  // seen from above: every contact always rests on the floor
       t.depth[c] = V{} + 1.0;
       continue;
     }
-    if (kind == 0) {
+    if (kind == TERRAIN_FLAT) {
       t.gn[c][0] = V{};
       t.gn[c][1] = V{} + 1.0;
       t.gn[c][2] = V{} + 1.0;
@@ -262,11 +280,11 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
       continue;
     }
     V h, dh;
-    if (kind == 1) {
-      h = t.wf[W_SLOPE] * px;
-      dh = V{} + t.wf[W_SLOPE];
-    } else if (kind == 2) {
-      V H = t.wf[W_HILL_H], hw = t.wf[W_HILL_W], cx = t.wf[W_HILL_C];
+    if (kind == TERRAIN_SLOPE) {
+      h = t.world().slope * px;
+      dh = V{} + t.world().slope;
+    } else if (kind == TERRAIN_HILL) {
+      V H = t.world().hill_height, hw = t.world().hill_half_width, cx = t.world().hill_centre;
       V u = (px - cx) * (M_PI / hw), su, cu;
       sincos(u, su, cu);
       auto inside = Ls::abs(px - cx) < hw;
@@ -275,8 +293,8 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
     } else {
       h = V{};
       dh = V{};
-      for (int k = 0; k < m.K; ++k) {
-        V a = t.rough[k * 3], w = t.rough[k * 3 + 1], ph = t.rough[k * 3 + 2];
+      for (int k = 0; k < m.nrough; ++k) {
+        V a = t.rough_term(k).amplitude, w = t.rough_term(k).wavenumber, ph = t.rough_term(k).phase;
         V s, co;
         sincos(w * px + ph, s, co);
         h = h + a * s;
@@ -296,7 +314,7 @@ template <class V> static inline void positions(const Model &m, const V *q, Tile
 // (kernel.py: _point_row); returns the entry count.
 template <class V> static inline int point_row(const Model &m, const Tile<V> &t, int i, V px, V py, V nx, V ny, V *g) {
   int n = m.rn[i];
-  const int32_t *rl = m.rl + i * m.R;
+  const int32_t *rl = m.rl + i * m.nchain;
   for (int a = 0; a < n; ++a) {
     int k = rl[a];
     if (k == -1) g[a] = nx;
@@ -355,7 +373,7 @@ template <class V> static inline void force(V *Q, V f, const int32_t *idx, const
 
 // the reference point of link i's tree: its root's origin
 template <class V> static inline void ref_of(const Model &m, const Tile<V> &t, int i, V &rx, V &ry) {
-  int r = m.ti[m.li[i * LI + L_TREE] * 3];
+  int r = m.tree(m.link(i).tree).root;
   rx = t.X[r][0];
   ry = t.X[r][1];
 }
@@ -387,17 +405,17 @@ template <class V> static inline void body_row(const Model &m, const Tile<V> &t,
 
 // Each body's spatial inertia and each joint's motion subspace (articulated.Bodies)
 template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
-  for (int i = 0; i < m.L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (l[L_WELDED]) continue;
+  for (int i = 0; i < m.nlink; ++i) {
+    const LinkInts &l = m.link(i);
+    if (l.welded) continue;
     V rx, ry;
     ref_of(m, t, i, rx, ry);
-    V mass = t.lf[i * LF + F_MASS], cx = t.com[i][0] - rx, cy = t.com[i][1] - ry;
+    V mass = t.link(i).mass, cx = t.com[i][0] - rx, cy = t.com[i][1] - ry;
     V mcx = mass * cx, mcy = mass * cy;
     V *I = t.I[i];
-    I[0] = t.lf[i * LF + F_INERTIA] + (mcx * cx + mcy * cy);
+    I[0] = t.link(i).inertia + (mcx * cx + mcy * cy);
     I[1] = -mcy; I[2] = mcx; I[3] = mass; I[4] = V{}; I[5] = mass;
-    if (l[L_PARENT] >= 0) {
+    if (l.parent >= 0) {
       t.s[i][0] = V{} + 1.0;
       t.s[i][1] = t.X[i][1] - ry;
       t.s[i][2] = -(t.X[i][0] - rx);
@@ -407,30 +425,30 @@ template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
 
 // y = M x in tree coordinates: body momenta summed leaves first, projected on each joint
 template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, const V *x, V *y) {
-  for (int d = 0; d < m.D; ++d) y[d] = V{};
+  for (int d = 0; d < m.ndof; ++d) y[d] = V{};
   V (*Vb)[3] = t.acc;
-  for (int i = 0; i < m.L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (l[L_WELDED]) continue;
-    int par = l[L_PARENT];
+  for (int i = 0; i < m.nlink; ++i) {
+    const LinkInts &l = m.link(i);
+    if (l.welded) continue;
+    int par = l.parent;
     if (par < 0) {
-      Vb[i][0] = x[l[L_ROT]]; Vb[i][1] = x[l[L_DX]]; Vb[i][2] = x[l[L_DY]];
-    } else if (m.li[par * LI + L_WELDED]) {
-      for (int k = 0; k < 3; ++k) Vb[i][k] = x[l[L_ROT]] * t.s[i][k];
+      Vb[i][0] = x[l.dof_rot]; Vb[i][1] = x[l.dof_x]; Vb[i][2] = x[l.dof_y];
+    } else if (m.link(par).welded) {
+      for (int k = 0; k < 3; ++k) Vb[i][k] = x[l.dof_rot] * t.s[i][k];
     } else {
-      for (int k = 0; k < 3; ++k) Vb[i][k] = Vb[par][k] + x[l[L_ROT]] * t.s[i][k];
+      for (int k = 0; k < 3; ++k) Vb[i][k] = Vb[par][k] + x[l.dof_rot] * t.s[i][k];
     }
   }
-  for (int i = m.L - 1; i >= 0; --i) {
-    const int32_t *l = m.li + i * LI;
-    if (l[L_WELDED]) continue;
+  for (int i = m.nlink - 1; i >= 0; --i) {
+    const LinkInts &l = m.link(i);
+    if (l.welded) continue;
     V h[3];
     sym_vec(t.I[i], Vb[i], h);
     for (int k = m.kid_start[i]; k < m.kid_start[i + 1]; ++k)
       for (int q = 0; q < 3; ++q) h[q] = h[q] + t.Hb[m.kids[k]][q];
     for (int k = 0; k < 3; ++k) t.Hb[i][k] = h[k];
-    if (l[L_PARENT] >= 0) y[l[L_ROT]] = dot3(t.s[i], h);
-    else { y[l[L_ROT]] = h[0]; y[l[L_DX]] = h[1]; y[l[L_DY]] = h[2]; }
+    if (l.parent >= 0) y[l.dof_rot] = dot3(t.s[i], h);
+    else { y[l.dof_rot] = h[0]; y[l.dof_x] = h[1]; y[l.dof_y] = h[2]; }
   }
 }
 
@@ -438,14 +456,14 @@ template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, con
 // (articulated.Bodies.solve); with_terms = 0 solves with M alone
 template <class V> static inline void art_solve(const Model &m, Tile<V> &t, const V *b, V *x, int with_terms) {
   using Ls = Lanes<V>;
-  for (int i = 0; i < m.L; ++i) {
-    if (m.li[i * LI + L_WELDED]) continue;
+  for (int i = 0; i < m.nlink; ++i) {
+    if (m.link(i).welded) continue;
     for (int k = 0; k < 6; ++k) t.IA[i][k] = with_terms ? t.I[i][k] + t.E[i][k] : t.I[i][k];
     for (int k = 0; k < 3; ++k) t.pA[i][k] = with_terms ? -t.Fb[i][k] : V{};
   }
-  for (int i = m.L - 1; i >= 0; --i) {
-    const int32_t *l = m.li + i * LI;
-    int par = l[L_PARENT], d = l[L_ROT];
+  for (int i = m.nlink - 1; i >= 0; --i) {
+    const LinkInts &l = m.link(i);
+    int par = l.parent, d = l.dof_rot;
     if (par < 0) continue;
     V *s = t.s[i], Ui[3];
     sym_vec(t.IA[i], s, Ui);
@@ -454,20 +472,20 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
     for (int k = 0; k < 3; ++k) t.U[i][k] = Ui[k];
     t.invD[i] = inv;
     t.uu[i] = ui;
-    if (m.li[par * LI + L_WELDED]) continue;  // the world takes it
+    if (m.link(par).welded) continue;  // the world takes it
     V Uinv[3] = {Ui[0] * inv, Ui[1] * inv, Ui[2] * inv};
     static const int P[6] = {0, 0, 0, 1, 1, 2}, Qi[6] = {0, 1, 2, 1, 2, 2};
     for (int k = 0; k < 6; ++k) t.IA[par][k] = t.IA[par][k] + (t.IA[i][k] - Uinv[P[k]] * Ui[Qi[k]]);
     for (int k = 0; k < 3; ++k) t.pA[par][k] = t.pA[par][k] + (t.pA[i][k] + ui * Uinv[k]);
   }
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    int r = T[0];
-    if (!T[1]) continue;
+  for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    int r = T.root;
+    if (!T.free) continue;
     // the free root: a 3 x 3 system over (root angle rate, root origin velocity), L D L^T in the
     // order y, x, w (the engine's SymMatrix([2, 1, 0]))
-    const int32_t *l = m.li + r * LI;
-    const int dofs[3] = {l[L_ROT], l[L_DX], l[L_DY]};
+    const LinkInts &l = m.link(r);
+    const int dofs[3] = {l.dof_rot, l.dof_x, l.dof_y};
     V K[3][3], rhs[3];
     const V *A = t.IA[r];
     K[0][0] = A[0]; K[0][1] = K[1][0] = A[1]; K[0][2] = K[2][0] = A[2];
@@ -494,14 +512,14 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
       x[dofs[k]] = y[k];
     }
   }
-  for (int i = 0; i < m.L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    int par = l[L_PARENT];
+  for (int i = 0; i < m.nlink; ++i) {
+    const LinkInts &l = m.link(i);
+    int par = l.parent;
     if (par < 0) continue;
     V ap[3] = {V{}, V{}, V{}};
-    if (!m.li[par * LI + L_WELDED]) for (int k = 0; k < 3; ++k) ap[k] = t.acc[par][k];
+    if (!m.link(par).welded) for (int k = 0; k < 3; ++k) ap[k] = t.acc[par][k];
     V xi = (t.uu[i] - dot3(t.U[i], ap)) * t.invD[i];
-    x[l[L_ROT]] = xi;
+    x[l.dof_rot] = xi;
     for (int k = 0; k < 3; ++k) t.acc[i][k] = ap[k] + xi * t.s[i][k];
   }
   (void)sizeof(Ls);
@@ -511,7 +529,7 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
 // row g = J^T n of world point (px, py) on link i (dense), or the body row's (articulated)
 template <class V> static inline void row_element(const Model &m, Tile<V> &t, int i, V px, V py, V nx, V ny, V coef,
                                                   V f, bool with_matrix = true) {
-  if (m.wi[W_ARTICULATED]) {
+  if (m.world().articulated) {
     V a[3];
     body_row(m, t, i, px, py, nx, ny, a);
     if (with_matrix) sym_outer(t.E[i], coef, a);
@@ -519,22 +537,22 @@ template <class V> static inline void row_element(const Model &m, Tile<V> &t, in
     return;
   }
   int n = point_row(m, t, i, px, py, nx, ny, t.g);
-  if (with_matrix) outer(t.A, m.D, coef, m.ri + i * m.R, t.g, n);
-  force(t.Q, f, m.ri + i * m.R, t.g, n);
+  if (with_matrix) outer(t.A, m.ndof, coef, m.ri + i * m.nchain, t.g, n);
+  force(t.Q, f, m.ri + i * m.nchain, t.g, n);
 }
 
 template <class V> static inline void mass_matrix(const Model &m, Tile<V> &t) {
-  const int D = m.D;
+  const int D = m.ndof;
   for (int a = 0; a < D * D; ++a) t.M[a] = V{};
-  for (int i = 0; i < m.L; ++i) {
-    if (m.li[i * LI + L_WELDED]) continue;
-    const int32_t *idx = m.ri + i * m.R;
-    V mass = V{} + t.lf[i * LF + F_MASS], I = V{} + t.lf[i * LF + F_INERTIA];
+  for (int i = 0; i < m.nlink; ++i) {
+    if (m.link(i).welded) continue;
+    const int32_t *idx = m.ri + i * m.nchain;
+    V mass = V{} + t.link(i).mass, I = V{} + t.link(i).inertia;
     int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{} + 1.0, V{}, t.g);
     outer(t.M, D, mass, idx, t.g, n);
     n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
     outer(t.M, D, mass, idx, t.g, n);
-    for (int a = 0; a < n; ++a) t.g[a] = V{} + (m.rl[i * m.R + a] >= 0 ? 1.0 : 0.0);
+    for (int a = 0; a < n; ++a) t.g[a] = V{} + (m.rl[i * m.nchain + a] >= 0 ? 1.0 : 0.0);
     outer(t.M, D, I, idx, t.g, n);
   }
 }
@@ -567,13 +585,13 @@ template <class V> static inline void solve(Tile<V> &t, const V *A, const V *b, 
 // velocities (force = 0; sign +1: u = S v, -1: v = S^-1 u) or forces (force = 1; +1: S^T g,
 // -1: S^-T f), in place
 template <class V> static inline void turn(const Model &m, const Tile<V> &t, V *v, int sign, int force) {
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (T[1] == 0 || T[2] == 1) continue;
-    int r = T[0], dx = m.li[r * LI + L_DX], dy = m.li[r * LI + L_DY];
-    for (int k = 0; k < m.L; ++k) {
-      if (m.li[k * LI + L_TREE] != tr || m.li[k * LI + L_ROT] < 0) continue;
-      int d = m.li[k * LI + L_ROT];
+  for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    if (T.free == 0 || T.point == 1) continue;
+    int r = T.root, dx = m.link(r).dof_x, dy = m.link(r).dof_y;
+    for (int k = 0; k < m.nlink; ++k) {
+      if (m.link(k).tree != tr || m.link(k).dof_rot < 0) continue;
+      int d = m.link(k).dof_rot;
       V tx = t.S[k][1], ty = -t.S[k][0];
       if (!force) {
         if (sign > 0) { v[dx] = v[dx] + tx * v[d]; v[dy] = v[dy] + ty * v[d]; }
@@ -588,11 +606,11 @@ template <class V> static inline void turn(const Model &m, const Tile<V> &t, V *
 }
 
 template <class V> static inline void prepare(const Model &m, const V *q, const V *p, Tile<V> &t) {
-  const int D = m.D;
+  const int D = m.ndof;
   positions(m, q, t);
   for (int d = 0; d < D; ++d) t.x[d] = p[d];
   turn(m, t, t.x, -1, 1);
-  if (m.wi[W_ARTICULATED]) {
+  if (m.world().articulated) {
     bodies(m, t);
     art_solve(m, t, t.x, t.u, 0);
   } else {
@@ -601,13 +619,13 @@ template <class V> static inline void prepare(const Model &m, const V *q, const 
   }
   for (int d = 0; d < D; ++d) t.qd[d] = t.u[d];
   turn(m, t, t.qd, -1, 0);
-  for (int i = 0; i < m.L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    int par = l[L_PARENT], rot = l[L_ROT];
+  for (int i = 0; i < m.nlink; ++i) {
+    const LinkInts &l = m.link(i);
+    int par = l.parent, rot = l.dof_rot;
     if (par < 0) {
       t.w[i] = rot >= 0 ? t.u[rot] : V{};
-      t.V_[i][0] = l[L_DX] >= 0 ? t.u[l[L_DX]] : V{};
-      t.V_[i][1] = l[L_DX] >= 0 ? t.u[l[L_DY]] : V{};
+      t.V_[i][0] = l.dof_x >= 0 ? t.u[l.dof_x] : V{};
+      t.V_[i][1] = l.dof_x >= 0 ? t.u[l.dof_y] : V{};
     } else {
       t.w[i] = t.w[par] + t.u[rot];
       V rx = t.X[i][0] - t.X[par][0], ry = t.X[i][1] - t.X[par][1];
@@ -615,7 +633,7 @@ template <class V> static inline void prepare(const Model &m, const V *q, const 
       t.V_[i][1] = t.V_[par][1] + t.w[par] * rx;
     }
   }
-  for (int c = 0; c < m.C; ++c) {
+  for (int c = 0; c < m.ncontact; ++c) {
     int i = m.ci[c];
     V rx = t.cp[c][0] - t.X[i][0], ry = t.cp[c][1] - t.X[i][1];
     t.cv[c][0] = t.V_[i][0] - t.w[i] * ry;
@@ -645,23 +663,23 @@ template <class V> static inline void point_at(const Tile<V> &t, int i, V rx, V 
 // and one on link lb (dynamics._linear)
 template <class V> static inline void two_point_row(const Model &m, Tile<V> &t, int la, V pax, V pay, int lb, V pbx,
                                                     V pby, V ex, V ey, V *row) {
-  const int D = m.D;
+  const int D = m.ndof;
   V *g = t.g;
   for (int d = 0; d < D; ++d) row[d] = V{};
   int n = point_row(m, t, lb, pbx, pby, ex, ey, g);
-  for (int a = 0; a < n; ++a) row[m.ri[lb * m.R + a]] += g[a];
+  for (int a = 0; a < n; ++a) row[m.ri[lb * m.nchain + a]] += g[a];
   n = point_row(m, t, la, pax, pay, ex, ey, g);
-  for (int a = 0; a < n; ++a) row[m.ri[la * m.R + a]] += -g[a];
+  for (int a = 0; a < n; ++a) row[m.ri[la * m.nchain + a]] += -g[a];
 }
 
 // A spring-damper between a point on link la and one on link lb (local points f[0..3]):
 // F = ks (target - L) - kd L' along the line between them (dynamics._linear)
-template <class V> static inline void linear(const Model &m, Tile<V> &t, const V *f, int la, int lb, V target, V ks,
-                                             V kd, V h) {
-  const int D = m.D;
+template <class V> static inline void linear(const Model &m, Tile<V> &t, int la, V ax, V ay, int lb, V bx, V by,
+                                             V target, V ks, V kd, V h) {
+  const int D = m.ndof;
   V pax, pay, pbx, pby;
-  point_at(t, la, f[0], f[1], pax, pay);
-  point_at(t, lb, f[2], f[3], pbx, pby);
+  point_at(t, la, ax, ay, pax, pay);
+  point_at(t, lb, bx, by, pbx, pby);
   V dx = pbx - pax, dy = pby - pay;
   V L = Lanes<V>::sqrt(dx * dx + dy * dy);
   V ex = dx / L, ey = dy / L;
@@ -693,32 +711,32 @@ template <class V> static inline void stick_slip(V stretch, V v, V limit, V gk, 
 // (dynamics._plane_laws): anisotropic along a link axis, or isotropic within a disc
 template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (*anchor)[2]) {
   using Ls = Lanes<V>;
-  const V h = t.wf[W_DT], gk = t.wf[W_GK], slip = t.wf[W_SLIP];
-  for (int c = 0; c < m.C; ++c) {
+  const V h = t.world().dt, gk = t.world().ground_k, slip = t.world().slip;
+  for (int c = 0; c < m.ncontact; ++c) {
     int i = m.ci[c];
-    const int32_t *l = m.li + i * LI;
-    const V *f = t.lf + i * LF;
+    const LinkInts &l = m.link(i);
+    const LinkNumbers<V> &f = t.link(i);
     V px = t.cp[c][0], py = t.cp[c][1], vx = t.cv[c][0], vy = t.cv[c][1];
-    V N = t.cf[c * 3 + 2];
+    V N = t.contact(c).load;
     V dx = px - anchor[c][0], dy = py - anchor[c][1];
-    if (l[L_ANISO]) {
-      int frm = l[L_AX_FROM], to = l[L_AX_TO];
+    if (l.aniso) {
+      int frm = l.axis_from, to = l.axis_to;
       V ax = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
       V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
       V inv = 1.0 / Ls::sqrt(ax * ax + ay * ay + 1e-12);
       V e1x = ax * inv, e1y = ay * inv, e2x = -e1y, e2y = e1x;
       V va = vx * e1x + vy * e1y, vl = vx * e2x + vy * e2y;
       V s1 = dx * e1x + dy * e1y, s2 = dx * e2x + dy * e2y;
-      V mu = Ls::sel(gk * s1 + va > 0.0, V{} + f[F_MU], V{} + f[F_MU + 1]);
+      V mu = Ls::sel(gk * s1 + va > 0.0, V{} + f.mu_forward, V{} + f.mu_backward);
       V c1, f1, h1, c2, f2, h2;
       stick_slip(s1, va, mu * N, gk, slip, h, c1, f1, h1);
-      stick_slip(s2, vl, V{} + f[F_MU + 2] * N, gk, slip, h, c2, f2, h2);
+      stick_slip(s2, vl, V{} + f.mu_lateral * N, gk, slip, h, c2, f2, h2);
       row_element(m, t, i, px, py, e1x, e1y, c1, f1);
       row_element(m, t, i, px, py, e2x, e2y, c2, f2);
       anchor[c][0] = px - h1 * e1x - h2 * e2x;
       anchor[c][1] = py - h1 * e1y - h2 * e2y;
     } else {
-      V limit = f[F_MU] * N, cc = limit / slip;
+      V limit = f.mu_forward * N, cc = limit / slip;
       V r = Ls::sqrt(dx * dx + dy * dy);
       V scale = Ls::min(V{} + 1.0, (limit / gk) / Ls::max(r, V{} + 1e-30));
       V sx = dx * scale, sy = dy * scale;
@@ -743,26 +761,26 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
 // Water drag on each edge, exact for a rigid edge: normal -k int (v.N) N ds, tangential (skin)
 // -k_t int (v.T) T ds (dynamics.advance)
 template <class V> static inline void water(const Model &m, Tile<V> &t) {
-  const int D = m.D;
-  const V h = t.wf[W_DT], k = t.wf[W_WATER_K], kt = t.wf[W_WATER_T];
-  for (int e = 0; e < m.E; ++e) {
+  const int D = m.ndof;
+  const V h = t.world().dt, k = t.world().water_k, kt = t.world().water_t;
+  for (int e = 0; e < m.nedge; ++e) {
     int i = m.ei[e];
-    const V *f = t.ef + e * 4;
-    const int32_t *idx = m.ri + i * m.R;
+    const EdgeNumbers<V> &f = t.edge(e);
+    const int32_t *idx = m.ri + i * m.nchain;
     V ax, ay, bx, by;
-    point_at(t, i, f[0], f[1], ax, ay);
-    point_at(t, i, f[2], f[3], bx, by);
+    point_at(t, i, f.a_x, f.a_y, ax, ay);
+    point_at(t, i, f.b_x, f.b_y, bx, by);
     V dx = bx - ax, dy = by - ay;
     V L = Lanes<V>::sqrt(dx * dx + dy * dy);
     V tx = dx / L, ty = dy / L, nx = -ty, ny = tx;
     V vax, vay;
     point_vel(t, i, ax, ay, vax, vay);
     V vn = vax * nx + vay * ny;
-    bool point = m.li[i * LI + L_POINT];
+    bool point = m.link(i).point;
     V w = point ? V{} : t.w[i];
     V c1 = k * L, c2 = k * L * L / 2.0, c3 = k * L * L * L / 3.0;
     V vt = vax * tx + vay * ty, ct = kt * L;
-    if (m.wi[W_ARTICULATED]) {  // the normal row on the body, and its rotation row (1, 0, 0)
+    if (m.world().articulated) {  // the normal row on the body, and its rotation row (1, 0, 0)
       V an[3], aw[3] = {V{} + 1.0, V{}, V{}};
       body_row(m, t, i, ax, ay, nx, ny, an);
       V *E = t.E[i];
@@ -777,7 +795,7 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     }
     int n = point_row(m, t, i, ax, ay, nx, ny, t.g);
     V *gw = t.row;  // the link's rotation row on the same dofs
-    for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.R + a] >= 0) ? 1.0 : 0.0);
+    for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.nchain + a] >= 0) ? 1.0 : 0.0);
     outer(t.A, D, h * c1, idx, t.g, n);
     outer2(t.A, D, h * c2, idx, t.g, gw, n);
     outer(t.A, D, h * c3, idx, gw, n);
@@ -793,12 +811,12 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
 // elements of the step (dynamics._ground_laws); a contact no lane touches adds nothing
 template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
   using Ls = Lanes<V>;
-  const V h = t.wf[W_DT];
-  const V gk = t.wf[W_GK], gc = t.wf[W_GC], slip = t.wf[W_SLIP];
+  const V h = t.world().dt;
+  const V gk = t.world().ground_k, gc = t.world().ground_c, slip = t.world().slip;
   const V cn = h * gc + (h * h) * gk;
-  for (int c = 0; c < m.C; ++c) {
+  for (int c = 0; c < m.ncontact; ++c) {
     int i = m.ci[c];
-    const int32_t *l = m.li + i * LI;
+    const LinkInts &l = m.link(i);
     V nx = t.gn[c][0], ny = t.gn[c][1], tx = t.gn[c][2], ty = t.gn[c][3];
     V dep = t.depth[c];
     dmax = Ls::max(dmax, dep);
@@ -808,12 +826,12 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
     auto on = (dep > 0.0) & (fn > 0.0);
     V N = Ls::sel(on, fn, V{});
     V stretch = (t.cp[c][0] - anchor[c][0]) * tx + (t.cp[c][1] - anchor[c][1]) * ty;
-    V mu = V{} + t.lf[i * LF + F_MU];
-    if (l[L_ANISO]) {
-      int frm = l[L_AX_FROM], to = l[L_AX_TO];
+    V mu = V{} + t.link(i).mu_forward;
+    if (l.aniso) {
+      int frm = l.axis_from, to = l.axis_to;
       V axx = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
       V axy = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
-      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0, mu, V{} + t.lf[i * LF + F_MU + 1]);
+      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0, mu, V{} + t.link(i).mu_backward);
     }
     V limit = mu * N;
     V cs_ = limit / slip;
@@ -839,16 +857,16 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
 // u_i x (v_ci - V_k), u_i = m_i (v_ci - v_c), from the subtree sums of u_i x v_ci and of u_i
 template <class V> static inline void inertial_linear(const Model &m, Tile<V> &t) {
   V *Asum = t.uu, (*Bsum)[3] = t.acc;  // scratch: the solve that owns them runs later
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (T[2] == 1) continue;
-    bool free = T[1] == 1;
-    int r = T[0];
-    V vcx = free ? t.qd[m.li[r * LI + L_DX]] : V{}, vcy = free ? t.qd[m.li[r * LI + L_DY]] : V{};
-    for (int i = m.L - 1; i >= 0; --i) {
-      const int32_t *l = m.li + i * LI;
-      if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
-      V mass = t.lf[i * LF + F_MASS];
+  for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    if (T.point == 1) continue;
+    bool free = T.free == 1;
+    int r = T.root;
+    V vcx = free ? t.qd[m.link(r).dof_x] : V{}, vcy = free ? t.qd[m.link(r).dof_y] : V{};
+    for (int i = m.nlink - 1; i >= 0; --i) {
+      const LinkInts &l = m.link(i);
+      if (l.tree != tr || (l.parent < 0 && !free)) continue;
+      V mass = t.link(i).mass;
       V vx, vy;
       point_vel(t, i, t.com[i][0], t.com[i][1], vx, vy);
       V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
@@ -862,7 +880,7 @@ template <class V> static inline void inertial_linear(const Model &m, Tile<V> &t
       Asum[i] = a;
       Bsum[i][0] = bx;
       Bsum[i][1] = by;
-      if (l[L_ROT] >= 0 && l[L_PARENT] >= 0) t.Q[l[L_ROT]] += -a + (bx * t.V_[i][1] - by * t.V_[i][0]);
+      if (l.dof_rot >= 0 && l.parent >= 0) t.Q[l.dof_rot] += -a + (bx * t.V_[i][1] - by * t.V_[i][0]);
     }
   }
 }
@@ -871,9 +889,9 @@ template <class V> static inline void inertial_linear(const Model &m, Tile<V> &t
 // deepest penetration so far
 template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, V *p, V (*anchor)[2], V &dmax) {
   using Ls = Lanes<V>;
-  const int D = m.D, L = m.L;
-  const V h = t.wf[W_DT];
-  const bool art = m.wi[W_ARTICULATED];
+  const int D = m.ndof, L = m.nlink;
+  const V h = t.world().dt;
+  const bool art = m.world().articulated;
   for (int a = 0; a < D; ++a) t.Q[a] = V{};
   if (art) {
     for (int a = 0; a < D; ++a) t.arm[a] = V{};
@@ -887,47 +905,47 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   // the inertial force dT/dq at fixed velocities: on the articulated route in O(n)
   // (dynamics._inertial_force_linear: two subtree sums), else link by link up each chain
   if (art) inertial_linear(m, t);
-  else for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (T[2] == 1) continue;
-    bool free = T[1] == 1;
-    int r = T[0];
-    V vcx = free ? t.qd[m.li[r * LI + L_DX]] : V{}, vcy = free ? t.qd[m.li[r * LI + L_DY]] : V{};
+  else for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    if (T.point == 1) continue;
+    bool free = T.free == 1;
+    int r = T.root;
+    V vcx = free ? t.qd[m.link(r).dof_x] : V{}, vcy = free ? t.qd[m.link(r).dof_y] : V{};
     for (int i = 0; i < L; ++i) {
-      const int32_t *l = m.li + i * LI;
-      if (l[L_TREE] != tr || (l[L_PARENT] < 0 && !free)) continue;
-      V mass = t.lf[i * LF + F_MASS];
+      const LinkInts &l = m.link(i);
+      if (l.tree != tr || (l.parent < 0 && !free)) continue;
+      V mass = t.link(i).mass;
       V rx = t.com[i][0] - t.X[i][0], ry = t.com[i][1] - t.X[i][1];
       V vx = t.V_[i][0] - t.w[i] * ry, vy = t.V_[i][1] + t.w[i] * rx;
       V ux = mass * (vx - vcx), uy = mass * (vy - vcy);
       V Px{}, Py{}, nx = t.com[i][0], ny = t.com[i][1];
-      for (int k = i; k >= 0; k = m.li[k * LI + L_PARENT]) {
+      for (int k = i; k >= 0; k = m.link(k).parent) {
         Px = Px + t.w[k] * (nx - t.X[k][0]);
         Py = Py + t.w[k] * (ny - t.X[k][1]);
         nx = t.X[k][0];
         ny = t.X[k][1];
-        int rot = m.li[k * LI + L_ROT];
-        if (rot >= 0 && !(free && m.li[k * LI + L_PARENT] < 0)) t.Q[rot] += -(ux * Px + uy * Py);
+        int rot = m.link(k).dof_rot;
+        if (rot >= 0 && !(free && m.link(k).parent < 0)) t.Q[rot] += -(ux * Px + uy * Py);
       }
     }
   }
   // gravity, in the vertical plane: on a free tree's centre of mass, link by link in a welded tree
-  if (m.wi[W_PLANE] == 0) {
-    const V grav = t.wf[W_GRAVITY];
+  if (m.world().plane == PLANE_VERTICAL) {
+    const V grav = t.world().gravity;
     for (int a = 0; a < D; ++a) t.x[a] = V{};
-    for (int tr = 0; tr < m.T; ++tr) {
-      const int32_t *T = m.ti + tr * 3;
-      int r = T[0];
-      if (T[1] == 1) {
+    for (int tr = 0; tr < m.ntree; ++tr) {
+      const TreeInts &T = m.tree(tr);
+      int r = T.root;
+      if (T.free == 1) {
         V mt{};
         for (int i = 0; i < L; ++i)
-          if (m.li[i * LI + L_TREE] == tr) mt = mt + t.lf[i * LF + F_MASS];
-        t.x[m.li[r * LI + L_DY]] = V{} - (mt * grav);
+          if (m.link(i).tree == tr) mt = mt + t.link(i).mass;
+        t.x[m.link(r).dof_y] = V{} - (mt * grav);
         continue;
       }
       for (int i = 0; i < L; ++i) {
-        if (m.li[i * LI + L_TREE] != tr || m.li[i * LI + L_PARENT] < 0) continue;
-        row_element(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, V{}, V{} - (t.lf[i * LF + F_MASS] * grav), false);
+        if (m.link(i).tree != tr || m.link(i).parent < 0) continue;
+        row_element(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, V{}, V{} - (t.link(i).mass * grav), false);
       }
     }
     turn(m, t, t.x, -1, 1);
@@ -935,21 +953,21 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
   }
   // passive joint springs, then stops
   for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (!l[L_SPRING]) continue;
-    const V *f = t.lf + i * LF;
-    int d = l[L_ROT];
-    V k = f[F_JSPRING], c = f[F_JSPRING + 1], rest = f[F_JSPRING + 2];
-    V phi = t.th[i] - t.th[l[L_PARENT]];
+    const LinkInts &l = m.link(i);
+    if (!l.spring) continue;
+    const LinkNumbers<V> &f = t.link(i);
+    int d = l.dof_rot;
+    V k = f.jspring_k, c = f.jspring_c, rest = f.jspring_rest;
+    V phi = t.th[i] - t.th[l.parent];
     joint(t, D, d, h, -k * (phi - rest) - c * t.u[d], V{} + k, V{} + c, t.u[d]);
   }
   for (int i = 0; i < L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (!l[L_LIMIT]) continue;
-    const V *f = t.lf + i * LF;
-    int d = l[L_ROT];
-    V lo = f[F_LIMIT], hi = f[F_LIMIT + 1], k = f[F_LIMIT + 2], c = f[F_LIMIT + 3];
-    V phi = t.th[i] - t.th[l[L_PARENT]];
+    const LinkInts &l = m.link(i);
+    if (!l.limit) continue;
+    const LinkNumbers<V> &f = t.link(i);
+    int d = l.dof_rot;
+    V lo = f.limit_min, hi = f.limit_max, k = f.limit_k, c = f.limit_c;
+    V phi = t.th[i] - t.th[l.parent];
     V below = Ls::max(k * (lo - phi) - c * t.u[d], V{});
     V above = Ls::min(k * (hi - phi) - c * t.u[d], V{});
     auto on = ((phi < lo) & (below > 0.0)) | ((phi > hi) & (above < 0.0));
@@ -958,25 +976,26 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
     joint(t, D, d, h, torque, onv * k, onv * c, t.u[d]);
   }
   // actuators: angular servos at a joint, linear ones between two points
-  for (int a = 0; a < m.A; ++a) {
-    const int32_t *ai = m.ai + a * 3;
-    const V *f = t.af + a * 8;
-    V target = f[0] + t.act[a] * (f[1] - f[0]);
-    if (ai[0] == 0) {
-      int j = ai[1], d = m.li[j * LI + L_ROT];
-      V phi = t.th[j] - t.th[m.li[j * LI + L_PARENT]];
-      joint(t, D, d, h, f[2] * (target - phi) - f[3] * t.u[d], V{} + f[2], V{} + f[3], t.u[d]);
+  for (int a = 0; a < m.nact; ++a) {
+    const ActuatorInts &ai = m.actuator(a);
+    const ActuatorNumbers<V> &f = t.actuator(a);
+    V target = f.min + t.act[a] * (f.max - f.min);
+    if (ai.kind == ACT_ANGULAR) {
+      int j = ai.link, d = m.link(j).dof_rot;
+      V phi = t.th[j] - t.th[m.link(j).parent];
+      joint(t, D, d, h, f.ks * (target - phi) - f.kd * t.u[d], V{} + f.ks, V{} + f.kd, t.u[d]);
     } else {
-      linear(m, t, f + 4, ai[1], ai[2], target, f[2], f[3], h);
+      linear(m, t, ai.link, f.point_a_x, f.point_a_y, ai.link_b, f.point_b_x, f.point_b_y, target, f.ks, f.kd, h);
     }
   }
-  for (int n = 0; n < m.P; ++n) {
-    const V *f = t.pf + n * 7;
-    linear(m, t, f, m.pi[n * 2], m.pi[n * 2 + 1], V{} + f[6], f[4], f[5], h);
+  for (int n = 0; n < m.nspring; ++n) {
+    const SpringNumbers<V> &f = t.spring(n);
+    const SpringInts &l = m.spring(n);
+    linear(m, t, l.link_a, f.point_a_x, f.point_a_y, l.link_b, f.point_b_x, f.point_b_y, V{} + f.rest, f.ks, f.kd, h);
   }
-  if (m.wi[W_PLANE] == 0) ground_laws(m, t, anchor, dmax);
+  if (m.world().plane == PLANE_VERTICAL) ground_laws(m, t, anchor, dmax);
   else plane_laws(m, t, anchor);
-  if (m.E) water(m, t);
+  if (m.nedge) water(m, t);
   // the step: A du = h Q; p += S^T M du; q += h v*
   for (int a = 0; a < D; ++a) t.Q[a] = h * t.Q[a];
   if (art) {
@@ -1008,11 +1027,11 @@ template <class V> static inline void advance(const Model &m, Tile<V> &t, V *q, 
 // (dynamics.follow_point)
 template <class V> static inline void follow_point(const Model &m, const Tile<V> &t, V time, V &x, V &y) {
   using Ls = Lanes<V>;
-  const int n = m.F;
-  V u = t.wf[W_FOLLOW_SPEED] * time / t.wf[W_FOLLOW_DS];
+  const int n = m.nfollow;
+  V u = t.world().follow_speed * time / t.world().follow_ds;
   for (int l = 0; l < Ls::W; ++l) {
     double ul = Ls::lane(u, l);
-    if (m.wi[W_FOLLOW_LOOP]) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
+    if (m.world().follow_loop) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
     ul = ul < 0.0 ? 0.0 : (ul > n - 1 ? n - 1 : ul);
     int i0 = ul >= 0.0 ? (int)__builtin_floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
     if (i0 > n - 2) i0 = n - 2;
@@ -1027,24 +1046,24 @@ template <class V> static inline void follow_point(const Model &m, const Tile<V>
 template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) {
   using Ls = Lanes<V>;
   V fx{}, fy{};
-  if (m.wi[W_FOLLOW]) follow_point(m, t, time, fx, fy);
-  for (int s = 0; s < m.S; ++s) {
-    const int32_t *si = m.si + s * 4;
-    const V *sf = t.sf + s * 6;
-    int kind = si[0];
+  if (m.world().follow) follow_point(m, t, time, fx, fy);
+  for (int s = 0; s < m.nsensor; ++s) {
+    const SensorInts &si = m.sensor(s);
+    const SensorNumbers<V> &sf = t.sensor(s);
+    int kind = si.kind;
     if (kind == S_TOUCH) {
-      t.bits[s] = m.wi[W_PLANE] == 1 ? V{} + 1.0 : Ls::sel(t.depth[si[1]] > 0.0, V{} + 1.0, V{});
+      t.bits[s] = m.world().plane == PLANE_HORIZONTAL ? V{} + 1.0 : Ls::sel(t.depth[si.on] > 0.0, V{} + 1.0, V{});
       continue;
     }
     V a;
     if (kind == S_ANGLE || kind == S_TILT) {
-      int link = si[1], par = m.li[link * LI + L_PARENT];
+      int link = si.on, par = m.link(link).parent;
       V ang = (par < 0 || kind == S_TILT) ? t.th[link] : t.th[link] - t.th[par];
       a = ang - (2 * M_PI) * Ls::floor((ang + M_PI) * (0.5 / M_PI));
     } else if (kind == S_EYE) {
-      int li = si[1], frm = si[2], to = si[3];
+      int li = si.on, frm = si.second, to = si.third;
       V ex, ey;
-      point_at(t, li, sf[2], sf[3], ex, ey);
+      point_at(t, li, sf.point_x, sf.point_y, ex, ey);
       V ax = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[li][0];
       V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[li][1];
       V dx = fx - ex, dy = fy - ey;
@@ -1052,12 +1071,12 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
       for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, __builtin_atan2(Ls::lane(num, l), Ls::lane(den, l)));
     } else {
       V pax, pay, pbx, pby;
-      point_at(t, si[1], sf[2], sf[3], pax, pay);
-      point_at(t, si[2], sf[4], sf[5], pbx, pby);
+      point_at(t, si.on, sf.point_x, sf.point_y, pax, pay);
+      point_at(t, si.second, sf.point_b_x, sf.point_b_y, pbx, pby);
       V dx = pbx - pax, dy = pby - pay;
       a = Ls::sqrt(dx * dx + dy * dy);
     }
-    t.bits[s] = Ls::sel((a >= sf[0]) & (a <= sf[1]), V{} + 1.0, V{});
+    t.bits[s] = Ls::sel((a >= sf.min) & (a <= sf.max), V{} + 1.0, V{});
   }
 }
 
@@ -1073,7 +1092,7 @@ constexpr int NS = 32;
 template <class V> static inline void san(const Model &m, Tile<V> &t, const short *weights, int NP, const V *k1,
                                           const V *k2, V *istate, V *out) {
   using Ls = Lanes<V>;
-  const int N = m.N, S = m.S, H = m.wi[W_HIDDEN], I = m.I, chunks = NP / NS;
+  const int N = m.nnode, S = m.nsensor, H = m.world().hidden, I = m.ninput, chunks = NP / NS;
   for (int l = 0; l < Ls::W; ++l) {
     vs acc[8];  // up to 256 nodes
     for (int c = 0; c < chunks; ++c) acc[c] = vs{};
@@ -1085,7 +1104,7 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
     }
     for (int n = 0; n < N; ++n) Ls::set(t.total[n], l, (double)acc[n / NS][n % NS]);
   }
-  const V dt = t.wf[W_DT];
+  const V dt = t.world().dt;
   for (int n = 0; n < N; ++n) {
     V rate = Ls::sel(t.total[n] > 0.0, k1[n], k2[n]);
     V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0);
@@ -1103,30 +1122,24 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
 // behaviour descriptors, per lane, updated before each step from its prepared tile. The host turns
 // them into scores with the same functions as before (metrics.scores, descriptors.values).
 //
-// Config oi: kind (0 distance, 1 distance_upright, 2 hopping, 3 pursuit, 4 tracking), fell_com (0/1),
-// fell_link (0/1), depth (0/1: track the deepest contact), root (descriptors' rotating root, -1
-// none), sensors (descriptors' word: 0 = no word), n_fell, n_joints, n_touch, then the fell links,
-// the joints' dofs and the touch sensors' indices; of: fell angle (rad), fell COM height, fell link
-// height (m).
-enum { O_KIND, O_FELL_COM, O_FELL_LINK, O_DEPTH, O_ROOT, O_SENSORS, O_NFELL, O_NJOINTS, O_NTOUCH, O_LISTS };
-constexpr int EVENTS = 64;
+// Config oi (layout.OBSERVE): kind (layout.METRIC_KINDS), fell_com (0/1), fell_link (0/1), depth
+// (0/1: track the deepest contact), root (descriptors' rotating root, -1 none), sensors
+// (descriptors' word: 0 = no word), n_fell, n_joints, n_touch, then the fell links, the joints'
+// dofs and the touch sensors' indices; of (layout.OBSERVE_F): fell angle (rad), fell COM height,
+// fell link height (m). Accumulators (layout.ACC), one V each: the metric's, then the descriptors'
+// (duty [n_touch], words and times [EVENTS] at the end); tracking's gap: the sum over steps of the
+// distance from the centre of mass to the follow point, and that distance at the first step.
 constexpr double DEBOUNCE_S = 0.02;
-// accumulators, one V each: the metric's, then the descriptors' (duty [n_touch], words and times
-// [EVENTS] at the end)
-// (tracking's gap: the sum over steps of the distance from the centre of mass to the follow point,
-// and that distance at the first step)
-enum { A_P0X, A_P0Y, A_Y0, A_HOP, A_PURSUIT, A_FELL, A_DEEPEST, A_PX, A_PY, A_STEPS, A_HEIGHT, A_HEIGHT2, A_TURN,
-       A_ANGLE, A_AIRBORNE, A_JOINT_SPEED, A_WORD, A_CAND, A_SINCE, A_CHANGES, A_GAP, A_GAP0, A_FIXED };
 
-inline int obs_values(const int32_t *oi) { return A_FIXED + oi[O_NTOUCH] + 2 * EVENTS; }
+inline int obs_values(const int32_t *oi) { return A_FIXED + oi[O_N_TOUCH] + 2 * EVENTS; }
 
 // Whole-creature centre of mass (and, with a velocity-prepared tile, its velocity); links welded
 // to the world do not count (dynamics.centre_of_mass)
 template <class V> static inline void centre_of_mass(const Model &m, const Tile<V> &t, V &cx, V &cy, V *vx, V *vy) {
   V mx{}, my{}, total{}, sx{}, sy{};
-  for (int i = 0; i < m.L; ++i) {
-    if (m.li[i * LI + L_WELDED]) continue;
-    V mass = t.lf[i * LF + F_MASS];
+  for (int i = 0; i < m.nlink; ++i) {
+    if (m.link(i).welded) continue;
+    V mass = t.link(i).mass;
     mx = mx + mass * t.com[i][0];
     my = my + mass * t.com[i][1];
     if (vx) {
@@ -1153,31 +1166,31 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
   kin = V{};
   grav = V{};
   elastic = V{};
-  const bool vertical = m.wi[W_PLANE] == 0;
-  for (int i = 0; i < m.L; ++i) {
-    if (m.li[i * LI + L_WELDED]) continue;
-    const V *f = t.lf + i * LF;
+  const bool vertical = m.world().plane == PLANE_VERTICAL;
+  for (int i = 0; i < m.nlink; ++i) {
+    if (m.link(i).welded) continue;
+    const LinkNumbers<V> &f = t.link(i);
     V vx, vy;
     point_vel(t, i, t.com[i][0], t.com[i][1], vx, vy);
     // the engine's association, term by term: (0.5 m) |v|^2 and ((0.5 I) w) w
-    kin = kin + (0.5 * f[F_MASS]) * (vx * vx + vy * vy) + ((0.5 * f[F_INERTIA]) * t.w[i]) * t.w[i];
-    if (vertical) grav = grav + (f[F_MASS] * t.wf[W_GRAVITY]) * t.com[i][1];
+    kin = kin + (0.5 * f.mass) * (vx * vx + vy * vy) + ((0.5 * f.inertia) * t.w[i]) * t.w[i];
+    if (vertical) grav = grav + (f.mass * t.world().gravity) * t.com[i][1];
   }
-  for (int i = 0; i < m.L; ++i) {
-    const int32_t *l = m.li + i * LI;
-    if (!l[L_SPRING]) continue;
-    const V *f = t.lf + i * LF;
-    V d = (t.th[i] - t.th[l[L_PARENT]]) - f[F_JSPRING + 2];
-    elastic = elastic + (0.5 * f[F_JSPRING]) * (d * d);
+  for (int i = 0; i < m.nlink; ++i) {
+    const LinkInts &l = m.link(i);
+    if (!l.spring) continue;
+    const LinkNumbers<V> &f = t.link(i);
+    V d = (t.th[i] - t.th[l.parent]) - f.jspring_rest;
+    elastic = elastic + (0.5 * f.jspring_k) * (d * d);
   }
-  for (int n = 0; n < m.P; ++n) {
-    const V *f = t.pf + n * 7;
+  for (int n = 0; n < m.nspring; ++n) {
+    const SpringNumbers<V> &f = t.spring(n);
     V pax, pay, pbx, pby;
-    point_at(t, m.pi[n * 2], f[0], f[1], pax, pay);
-    point_at(t, m.pi[n * 2 + 1], f[2], f[3], pbx, pby);
+    point_at(t, m.spring(n).link_a, f.point_a_x, f.point_a_y, pax, pay);
+    point_at(t, m.spring(n).link_b, f.point_b_x, f.point_b_y, pbx, pby);
     V dx = pbx - pax, dy = pby - pay;
-    V d = Lanes<V>::sqrt(dx * dx + dy * dy) - f[6];
-    elastic = elastic + (0.5 * f[4]) * (d * d);
+    V d = Lanes<V>::sqrt(dx * dx + dy * dy) - f.rest;
+    elastic = elastic + (0.5 * f.ks) * (d * d);
   }
 }
 
@@ -1185,10 +1198,10 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
 // velocities qd in state coordinates: turned into tree coordinates, multiplied by the mass matrix
 // (formed, or composite bodies on the articulated route), turned back as a force.
 template <class V> static inline void momenta(const Model &m, Tile<V> &t, const V *qd, V *p) {
-  const int D = m.D;
+  const int D = m.ndof;
   for (int d = 0; d < D; ++d) t.x[d] = qd[d];
   turn(m, t, t.x, 1, 0);
-  if (m.wi[W_ARTICULATED]) {
+  if (m.world().articulated) {
     bodies(m, t);
     art_matvec(m, t, t.x, p);
   } else {
@@ -1204,19 +1217,19 @@ template <class V> static inline void momenta(const Model &m, Tile<V> &t, const 
 
 template <class V> static inline V ground_height(const Model &m, const Tile<V> &t, V x) {
   using Ls = Lanes<V>;
-  const int kind = m.wi[W_TERRAIN];
-  if (kind == 0) return V{};
-  if (kind == 1) return t.wf[W_SLOPE] * x;
-  if (kind == 2) {
-    V H = t.wf[W_HILL_H], hw = t.wf[W_HILL_W], cx = t.wf[W_HILL_C], su, cu;
+  const int kind = m.world().terrain;
+  if (kind == TERRAIN_FLAT) return V{};
+  if (kind == TERRAIN_SLOPE) return t.world().slope * x;
+  if (kind == TERRAIN_HILL) {
+    V H = t.world().hill_height, hw = t.world().hill_half_width, cx = t.world().hill_centre, su, cu;
     sincos((x - cx) * (M_PI / hw), su, cu);
     return Ls::sel(Ls::abs(x - cx) < hw, 0.5 * H * (1.0 + cu), V{});
   }
   V h{};
-  for (int k = 0; k < m.K; ++k) {
+  for (int k = 0; k < m.nrough; ++k) {
     V s, c;
-    sincos(t.rough[k * 3 + 1] * x + t.rough[k * 3 + 2], s, c);
-    h = h + t.rough[k * 3] * s;
+    sincos(t.rough_term(k).wavenumber * x + t.rough_term(k).phase, s, c);
+    h = h + t.rough_term(k).amplitude * s;
   }
   return h;
 }
@@ -1228,39 +1241,39 @@ template <class V> static inline void observe_init(const Model &m, const Tile<V>
   centre_of_mass(m, t, cx, cy, (V *)nullptr, (V *)nullptr);
   acc[A_P0X] = acc[A_PX] = cx;
   acc[A_P0Y] = acc[A_PY] = acc[A_Y0] = cy;
-  acc[A_WORD] = acc[A_CAND] = V{} - 1.0;
+  acc[A_WORD] = acc[A_CANDIDATE] = V{} - 1.0;
 }
 
 // one step's update, from a prepared tile at time `time` (Metric.update, Descriptors.update)
 template <class V> static inline void observe(const Model &m, const Tile<V> &t, const int32_t *oi, const double *of,
                                               V time, V *acc) {
   using Ls = Lanes<V>;
-  const bool vertical = m.wi[W_PLANE] == 0;
-  const int32_t *fell = oi + O_LISTS, *joints = fell + oi[O_NFELL], *touch = joints + oi[O_NJOINTS];
-  const V dt = t.wf[W_DT];
+  const bool vertical = m.world().plane == PLANE_VERTICAL;
+  const int32_t *fell = oi + O_LISTS, *joints = fell + oi[O_N_FELL], *touch = joints + oi[O_N_JOINTS];
+  const V dt = t.world().dt;
   // the metric
   V f = acc[A_FELL];
-  for (int k = 0; k < oi[O_NFELL]; ++k) {
+  for (int k = 0; k < oi[O_N_FELL]; ++k) {
     int i = fell[k];
     V a = t.th[i] - (2 * M_PI) * Ls::floor((t.th[i] + M_PI) * (0.5 / M_PI));
-    f = Ls::sel(Ls::abs(a) > of[0], V{} + 1.0, f);
+    f = Ls::sel(Ls::abs(a) > of[OF_FELL_ANGLE], V{} + 1.0, f);
     if (oi[O_FELL_LINK] && vertical)
-      f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < of[2], V{} + 1.0, f);
+      f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < of[OF_FELL_LINK_HEIGHT], V{} + 1.0, f);
   }
   V px, py, vx, vy;
   centre_of_mass(m, t, px, py, &vx, &vy);
-  if (oi[O_FELL_COM] && vertical) f = Ls::sel(py - ground_height(m, t, px) < of[1], V{} + 1.0, f);
+  if (oi[O_FELL_COM] && vertical) f = Ls::sel(py - ground_height(m, t, px) < of[OF_FELL_COM_HEIGHT], V{} + 1.0, f);
   acc[A_FELL] = f;
-  if (oi[O_KIND] == 2) {
+  if (oi[O_KIND] == M_HOPPING) {
     V up = Ls::max(py - acc[A_Y0], V{});
     acc[A_HOP] = acc[A_HOP] + up * up * dt;
-  } else if (oi[O_KIND] == 3) {
+  } else if (oi[O_KIND] == M_PURSUIT) {
     V fx, fy;
     follow_point(m, t, time, fx, fy);
     V dx = fx - px, dy = fy - py;
     V inv = 1.0 / Ls::max(Ls::sqrt(dx * dx + dy * dy), V{} + 1e-9);
     acc[A_PURSUIT] = acc[A_PURSUIT] + (vx * dx + vy * dy) * inv * dt;
-  } else if (oi[O_KIND] == 4) {
+  } else if (oi[O_KIND] == M_TRACKING) {
     V fx, fy;
     follow_point(m, t, time, fx, fy);
     V dx = fx - px, dy = fy - py;
@@ -1268,9 +1281,9 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
     acc[A_GAP0] = Ls::sel(acc[A_STEPS] > 0.0, acc[A_GAP0], gap);
     acc[A_GAP] = acc[A_GAP] + gap;
   }
-  if (oi[O_DEPTH] && m.C) {
+  if (oi[O_DEPTH] && m.ncontact) {
     V d = t.depth[0];
-    for (int c = 1; c < m.C; ++c) d = Ls::max(d, t.depth[c]);
+    for (int c = 1; c < m.ncontact; ++c) d = Ls::max(d, t.depth[c]);
     acc[A_DEEPEST] = Ls::max(acc[A_DEEPEST], d);
   }
   // the descriptors
@@ -1278,7 +1291,7 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   if (vertical) {
     y = py - ground_height(m, t, px);
     auto any = V{} < 0.0;  // all false
-    for (int c = 0; c < m.C; ++c) any = any | (t.depth[c] > 0.0);
+    for (int c = 0; c < m.ncontact; ++c) any = any | (t.depth[c] > 0.0);
     air = Ls::sel(any, V{}, V{} + 1.0);
   }
   const int root = oi[O_ROOT];
@@ -1288,19 +1301,19 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
     acc[A_TURN] = acc[A_TURN] + Ls::sel(acc[A_STEPS] > 0.0, d, V{});
     acc[A_ANGLE] = th;
   }
-  if (oi[O_NJOINTS]) {
+  if (oi[O_N_JOINTS]) {
     V js{};
-    for (int k = 0; k < oi[O_NJOINTS]; ++k) js = js + Ls::abs(t.qd[joints[k]]);
-    acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / (double)oi[O_NJOINTS];
+    for (int k = 0; k < oi[O_N_JOINTS]; ++k) js = js + Ls::abs(t.qd[joints[k]]);
+    acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / (double)oi[O_N_JOINTS];
   }
-  V *duty = acc + A_FIXED, *words = duty + oi[O_NTOUCH], *times = words + EVENTS;
-  for (int k = 0; k < oi[O_NTOUCH]; ++k) duty[k] = duty[k] + t.bits[touch[k]];
+  V *duty = acc + A_FIXED, *words = duty + oi[O_N_TOUCH], *times = words + EVENTS;
+  for (int k = 0; k < oi[O_N_TOUCH]; ++k) duty[k] = duty[k] + t.bits[touch[k]];
   if (oi[O_SENSORS]) {
     V w{};
     for (int s = 0; s < oi[O_SENSORS]; ++s) w = w + Ls::sel(t.bits[s] > 0.5, V{} + (double)(1 << s), V{});
-    V since = Ls::sel(w == acc[A_CAND], acc[A_SINCE], time);
+    V since = Ls::sel(w == acc[A_CANDIDATE], acc[A_SINCE], time);
     acc[A_SINCE] = since;
-    acc[A_CAND] = w;
+    acc[A_CANDIDATE] = w;
     auto fresh = (w != acc[A_WORD]) & (time - since + dt >= DEBOUNCE_S);
     for (int l = 0; l < Ls::W; ++l) {
       if (!Ls::on(fresh, l)) continue;
@@ -1324,13 +1337,13 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
 template <class V> static inline void seat(const Model &m, Tile<V> &t, V *q) {
   using Ls = Lanes<V>;
   positions(m, q, t);
-  for (int tr = 0; tr < m.T; ++tr) {
-    const int32_t *T = m.ti + tr * 3;
-    if (!T[1]) continue;
+  for (int tr = 0; tr < m.ntree; ++tr) {
+    const TreeInts &T = m.tree(tr);
+    if (!T.free) continue;
     V lift{};
-    for (int c = 0; c < m.C; ++c)
-      if (m.li[m.ci[c] * LI + L_TREE] == tr) lift = Ls::max(lift, ground_height(m, t, t.cp[c][0]) - t.cp[c][1]);
-    int dy = m.li[T[0] * LI + L_DY];
+    for (int c = 0; c < m.ncontact; ++c)
+      if (m.link(m.ci[c]).tree == tr) lift = Ls::max(lift, ground_height(m, t, t.cp[c][0]) - t.cp[c][1]);
+    int dy = m.link(T.root).dof_y;
     q[dy] = q[dy] + lift;
   }
   positions(m, q, t);
