@@ -346,7 +346,7 @@ class Observe:
                              f"got {self.sensors!r}")
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """(oi int32, of float64), the kernel's config (step.h, "observers")."""
+        """(oi int32, of float64), the kernel's config (_kernel/observe.h)."""
         oi = [METRIC_KINDS.index(self.kind), self.fell_com_height is not None, self.fell_link_height is not None,
               self.depth, self.root, self.sensors, len(self.fell_links), len(self.joints), len(self.touch),
               *self.fell_links, *self.joints, *self.touch]

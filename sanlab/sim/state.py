@@ -193,7 +193,7 @@ def step(model: Model, state: State, u: Any) -> State:
 
 def terrain_height(model: Model, x: Any) -> tuple[np.ndarray, np.ndarray]:
     """The ground's height h(x) and slope h'(x) (m, and m/m) at x [...] (m) in the vertical
-    plane: the kernel's ground (``_kernel/step.h``, ``terrain``), for drawing and checks."""
+    plane: the kernel's ground (``_kernel/terrain.h``), for drawing and checks."""
     st, p = model.structure, model.params
     x = np.asarray(x, np.float64)
     zero = np.zeros_like(x)

@@ -56,7 +56,7 @@ template <class V> struct SineControl {
   static size_t n_state(const Model &) { return 0; }
   SineControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
-    const V w = (2 * M_PI) * par[m.nact] * time;  // the engine's order: ((2 pi) f) t
+    const V w = (2 * M_PI) * par[m.nact] * time;  // ((2 pi) f) t, the order the stored gaits ran in
     for (int a = 0; a < m.nact; ++a) {
       V s, c;
       sincos(w + par[a], s, c);
@@ -101,13 +101,6 @@ template <class V> struct ReflexControl {
 
 // ---------------------------------------------------------------- rollouts
 
-// The observers' config (see step.h, "observers"), or none
-struct Observe {
-  const int32_t *oi;
-  const double *of;
-  int init;  // 1: start the accumulators from this call's first state
-};
-
 // Frames to record: every `every` steps from the first, the first `n` of them; each frame holds
 // q, qd [D] (the velocity of that state), bits [S], u [A], then the controller's state before
 // that step [n_state] (a SAN's istate, out), `values` values of V in all
@@ -118,35 +111,35 @@ struct Record {
 // A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], t, dmax
 inline size_t state_values(const Model &m) { return 2 * (size_t)m.ndof + 2 * (size_t)m.ncontact + 2; }
 
+// `steps` steps of a tile (step.h: step), recording the frames asked for; then the final state's
+// velocity and, for the metric, its centre of mass
 template <class V, class Ctl>
-static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *s, const V *par, V *cst, int64_t steps,
-                     const Observe &o, V *acc, V *qd_out, const Record &rec, V *frames) {
-  V *q = s, *p = q + m.ndof, (*anchor)[2] = (V(*)[2])(p + m.ndof), *time = (V *)(anchor + m.ncontact), *dmax = time + 1;
+static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *state, const V *par, V *cst, int64_t steps,
+                     const Observers &o, V *acc, V *qd_out, const Record &rec, V *frames) {
+  V *q = state, *p = q + m.ndof, (*anchor)[2] = (V(*)[2])(p + m.ndof), *time = (V *)(anchor + m.ncontact);
+  StepState<V> s{q, p, anchor, time, time + 1};
   const int ns = (int)Ctl::n_state(m), at_u = 2 * m.ndof + m.nsensor, at_state = at_u + m.nact;
   if (o.oi && o.init) {
     positions(m, q, t);
     observe_init(m, t, o.oi, acc);
   }
   for (int64_t n = 0; n < steps; ++n) {
-    prepare(m, q, p, t);
-    sense(m, t, *time);
     const bool keep = frames && n % rec.every == 0 && n / rec.every < rec.n;
     V *f = keep ? frames + (n / rec.every) * rec.values : nullptr;
     // the caller's frame buffer need not be aligned for V: stored value by value, unaligned
     auto put = [&](int at, const V &v) { std::memcpy((void *)(f + at), &v, sizeof(V)); };
-    if (keep) {  // the state before this step, and the controller's state before its update
+    auto seen = [&] {  // the state before this step, and the controller's state before its update
+      if (!keep) return;
       for (int d = 0; d < m.ndof; ++d) { put(d, q[d]); put(m.ndof + d, t.qd[d]); }
       for (int k = 0; k < m.nsensor; ++k) put(2 * m.ndof + k, t.bits[k]);
       for (int k = 0; k < ns; ++k) put(at_state + k, cst[k]);
-    }
-    ctl.act(m, t, par, cst, *time);
-    if (keep)
-      for (int k = 0; k < m.nact; ++k) put(at_u + k, t.act[k]);
-    if (o.oi) observe(m, t, o.oi, o.of, *time, acc);
-    advance(m, t, q, p, anchor, *dmax);
-    *time = *time + t.world().dt;
+    };
+    auto acted = [&] {
+      if (keep)
+        for (int k = 0; k < m.nact; ++k) put(at_u + k, t.act[k]);
+    };
+    step(m, t, s, ctl, par, cst, o, acc, seen, acted);
   }
-  // the final state's velocity M^-1 p (state coordinates) and, for the metric, its centre of mass
   prepare(m, q, p, t);
   for (int d = 0; d < m.ndof; ++d) qd_out[d] = t.qd[d];
   if (o.oi) centre_of_mass(m, t, acc[A_PX], acc[A_PY], (V *)nullptr, (V *)nullptr);
@@ -240,7 +233,7 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
                     int64_t steps) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
-  const Observe o{oi, of, init};
+  const Observers o{oi, of, init};
   const size_t na = oi ? (size_t)obs_values(oi) : 0, npar = Ctl::n_param(m), nst = Ctl::n_state(m);
   const size_t sizes[] = {(size_t)m.ndof, (size_t)m.ndof, (size_t)(2 * m.ncontact), 1, 1};
   const Record rec{every > 0 ? every : 1, n_frames, 2 * m.ndof + m.nsensor + m.nact + (int64_t)nst};
@@ -392,8 +385,8 @@ void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const voi
   else run(vd{});
 }
 
-// Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
-// place on the lanes where seat [T, W] is nonzero (dynamics.seat_on_ground), and the friction
+// Start states at rest: q [T, D, W] seated on the ground in
+// place on the lanes where seat [T, W] is nonzero (step.h: seat), and the friction
 // anchors anchor [T, C, 2, W] at the contact points of the resulting pose.
 void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *q, const double *seat_rows,
                   double *anchor, int64_t T) {
