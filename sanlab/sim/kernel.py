@@ -374,7 +374,7 @@ def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndar
         if hit is not None and hit[0] is pk:  # the creature itself is held, so its id is its own
             _SHARED.move_to_end(id(pk))
             return hit[1]
-    check(pk)
+    _checked(pk)
     rows = _check_rows(pk, B, rows)
     T = -(-B // W)
     tables = []
@@ -461,6 +461,20 @@ def check(pk: Packed) -> None:
          "wi", "hidden nodes >= 0 and flags 0 or 1")
 
 
+def _checked(pk: Packed) -> None:
+    """:func:`check` once per tables: the last few checked are remembered (an ensemble or a
+    tuning run calls the kernel with the same tables and rows of its own, thousands of times)."""
+    hit = _CHECKED.get(id(pk))
+    if hit is not None and hit is pk:  # held, so its id is its own
+        _CHECKED.move_to_end(id(pk))
+        return
+    check(pk)
+    _CHECKED[id(pk)] = pk
+    while len(_CHECKED) > 64:
+        _CHECKED.popitem(last=False)
+
+
+_CHECKED: OrderedDict = OrderedDict()  # id(pk) -> pk, the tables check() passed
 _SHARED: OrderedDict = OrderedDict()  # id(pk) -> (pk, _tables' answer) for the last creatures called
 
 
