@@ -1,40 +1,32 @@
-"""The step as one compiled kernel that reads the creature as data (engine round 4, issue 46).
+"""The calls of the simulator's kernel: one compiled C++ kernel (``sanlab/sim/_kernel``) that
+reads the creature as data and serves every creature, as MuJoCo's C engine and MuJoCo Warp read
+their models. Private to ``sanlab.sim``: the layers above use its API (``tests/test_layers.py``).
 
-The XLA engine it replaced unrolled each creature's structure into its own XLA program at trace
-time, so every new creature was a compile and a small batch paid ~510 kernel dispatches per step
-(``docs/engine-history.md``). Here the structure is *data*: integer tables (parents, dofs, contacts,
-sensors, actuators) and float tables (masses, lengths, gains, ranges), read by one C++ kernel
-(``sanlab/sim/_kernel``) that the package's install compiles once and that serves every
-creature, as MuJoCo's C engine and MuJoCo Warp read their models. It steps a tile of
-:func:`lanes` creatures per thread, one SIMD register per value (see ``_kernel/step.h``).
+The creature goes down as tables (:func:`pack`: integer tables of its structure, float tables of
+its numbers, each declared once in :mod:`sanlab.sim.layout`), which the package's install
+compiles nothing for. The kernel steps a tile of :func:`lanes` creatures per thread, one SIMD
+register per value; ``_kernel/step.h``'s ``step()`` names the stages of a step, each in a header
+of its own (``docs/simulator.md`` walks them). It covers every element of a creature file (both
+planes, every terrain, point masses, angular and linear servos, joint springs and stops, linear
+springs, iso- and anisotropic friction, water drag, every sensor kind, the follow point), both
+routes of the linear algebra (the dense L D L^T and the articulated O(n) recursion, see
+:func:`pack`), the observers (:class:`Observe`) and recording (``every=``). It replaced an XLA
+engine in issue 46 and agreed with it to round-off (``tests/sim/test_kernel_reference.py`` holds
+that engine's numbers; ``docs/engine-history.md``).
 
-The kernel followed the XLA engine term for term (the same coordinates, the same momentum-form
-semi-implicit step with its implicitly linearised elements, the same stick-slip contact laws,
-the same elimination order of the L D L^T solve), in float64, and agreed with it to round-off
-(``tests/sim/test_kernel_reference.py`` holds the engine's numbers, stored before it was
-removed). Structural zeros are carried as exact zeros, which changes no value (x + 0 = x
-exactly), and a contact no creature of a tile touches is skipped.
+Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``), each
+checking what it is given before the kernel reads it (:func:`check`, step counts, shapes):
 
-It covers every physical element of a creature file (both planes, every terrain, point masses,
-angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
-water drag, every sensor kind, the follow point), both routes of the linear algebra (the dense
-L D L^T and the articulated O(n) recursion, see :func:`pack`), the observers (a metric's
-ingredients and the behaviour descriptors: :class:`Observe`) and recording (``every=``).
-
-Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``):
-
-- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes), one
-  loop for every kind of controller; :func:`start` for states at rest, seated on the ground;
+- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes,
+  patterns), one loop for every kind of controller; :func:`start` for states at rest, seated on
+  the ground;
 - inspectors of single configurations: :func:`poses`, :func:`energy`, :func:`momenta`,
   :func:`velocity`, :func:`sense`, :func:`follow_point`, :func:`centre_of_mass` (what
   ``sim.poses``, ``sim.energy``, ``sim.make_state``, ``sim.velocity``, ``sim.sense``,
   ``sim.follow_point`` and ``sim.centre_of_mass`` compute with them).
 
 Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
-one row per thread), bit for bit as the SIMD tiles. Issue 46 ports the layers above (``sim.rollout``,
-the evaluator, the studio, the Gymnasium envs) onto these.
-
-Layout: see :class:`Packed`.
+one row per thread), bit for bit as the SIMD tiles.
 """
 
 from __future__ import annotations
@@ -503,8 +495,7 @@ def _pointers(arrays: list):
 def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
     clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
-    [B, C, 2] at the contact points). The momenta of a state at rest are zero. As the XLA
-    engine's ``seat_on_ground`` and ``make_state`` computed them, to round-off."""
+    [B, C, 2] at the contact points). The momenta of a state at rest are zero."""
     W = lanes()
     q = _rows_of("q", q, pk.ndof)
     B = q.shape[0]

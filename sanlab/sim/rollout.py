@@ -20,8 +20,7 @@ and ``sanlab.descriptors.Descriptors`` are observers):
     observe() -> kernel.Observe            # what to accumulate along the way
     collect(columns: dict) -> acc          # the accumulator from the kernel's named columns
 
-Until issue 46, this was an XLA program compiled per creature (since removed); the signature and
-the :class:`Result` are the same, its arrays NumPy float64.
+A :class:`Result`'s arrays are NumPy float64.
 """
 
 from __future__ import annotations
