@@ -616,11 +616,12 @@ COUNT_MAX = 2**63 - 1  # the kernel's counts are int64: a larger one would wrap
 
 def check_count(name: str, x) -> int:
     """x as a whole number in [0, COUNT_MAX], or a ValueError naming it."""
+    n, whole = -1, False
     try:
         n = int(x)
         whole = n == x and not isinstance(x, bool)
     except (TypeError, ValueError, OverflowError):
-        whole = False
+        pass
     if not whole or not 0 <= n <= COUNT_MAX:
         raise ValueError(f"{name}: expected a whole number in [0, 2**63 - 1], got {x!r}")
     return n
