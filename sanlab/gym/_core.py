@@ -28,7 +28,6 @@ from sanlab.sim.model import Model
 
 OBSERVATIONS = ("bits", "state")
 ACTIONS = ("target", "activation")
-VELOCITY_LIMIT = 1e4  # |qd| beyond this counts as blown up, as at the end of a rollout
 
 
 def check_width(width: Any) -> int:
@@ -243,7 +242,7 @@ class Core:
         """Every row's packed observation: bits [S], q [D], qd [D] (M^-1 p of this state), then
         the metric's numbers and whether the state is finite (as a rollout's end judges it)."""
         r = self._rows
-        finite = (np.isfinite(r.q).all(1) & (np.abs(r.qd) < VELOCITY_LIMIT).all(1) & np.isfinite(r.p).all(1))
+        finite = r.finite()
         a = r.columns()
         tail = np.stack([a["p0x"], a["p0y"], a["y0"], a["hop"], a["pursuit"], a["fell"], a["px"], a["py"],
                          np.maximum(a["deepest"], 0.0), finite.astype(np.float64),

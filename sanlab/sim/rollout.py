@@ -80,6 +80,13 @@ class Result(NamedTuple):
 VELOCITY_LIMIT = 1e4  # |qd| beyond this (m/s, rad/s) counts as blown up
 
 
+def stayed_finite(q: Any, qd: Any, p: Any, t: Any) -> np.ndarray:
+    """[B] bool: each row's state q, qd, p [B, D] and time t [B] finite, and no speed past
+    :data:`VELOCITY_LIMIT` (a run that blew up is flagged, never fatal)."""
+    return (np.isfinite(q).all(1) & (np.abs(qd) < VELOCITY_LIMIT).all(1) & np.isfinite(p).all(1)
+            & np.isfinite(t))
+
+
 def devices() -> list[str]:
     """What a batch is spread over: the CPU's cores (one OpenMP thread per core)."""
     import os
@@ -173,8 +180,7 @@ def rollout(
         params = cparams if kind == "reflex" else np.asarray(cparams, np.float64)
         r = kernel.run_open(pk, kind, params, q, p, anchor, steps, t0=t0, rows=rows, observe=ob, every=every)
     state = State(q=r["q"], qd=r["qd"], t=r["t"], p=r["p"], anchor=r["anchor"])
-    finite = (np.isfinite(r["q"]).all(1) & (np.abs(r["qd"]) < VELOCITY_LIMIT).all(1) & np.isfinite(r["p"]).all(1)
-              & np.isfinite(r["t"]))
+    finite = stayed_finite(r["q"], r["qd"], r["p"], r["t"])
     acc = observer.collect(columns(r["acc"], ob)) if observer is not None and ob is not None else None
     cstate = _san_state(r["istate"], r["out"]) if kind == "san" else r["t"]
     frames = None

@@ -70,6 +70,12 @@ class Rows:
         """The sensor values [n, S] (0.0 / 1.0) of every row's state at its time."""
         return kernel.sense(self._pk, self.q, self.t)
 
+    def finite(self) -> np.ndarray:
+        """[n] bool: each row's state finite and not blown up, as a rollout's end judges it."""
+        from sanlab.sim.rollout import stayed_finite
+
+        return stayed_finite(self.q, self.qd, self.p, self.t)
+
     def columns(self) -> dict[str, np.ndarray]:
         """The accumulators by name (``sim.rollout``'s observers' columns: ``sim.ACC`` [n] each,
         "duty" [n, touch sensors], "words", "times" [n, EVENTS]). Raises ValueError without an

@@ -31,6 +31,9 @@ def test_rows_stepped_in_pieces_are_the_rollout_in_one_call_bit_for_bit():
     for a, b in zip(got, whole.acc, strict=True):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     np.testing.assert_array_equal(rows.bits(), sim.sense(m, whole.state.q, whole.state.t))
+    np.testing.assert_array_equal(rows.finite(), whole.finite)
+    rows.qd[1, 0], rows.p[2, 0] = 2e4, np.nan  # blown up: as a rollout's end judges it
+    assert rows.finite().tolist() == [True, False, False]
 
 
 def test_rows_restart_only_the_masked_rows_and_refuse_columns_without_an_observer():
