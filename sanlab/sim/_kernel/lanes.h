@@ -84,4 +84,9 @@ template <class V> static inline void sincos(V x, V &s, V &c) {
   c = Ls::sel((q == 1.0) | (q == 2.0), -c0, c0);
 }
 
+// a wrapped to [-pi, pi) (rad)
+template <class V> static inline V wrap_angle(V a) {
+  return a - (2 * M_PI) * Lanes<V>::floor((a + M_PI) * (0.5 / M_PI));
+}
+
 }  // namespace sanlab

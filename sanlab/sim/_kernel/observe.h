@@ -127,7 +127,7 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   V f = acc[A_FELL];
   for (int k = 0; k < oi[O_N_FELL]; ++k) {
     int i = fell[k];
-    V a = t.th[i] - (2 * M_PI) * Ls::floor((t.th[i] + M_PI) * (0.5 / M_PI));
+    V a = wrap_angle(t.th[i]);
     f = Ls::sel(Ls::abs(a) > of[OF_FELL_ANGLE], V{} + 1.0, f);
     if (oi[O_FELL_LINK] && vertical)
       f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < of[OF_FELL_LINK_HEIGHT], V{} + 1.0, f);
@@ -169,7 +169,7 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   const int root = oi[O_ROOT];
   if (root >= 0) {
     V th = t.th[root], d = th - acc[A_ANGLE];
-    d = d - (2 * M_PI) * Ls::floor((d + M_PI) * (0.5 / M_PI));
+    d = wrap_angle(d);
     acc[A_TURN] = acc[A_TURN] + Ls::sel(acc[A_STEPS] > 0.0, d, V{});
     acc[A_ANGLE] = th;
   }

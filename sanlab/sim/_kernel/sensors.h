@@ -42,7 +42,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
     if (kind == S_ANGLE || kind == S_TILT) {
       int link = si.on, par = m.link(link).parent;
       V ang = (par < 0 || kind == S_TILT) ? t.th[link] : t.th[link] - t.th[par];
-      a = ang - (2 * M_PI) * Ls::floor((ang + M_PI) * (0.5 / M_PI));
+      a = wrap_angle(ang);
     } else if (kind == S_EYE) {
       int li = si.on, frm = si.second, to = si.third;
       V ex, ey;

@@ -36,11 +36,23 @@ template <class V> struct Tile {
   // else the shared value on every lane (kernel.cpp fills them as a tile starts); read through
   // the rows' structs below
   V *lf, *cf, *sf, *af, *pf, *ef, *wf, *rough;
+  // per link: absolute angle th (rad) and its (cos, sin) cs; origin X and centre of mass com in
+  // the world (m); over its subtree, the mass msum (kg) and mass-weighted centres mc (kg m); S how
+  // its tree's centre-of-mass coordinates turn with its joint (kinematics.h: turn); angular
+  // velocity w (rad/s) and its origin's velocity V_ (m/s)
   V *th, (*cs)[2], (*X)[2], (*com)[2], (*mc)[2], (*S)[2], *w, (*V_)[2];
   V *msum;
+  // per contact: world point cp (m), depth below the ground (m), the ground's normal and tangent
+  // gn (nx, ny, tx, ty) there, and the point's velocity cv (m/s)
   V (*cp)[2], *depth, (*gn)[4], (*cv)[2];
+  // ndof x ndof: the mass matrix M, the step's matrix A = M + h D + h^2 K, and the L D L^T's
+  // factors F, Lf (solve.h)
   V *M, *A, *F, *Lf;
+  // per dof: the step's force Q, the velocity u in tree coordinates and qd in state coordinates,
+  // a point's Jacobian row g (then the momentum change), the solve's x, a dense row of an element
   V *Q, *u, *qd, *g, *x, *row;
+  // the SAN's node sums total [nnode], the sensor values bits [nsensor] (0 or 1), the
+  // activations act [nact] in [0, 1]
   V *total, *bits, *act;
   // the articulated route (art.h): per body its spatial inertia about its tree's reference
   // point, joint motion subspace, the step's extra inertia E and spatial force F, and the
