@@ -26,7 +26,7 @@ using namespace sanlab;
 // One rollout template serves them all, so every kind steps, observes and records alike.
 // (their kinds: layout.h, K_SAN ... K_PATTERN)
 
-// the SAN (step.h: san): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
+// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
 template <class V> struct SanControl {
   const short *weights;
   int NP;
@@ -340,16 +340,16 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // Runs `steps` steps of T tiles of W creatures under one kind of controller (kernel.py: run_san,
 // run_open); scalar = 1: one creature per thread in plain double (W = 1), the form a GPU thread
 // runs, here for the tests that it steps every creature bit for bit as the vector form does.
-// kind: 0 SAN, 1 hold, 2 sine, 3 reflex, 4 pattern (see the controllers above for their parameters).
-// dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py; N = 0 and I = S but for a SAN);
-// tables: the creature's tables in the order of kernel.TABLES; per_row: for each float table but
+// kind: layout.h's K_SAN ... K_PATTERN (see the controllers above for their parameters).
+// dims: the counts of layout.DIMS, in its order (DIM_LINKS ...; nodes 0 and inputs = sensors but for a SAN);
+// tables: the creature's tables in the order of layout.ORDER; per_row: for each float table but
 // the follow path (lf, cf, sf, af, pf, ef, wf, rough), 1 where it holds one copy per row
 // ([T * W, ...]: mixed batches), 0 where one copy serves every row; state: q, p [T, D, W], anchor
 // [T, C, 2, W], t, dmax [T, W] (updated in place); par [T, n_param, W] the controller's
 // parameters, cst [T, n_state, W] its state (updated in place); float64. weights: a SAN's int16
 // [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node count
 // rounded up to a multiple of 32 (zeros past N); null for the others.
-// oi, of: the observers' config (step.h, "observers"), or null for none; acc [T, obs_values, W]
+// oi, of: the observers' config (observe.h), or null for none; acc [T, obs_values, W]
 // their accumulators (started here when init is 1); qd [T, D, W] receives the final velocity.
 // frames: null, or [T, n_frames, 2 D + S + A + n_state, W] for a frame every `every` steps.
 void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,

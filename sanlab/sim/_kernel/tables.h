@@ -30,7 +30,7 @@ static_assert(sizeof(LinkInts) == LI_WIDTH * sizeof(int32_t) && sizeof(TreeInts)
               "layout.h's rows are packed tables");
 
 // A tile's scratch: every per-creature value of a step, one V each, carved out of one block sized
-// for the creature (tile_bytes); matrices are ndof x ndof, row-major.
+// for the creature (tile_values); matrices are ndof x ndof, row-major.
 template <class V> struct Tile {
   // the creature's numbers, one V each: a lane's own where rows carry their own (mixed batches),
   // else the shared value on every lane (kernel.cpp fills them as a tile starts); read through
@@ -54,7 +54,7 @@ template <class V> struct Tile {
   // the SAN's node sums total [nnode], the sensor values bits [nsensor] (0 or 1), the
   // activations act [nact] in [0, 1]
   V *total, *bits, *act;
-  // the articulated route (art.h): per body its spatial inertia about its tree's reference
+  // the articulated route (articulated.h): per body its spatial inertia about its tree's reference
   // point, joint motion subspace, the step's extra inertia E and spatial force F, and the
   // recursion's articulated inertias and biases; per dof the extra diagonal (armature)
   V (*I)[6], (*s)[3], (*E)[6], (*Fb)[3], (*IA)[6], (*pA)[3], (*U)[3], *invD, *uu, (*acc)[3], (*Hb)[3], *arm;
