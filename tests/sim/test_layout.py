@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from sanlab import creature, sim
-from sanlab.sim import kernel, layout
+from sanlab.sim import kernel, layout, native
 from sanlab.sim.state import packed
 
 KERNEL = Path(layout.__file__).parent / "_kernel"
@@ -64,7 +64,7 @@ def test_the_ctypes_signatures_are_the_cpp_entry_points(name):
 
 def test_a_call_with_a_missing_or_unknown_argument_is_refused_before_the_kernel():
     with pytest.raises(TypeError, match=r"sanlab_start: expected arguments \['dims'"):
-        kernel._call("sanlab_start", dims=0)
+        native._call("sanlab_start", dims=0)
 
 
 def test_the_packed_tables_put_each_number_in_its_declared_column():
