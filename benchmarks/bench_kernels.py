@@ -65,3 +65,13 @@ def prepared(spec, B: int, steps: int, seed: int, rows=None):
     w = np.asarray(sp.weights, np.float64)
     k1, k2 = np.asarray(sp.k1, np.float64), np.asarray(sp.k2, np.float64)
     return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps, rows=per_row)["q"]
+
+
+def prepared_open(spec, B: int, steps: int, seed: int):
+    """As :func:`prepared`, but the B rows hold random activations (the kernel's "hold"
+    controller): the physics alone, no network in the loop."""
+    from sanlab.sim import kernel
+
+    _, _, _, pk, (q, p, anchor, _, _), _ = _start(spec, B, seed)
+    u = np.random.default_rng(seed).uniform(0.0, 1.0, (B, pk.ai.shape[0]))
+    return lambda: kernel.run_open(pk, "hold", u, q, p, anchor, steps)["q"]

@@ -83,7 +83,7 @@ class Descriptors:
 
     def observe(self):
         """What the kernel accumulates for the descriptors (``sanlab.sim.rollout``'s observers)."""
-        from sanlab.sim.kernel import Observe
+        from sanlab.sim import Observe
 
         return Observe(root=self.root, sensors=self.n_sensors if 0 < self.n_sensors <= MAX_SENSORS else 0,
                        joints=self.joints, touch=self.touch)

@@ -97,7 +97,7 @@ class Metric:
 
     def observe(self):
         """What the kernel accumulates for this metric (``sanlab.sim.rollout``'s observers)."""
-        from sanlab.sim.kernel import Observe
+        from sanlab.sim import Observe
 
         return Observe(kind=self.kind, fell_links=self.fell_links, fell_angle=self.fell_angle,
                        fell_com_height=self.fell_com_height, fell_link_height=self.fell_link_height,

@@ -85,8 +85,8 @@ def observe(obs: Descriptors, seconds: float, dt: float, path) -> tuple[dict, st
 def test_the_kernel_accumulates_what_the_reference_does(name):
     # the reference fed the kernel's recorded frames (every step) and the inspectors' poses of
     # them: the kernel's descriptor accumulators, the sensor words exactly
-    from sanlab.engine_report import random_san_params
     from sanlab.metrics import Metric
+    from sanlab.random_sans import random_san_params
     from sanlab.sim import kernel
     from tests.sim.test_kernel import observe_of
 

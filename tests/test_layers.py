@@ -2,13 +2,13 @@
 
 Layers, lowest first (a module may import from its own layer and the ones below):
 
-    base              sanlab (the package: __version__, configure)
+    base              sanlab (the package: __version__)
     creature          the spec and the file format
     sim               compile, step, roll out
     san, metrics      controllers and observers of a rollout (metrics, descriptors); interop (MJCF export) sits here too,
                       above sim, which it may use
     evaluate          evaluate (scoring batches), gait (a stored controller with its creature,
-                      replayed), engine_report (random SANs summarised, `sanlab simulate`),
+                      replayed), random_sans (random SANs summarised, `sanlab simulate`),
                       tuned (a gait in the creature file's terms), check (a creature dropped
                       for a second: `sanlab check --simulate`)
     library           the gait library (SQLite)
@@ -41,7 +41,7 @@ LAYERS: list[tuple[str, dict[str, tuple[str, ...]]]] = [
     ("creature", {"creature": ("sanlab.creature",)}),
     ("sim", {"sim": ("sanlab.sim",)}),
     ("san and metrics", {"san": ("sanlab.san",), "metrics": ("sanlab.metrics", "sanlab.descriptors"), "interop": ("sanlab.interop",)}),
-    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.engine_report", "sanlab.tuned", "sanlab.check")}),
+    ("evaluate", {"evaluate": ("sanlab.evaluate", "sanlab.gait", "sanlab.random_sans", "sanlab.tuned", "sanlab.check")}),
     ("library", {"library": ("sanlab.library",)}),
     ("search and render", {"search": ("sanlab.search", "sanlab.reproduce", "sanlab.design", "sanlab.audit", "sanlab.modes"), "render": ("sanlab.render",)}),
     ("cli and studio", {"cli": ("sanlab.cli", "sanlab.__main__"), "studio": ("sanlab.studio",), "gym": ("sanlab.gym",)}),
@@ -166,6 +166,44 @@ def test_no_import_runs_up_the_layers():
 
 def test_no_import_cycles():
     assert cycles(graph()) == []
+
+
+# module -> the only package that may import it: the kernel's calls and the parts they are split into
+PRIVATE = {"sanlab.sim.kernel": "sanlab.sim", "sanlab.sim.native": "sanlab.sim", "sanlab.sim.tables": "sanlab.sim",
+           "sanlab.sim.layout": "sanlab.sim"}
+
+
+def private_imports(g: dict[str, set[str]]) -> list[str]:
+    """Every import of a module of :data:`PRIVATE` from outside the package that owns it."""
+    return [f"{a} imports {b}, which only {owner} may: use {owner}'s API"
+            for a, targets in sorted(g.items()) for b in sorted(targets)
+            if (owner := PRIVATE.get(b)) and not (a == owner or a.startswith(owner + "."))]
+
+
+def test_nothing_outside_sim_imports_its_kernel():
+    # the kernel's tables and calls change with it; the layers above use sim's API (sim.Rows,
+    # sim.Observe, sim.poses(..., params_batched=True), ...), so it can change alone
+    assert private_imports(graph()) == []
+
+
+def test_the_private_check_catches_a_kernel_import():
+    g = {k: set(v) for k, v in graph().items()}
+    assert "sanlab.sim.kernel" in g["sanlab.sim.rollout"]  # inside sim: allowed, and seen
+    g["sanlab.gym._core"].add("sanlab.sim.kernel")
+    assert private_imports(g) == [
+        "sanlab.gym._core imports sanlab.sim.kernel, which only sanlab.sim may: use sanlab.sim's API"]
+    mods = modules()
+    src = "from sanlab.sim import kernel\n"
+    assert "sanlab.sim.kernel" in _imports_of_text(src, set(mods))  # the form gym and search used
+
+
+def _imports_of_text(text: str, known: set[str]) -> set[str]:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "probe.py"
+        path.write_text(text)
+        return imports("sanlab.gym.probe", path, known)
 
 
 def test_render_takes_data_not_a_library_or_a_command_line():

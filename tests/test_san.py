@@ -96,7 +96,7 @@ def test_the_kernels_san_is_this_step_bit_for_bit():
     # the kernel's SAN (kernel.run_san, recorded every step) against San.step fed the sensor
     # values the kernel recorded: the same node states, outputs and activations, bit for bit
     from sanlab import sim
-    from sanlab.engine_report import random_san_params
+    from sanlab.random_sans import random_san_params
     from sanlab.sim import kernel
 
     spec = creature.load("bounder")

@@ -29,7 +29,7 @@ from sanlab.creature.spec import SCORE_UNITS
 
 
 def report_record(rep: dict, top: int) -> dict:
-    """``sanlab.engine_report.simulate_random``'s report as the ``simulate`` record: the rows in
+    """``sanlab.random_sans.simulate_random``'s report as the ``simulate`` record: the rows in
     the gait rows' words (``dx_m`` and ``direction``, ``nonfinite``), the counts as search's
     ``tally``, the best ``top`` rows."""
     rows = [{"controller": r["controller"], "score": r["score"], "speed_cm_s": r["speed_cm_s"], "dx_m": r.get("dx_m"),
@@ -61,7 +61,7 @@ def simulate(
     seconds = seconds if seconds is not None else c.evaluation.seconds
     ens = ensemble_or_exit(ensemble, dt_factors, dt_jitter)
     print_static_warnings(c, creature)  # as search does: the same file, the same warnings
-    from sanlab.engine_report import simulate_random
+    from sanlab.random_sans import simulate_random
 
     with console.status(f"compiling and simulating {controllers} controllers...", spinner="dots") as _:
         rep = simulate_random(c, controllers, seconds, seed, dtype, ens)

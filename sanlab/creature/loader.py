@@ -250,6 +250,8 @@ def _creature(t: _Table, default_name: str) -> Creature:
                 a.joint,
             )
     dt = t.get("dt", within(*DT_RANGE, "s"), spec_default(Creature, "dt"))
+    if evaluation.seconds < dt:  # a run of no steps, scored 0 with no flag (issue 57)
+        raise t.error("evaluation.seconds", f"at least one step of dt = {dt:g} s", evaluation.seconds)
     if evaluation.seconds / dt > MAX_STEPS:
         raise t.error("evaluation.seconds", f"at most {MAX_STEPS * dt:g} s ({MAX_STEPS:,} steps of dt = {dt:g} s)",
                       evaluation.seconds)

@@ -30,7 +30,7 @@ from sanlab.evaluate.records import ScoreBatch
 from sanlab.evaluate.resolution import Servos
 from sanlab.metrics import Metric, scores
 from sanlab.san import San, SanParams
-from sanlab.sim import kernel
+from sanlab.sim import Observe
 from sanlab.sim.model import Model
 
 # Named terrain sets (§6.2), scored as the mean over their grounds: rough = three rough grounds
@@ -74,9 +74,9 @@ class Request:
 
 def describe_devices() -> str:
     """What a local evaluation runs on, e.g. "2 x cpu (kernel, 8 lanes)": stored with every run."""
-    from sanlab.sim import devices, kernel
+    from sanlab.sim import devices, lanes
 
-    return f"{len(devices())} x cpu (kernel, {kernel.lanes()} lanes)"
+    return f"{len(devices())} x cpu (kernel, {lanes()} lanes)"
 
 
 class Evaluator:
@@ -376,7 +376,7 @@ class Observers:
     metric: Metric
     descriptors: descriptors.Descriptors
 
-    def observe(self) -> kernel.Observe:
+    def observe(self) -> Observe:
         import dataclasses as dc
 
         d = self.descriptors.observe()

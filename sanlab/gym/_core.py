@@ -1,5 +1,5 @@
-"""What both environments share: one creature's tables, a batch of rows stepped by the simulator's
-kernel (``sanlab.sim.kernel``, the rollouts' own), and the metric scored on the host by
+"""What both environments share: one creature, a batch of rows stepped by the simulator
+(``sanlab.sim.Rows``, on the rollouts' own kernel), and the metric scored on the host by
 ``sanlab.metrics.scores``, the function an evaluation is scored with.
 
 A row is one copy of the creature. An environment step is one call of the kernel: ``frame_skip``
@@ -28,7 +28,6 @@ from sanlab.sim.model import Model
 
 OBSERVATIONS = ("bits", "state")
 ACTIONS = ("target", "activation")
-VELOCITY_LIMIT = 1e4  # |qd| beyond this counts as blown up, as at the end of a rollout
 
 
 def check_width(width: Any) -> int:
@@ -111,19 +110,17 @@ class Settings:
 
 
 class Core:
-    """``rows`` copies of ``spec`` stepped together by the kernel (``devices``: accepted for
-    callers written for the XLA engine, without effect), scored by ``metric`` (default: the creature file's) over ``seconds``
-    (default: the file's evaluation time).
+    """``rows`` copies of ``spec`` stepped together by the simulator, scored by ``metric``
+    (default: the creature file's) over ``seconds`` (default: the file's evaluation time).
 
     overrides: {``sanlab.sim.Params`` field: array}, e.g. a tuned gait's ``params.model``
     (``sanlab.gait.Gait.model``). Raises ValueError for a bad metric, duration, dtype or
     override (``sanlab.gait.check_params``), a creature without sensors or actuators, a
     duration shorter than one environment step."""
 
-    def __init__(self, spec: Creature, settings: Settings, rows: int, devices: tuple = (), *, metric: str | None = None,
+    def __init__(self, spec: Creature, settings: Settings, rows: int, *, metric: str | None = None,
                  seconds: float | None = None, dtype: str = "float64", overrides: dict | None = None):
         from sanlab import sim
-        from sanlab.sim.state import packed
 
         if dtype not in ("float32", "float64"):
             raise ValueError(f"dtype: expected float32 or float64, got {dtype!r}")
@@ -163,16 +160,9 @@ class Core:
         self.rows = int(rows)
         if self.rows < 1:
             raise ValueError(f"rows: expected >= 1, got {rows}")
-        self.devices = tuple(devices)
         self._seat = st.plane == "vertical" and bool(st.contacts)
-        self._pk = packed(model)
-        self._observe = self.metric.observe()
-        D, C = self.ndof, len(st.contacts)
         # each row's state and the metric's accumulators, carried between calls
-        self._q, self._p = np.zeros((self.rows, D)), np.zeros((self.rows, D))
-        self._anchor, self._t = np.zeros((self.rows, C, 2)), np.zeros(self.rows)
-        self._acc = np.zeros((self.rows, self._observe.size))
-        self._qd = np.zeros((self.rows, D))
+        self._rows = sim.Rows(model, self.rows, observe=self.metric.observe())
 
     # ---- spaces' numbers, and actions -----------------------------------------------------
 
@@ -233,48 +223,31 @@ class Core:
         dq, _ = Ensemble(members=2, pose=1e-3 * s, angle=0.5 * s).draws(self.model.structure, key, len(self.spec.links))
         return (self.q0.astype(np.float64) + dq[1]).astype(self.dtype), self._seat
 
-    # ---- the kernel's calls ----------------------------------------------------------------
+    # ---- the simulator's calls ------------------------------------------------------------
 
     def restart(self, mask: np.ndarray, q: np.ndarray, seat: np.ndarray) -> np.ndarray:
         """Start the rows where ``mask`` [rows] from coordinates q [rows, D] (re-seated on the
         ground where ``seat``), at rest, their metric restarted; every row's packed
         observation [rows, K] comes back."""
-        from sanlab.sim import kernel
-
-        m = np.flatnonzero(np.asarray(mask, bool))
-        if len(m):
-            seat = np.asarray(seat, bool)[m] & self._seat
-            qs, anchor = kernel.start(self._pk, np.asarray(q, np.float64)[m], seat=seat)
-            # zero steps from the start: the metric's accumulators as a run starts them
-            r = kernel.run_open(self._pk, "hold", np.zeros((len(m), self.n_actuators)), qs, np.zeros_like(qs), anchor, 0,
-                                observe=self._observe)
-            self._q[m], self._p[m], self._anchor[m], self._t[m] = qs, 0.0, anchor, 0.0
-            self._acc[m], self._qd[m] = r["acc"], r["qd"]
+        self._rows.restart(mask, q, np.asarray(seat, bool) & self._seat)
         return self._pack()
 
     def step(self, u: np.ndarray) -> np.ndarray:
         """Every row ``frame_skip`` simulator steps on with activations u [rows, A]; their packed
         observations [rows, K] come back."""
-        from sanlab.sim import kernel
-
-        r = kernel.run_open(self._pk, "hold", np.asarray(u, np.float64), self._q, self._p, self._anchor,
-                            self.settings.frame_skip, t0=self._t, observe=self._observe, acc=self._acc)
-        self._q, self._p, self._anchor, self._t = r["q"], r["p"], r["anchor"], r["t"]
-        self._acc, self._qd = r["acc"], r["qd"]
+        self._rows.step(u, self.settings.frame_skip)
         return self._pack()
 
     def _pack(self) -> np.ndarray:
         """Every row's packed observation: bits [S], q [D], qd [D] (M^-1 p of this state), then
         the metric's numbers and whether the state is finite (as a rollout's end judges it)."""
-        from sanlab.sim import kernel
-
-        bits = kernel.sense(self._pk, self._q, self._t)
-        finite = (np.isfinite(self._q).all(1) & (np.abs(self._qd) < VELOCITY_LIMIT).all(1) & np.isfinite(self._p).all(1))
-        a = dict(zip(kernel.ACC, self._acc.T, strict=False))
+        r = self._rows
+        finite = r.finite()
+        a = r.columns()
         tail = np.stack([a["p0x"], a["p0y"], a["y0"], a["hop"], a["pursuit"], a["fell"], a["px"], a["py"],
                          np.maximum(a["deepest"], 0.0), finite.astype(np.float64),
                          a["gap"] / np.maximum(a["steps"], 1.0), a["gap0"]], 1)
-        return np.concatenate([bits, self._q, self._qd, tail], 1)
+        return np.concatenate([r.bits(), r.q, r.qd, tail], 1)
 
     # ---- unpacking on the host ------------------------------------------------------------
 

@@ -46,8 +46,7 @@ class SanlabVectorEnv(VectorEnv):
 
     max_episode_steps: truncate after this many environment steps (default, and at most: the
     creature's evaluation time). autoreset_mode: an ``AutoresetMode`` or its value ("NextStep",
-    "SameStep", "Disabled"). devices: accepted for callers written for the XLA engine, without effect (the
-    kernel spreads the rows over the cores).
+    "SameStep", "Disabled").
 
     Observations are batched as Gymnasium batches the single space (``batch_space``): [N, S]
     int8 bits, or a dict of [N, D] arrays; actions [N, A]. Raises ValueError as the single
@@ -61,7 +60,7 @@ class SanlabVectorEnv(VectorEnv):
                  action: str = "target", frame_skip: int = 1, terminate_on_fall: bool = True,
                  reset_noise_scale: float = 0.0, dtype: str = "float64", overrides: dict | None = None,
                  max_episode_steps: int | None = None, autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 render_mode: str | None = None, width: int = 640, devices: Any = None):
+                 render_mode: str | None = None, width: int = 640):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs: expected an integer >= 1, got {num_envs!r}")
         try:
@@ -74,7 +73,6 @@ class SanlabVectorEnv(VectorEnv):
         spec = resolve(creature, path)
         settings = Settings(observation, action, frame_skip, bool(terminate_on_fall), reset_noise_scale)
         n = int(num_envs)
-        del devices  # the kernel spreads the rows over the cores itself
         self.core = Core(spec, settings, n, metric=metric, seconds=seconds, dtype=dtype, overrides=overrides)
         if self.core.unresolved:
             warnings.warn(f"creature {spec.name!r}: a servo is faster than dt = {self.core.dt:g} s resolves; "

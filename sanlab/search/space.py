@@ -289,12 +289,10 @@ class Space:
 def _rest_on_ground(batched, nominal):
     """q0 [B, D] with the roots shifted vertically so that the lowest contact starts where it did
     nominally (a longer leg must not start inside the ground)."""
-    from sanlab.sim import kernel, poses
-    from sanlab.sim.state import first_row, packed, row_tables
+    from sanlab.sim import poses
 
-    B = np.shape(batched.params.q0)[0]
     q0 = np.array(batched.params.q0, np.float64)
-    low = kernel.poses(packed(first_row(batched)), q0, rows=row_tables(batched, B))["contacts"][:, :, 1].min(1)
+    low = poses(batched, q0, params_batched=True)["contacts"][:, :, 1].min(1)
     shift = poses(nominal, nominal.params.q0)["contacts"][:, 1].min() - low
     for ls in batched.structure.links:
         if ls.parent < 0 and ls.dof_y >= 0:

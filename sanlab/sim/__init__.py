@@ -3,6 +3,10 @@
     model = compile_creature(spec)              # the creature's tables (structure, numbers)
     result = rollout(model, controller, cparams, seconds=6.0)   # a batch, closed loop
     state = make_state(model); frame = poses(model, state.q)
+    rows = Rows(model, 4, observe=...); rows.step(u, steps=2)   # copies stepped a few steps at a time
+
+Nothing outside this package imports its kernel (:mod:`sanlab.sim.kernel`): what the layers above
+need of it is here (``Observe``, ``ACC``, ``lanes``; tests/test_layers.py holds them to it).
 
 Every step runs in one compiled kernel that reads the creature as data (:mod:`sanlab.sim.kernel`):
 no creature is ever compiled. It replaced an XLA engine (issue 46; ``docs/engine-history.md``),
@@ -10,6 +14,7 @@ whose numbers the tests keep (``tests/sim/test_kernel_reference.py``).
 """
 
 from sanlab.sim.compiler import compile_creature
+from sanlab.sim.kernel import ACC, Observe, lanes
 from sanlab.sim.model import Model, Params, Structure
 from sanlab.sim.rollout import (
     ConstantController,
@@ -18,10 +23,10 @@ from sanlab.sim.rollout import (
     ReflexController,
     Result,
     SineController,
-    batch_quantum,
     devices,
     rollout,
 )
+from sanlab.sim.rows import Rows
 from sanlab.sim.state import (
     SanState,
     State,
@@ -45,5 +50,5 @@ __all__ = [
     "step", "terrain_height", "velocity", "wrap_angle", "root_coordinates", "from_root_coordinates",
     "Model", "Params", "Structure", "compile_creature",
     "ConstantController", "Frames", "PatternController", "ReflexController", "Result", "SineController",
-    "batch_quantum", "devices", "rollout",
+    "devices", "rollout", "Rows", "Observe", "ACC", "lanes",
 ]

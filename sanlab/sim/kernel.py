@@ -1,413 +1,74 @@
-"""The step as one compiled kernel that reads the creature as data (engine round 4, issue 46).
+"""The calls of the simulator's kernel: one compiled C++ kernel (``sanlab/sim/_kernel``) that
+reads the creature as data and serves every creature, as MuJoCo's C engine and MuJoCo Warp read
+their models. Private to ``sanlab.sim``: the layers above use its API (``tests/test_layers.py``).
 
-The XLA engine it replaced unrolled each creature's structure into its own XLA program at trace
-time, so every new creature was a compile and a small batch paid ~510 kernel dispatches per step
-(``docs/engine-history.md``). Here the structure is *data*: integer tables (parents, dofs, contacts,
-sensors, actuators) and float tables (masses, lengths, gains, ranges), read by one C++ kernel
-(``sanlab/sim/_kernel``) that the package's install compiles once and that serves every
-creature, as MuJoCo's C engine and MuJoCo Warp read their models. It steps a tile of
-:func:`lanes` creatures per thread, one SIMD register per value (see ``_kernel/step.h``).
+The creature goes down as tables (:func:`pack`: integer tables of its structure, float tables of
+its numbers, each declared once in :mod:`sanlab.sim.layout`), which the package's install
+compiles nothing for. The kernel steps a tile of :func:`lanes` creatures per thread, one SIMD
+register per value; ``_kernel/step.h``'s ``step()`` names the stages of a step, each in a header
+of its own (``docs/simulator.md`` walks them). It covers every element of a creature file (both
+planes, every terrain, point masses, angular and linear servos, joint springs and stops, linear
+springs, iso- and anisotropic friction, water drag, every sensor kind, the follow point), both
+routes of the linear algebra (the dense L D L^T and the articulated O(n) recursion, see
+:func:`pack`), the observers (:class:`Observe`) and recording (``every=``). It replaced an XLA
+engine in issue 46 and agreed with it to round-off (``tests/sim/test_kernel_reference.py`` holds
+that engine's numbers; ``docs/engine-history.md``).
 
-The kernel followed the XLA engine term for term (the same coordinates, the same momentum-form
-semi-implicit step with its implicitly linearised elements, the same stick-slip contact laws,
-the same elimination order of the L D L^T solve), in float64, and agreed with it to round-off
-(``tests/sim/test_kernel_reference.py`` holds the engine's numbers, stored before it was
-removed). Structural zeros are carried as exact zeros, which changes no value (x + 0 = x
-exactly), and a contact no creature of a tile touches is skipped.
+Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``), each
+checking what it is given before the kernel reads it (:func:`check`, step counts, shapes):
 
-It covers every physical element of a creature file (both planes, every terrain, point masses,
-angular and linear servos, joint springs and stops, linear springs, iso- and anisotropic friction,
-water drag, every sensor kind, the follow point), both routes of the linear algebra (the dense
-L D L^T and the articulated O(n) recursion, see :func:`pack`), the observers (a metric's
-ingredients and the behaviour descriptors: :class:`Observe`) and recording (``every=``).
-
-Entry points, each over a batch of B rows (rows may carry their own numbers: ``rows=``):
-
-- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes), one
-  loop for every kind of controller; :func:`start` for states at rest, seated on the ground;
+- rollouts: :func:`run_san` (SANs) and :func:`run_open` (held activations, sines, reflexes,
+  patterns), one loop for every kind of controller; :func:`start` for states at rest, seated on
+  the ground;
 - inspectors of single configurations: :func:`poses`, :func:`energy`, :func:`momenta`,
   :func:`velocity`, :func:`sense`, :func:`follow_point`, :func:`centre_of_mass` (what
   ``sim.poses``, ``sim.energy``, ``sim.make_state``, ``sim.velocity``, ``sim.sense``,
   ``sim.follow_point`` and ``sim.centre_of_mass`` compute with them).
 
 Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
-one row per thread), bit for bit as the SIMD tiles. Issue 46 ports the layers above (``sim.rollout``,
-the evaluator, the studio, the Gymnasium envs) onto these.
-
-Layout: see :class:`Packed`.
+one row per thread), bit for bit as the SIMD tiles.
 """
 
 from __future__ import annotations
 
-import math
-from collections import OrderedDict
-from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
-# li columns
-L_PARENT, L_POINT, L_DX, L_DY, L_ROT, L_TREE, L_WELDED, L_ANISO, L_AX_FROM, L_AX_TO, L_SPRING, L_LIMIT = range(12)
-LI = 12
-# lf columns
-F_MASS, F_INERTIA, F_COMX, F_COMY, F_ANCX, F_ANCY, F_POSEX, F_POSEY, F_POSEA = range(9)
-F_MU = 9  # 3: forward, backward, lateral
-F_JSPRING = 12  # 3: stiffness, damping, rest
-F_LIMIT = 15  # 4: min, max, stiffness, damping
-LF = 19
-# wf entries
-(W_GRAVITY, W_GK, W_GC, W_SLIP, W_DT, W_SLOPE, W_HILL_H, W_HILL_W, W_HILL_C, W_WATER_K, W_WATER_T, W_FOLLOW_DS,
- W_FOLLOW_SPEED) = range(13)
-W_COUNT = 13
-# wi entries
-W_TERRAIN, W_HIDDEN, W_PLANE, W_FOLLOW, W_FOLLOW_LOOP, W_ARTICULATED = range(6)
-TERRAINS = {"flat": 0, "slope": 1, "hill": 2, "rough": 3}
-SENSORS = {"touch": 0, "angle": 1, "tilt": 2, "eye": 3, "length": 4}
-# the order of the tables in the kernel's call (see _kernel/kernel.cpp)
-TABLES = ("li", "ri", "rl", "rn", "ti", "ci", "si", "ai", "pi", "ei", "wi", "lf", "cf", "sf", "af", "pf", "ef", "wf",
-          "rough", "follow")
+from sanlab.sim import layout
+from sanlab.sim.native import ENTRY_POINTS, _call, _dims, _pointers, _tables, _tile, _untile, lanes, source_hash
+from sanlab.sim.observe import ACC, EVENTS, METRIC_KINDS, Observe
+from sanlab.sim.tables import (
+    F_MASS,
+    F_MU,
+    L_PARENT,
+    ROW_TABLES,
+    SENSORS,
+    TABLES,
+    TERRAINS,
+    W_ARTICULATED,
+    W_DT,
+    W_HIDDEN,
+    W_PLANE,
+    Packed,
+    _check_rows,
+    check,
+    numbers,
+    pack,
+)
 
-
-class Packed(NamedTuple):
-    """A creature as tables for the kernel: int32 ``li`` [L, LI] and float64 ``lf`` [L, LF] per
-    link (the column names above); ``ri``, ``rl`` [L, R] and ``rn`` [L] each link's chain: the
-    dofs a point on it depends on (the tree's translation, then each joint from the root, in
-    increasing order), what each is (-1 / -2 the tree's x / y, else the link whose joint it is),
-    and how many; ``ti`` [T, 3] per tree (root, free, a lone point mass); ``ci`` [C] and ``cf``
-    [C, 3] per contact (link; point in its frame (m), normal load (N) in the horizontal plane);
-    ``si`` [S, 4] and ``sf`` [S, 6] per sensor (kind, then the contact, link or links it reads;
-    min, max, two points); ``ai`` [A, 3] and ``af`` [A, 8] per actuator (angular 0 or linear 1,
-    joint link or the two links; min, max, ks, kd, two points); ``pi`` [P, 2] and ``pf`` [P, 7]
-    per linear spring (links; points, stiffness, damping, rest); ``ei`` [E] and ``ef`` [E, 4] per
-    water-drag edge (link; ends); ``wi`` and ``wf`` the world; ``rough`` [K, 3] rough terrain's
-    terms; ``follow`` [F, 2] the follow point's path, equally spaced in arc length. Units SI."""
-
-    li: Any
-    ri: Any
-    rl: Any
-    rn: Any
-    ti: Any
-    ci: Any
-    si: Any
-    ai: Any
-    pi: Any
-    ei: Any
-    wi: Any
-    lf: Any
-    cf: Any
-    sf: Any
-    af: Any
-    pf: Any
-    ef: Any
-    wf: Any
-    rough: Any
-    follow: Any
-    q0: Any  # [D] the start pose
-    ndof: int
-
-
-def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
-    """The tables of ``model`` (a ``sim.Model`` of any dtype: the kernel runs in float64) for a
-    SAN with ``hidden`` hidden nodes.
-
-    articulated: the step's linear algebra, the O(n) articulated-body recursion (True) or the
-    dense L D L^T (False), the same step to round-off. None (default): the model's own choice
-    (``compile_creature(spec, articulated=...)``), else articulated wherever it applies (trees of
-    rigid links: no point masses, nothing joining two bodies), which measured as fast or faster
-    at every size (bounder at batch 2048: 156 against 215 ns per creature-step; a 32-link chain
-    2.3x). Raises ValueError for True where it does not apply."""
-    from sanlab.sim.model import articulated_supported
-
-    st, p = model.structure, model.params
-    if articulated is None:
-        articulated = getattr(st, "articulated", None)
-    can = articulated_supported(model.spec)
-    if articulated and not can:
-        raise ValueError("the articulated route takes trees of rigid links only (no point masses, linear springs "
-                         "or linear actuators)")
-    art = can if articulated is None else articulated
-    f = lambda x: np.asarray(x, np.float64)
-    i32 = lambda x, *shape: np.asarray(x, np.int32).reshape(*shape)
-    L = len(st.links)
-    li = np.full((L, LI), -1, np.int32)
-    for ls in st.links:
-        i = ls.index
-        aniso = st.aniso[i]
-        welded = ls.parent < 0 and ls.dof_x < 0 and ls.dof_rot < 0
-        li[i] = (ls.parent, int(ls.point), ls.dof_x, ls.dof_y, ls.dof_rot, ls.tree, int(welded), aniso[0], aniso[1],
-                 aniso[2], int(i in st.joint_springs), int(i in st.limits))
-    R = 2 + max(len(ls.chain) for ls in st.links)
-    ri = np.zeros((L, R), np.int32)
-    rl = np.full((L, R), -3, np.int32)
-    rn = np.zeros(L, np.int32)
-    for ls in st.links:
-        row = [(ls.dof_x, -1), (ls.dof_y, -2)] if ls.dof_x >= 0 else []
-        row += [(st.links[k].dof_rot, k) for k in ls.chain if st.links[k].dof_rot >= 0]
-        assert [d for d, _ in row] == sorted(d for d, _ in row), "dofs along a chain increase"
-        rn[ls.index] = len(row)
-        for a, (d, k) in enumerate(row):
-            ri[ls.index, a], rl[ls.index, a] = d, k
-    ti = i32([(t.root, int(t.free), int(t.point)) for t in st.trees], -1, 3)
-    ci = i32(st.contacts, -1)
-    si = np.full((len(st.sensors), 4), -1, np.int32)
-    for s, (kind, link, idx) in enumerate(st.sensors):
-        if kind == "touch":
-            si[s] = (SENSORS[kind], idx, -1, -1)
-        elif kind == "eye":
-            si[s] = (SENSORS[kind], *st.eyes[idx])
-        elif kind == "length":
-            si[s] = (SENSORS[kind], *st.lengths[idx], -1)
-        else:
-            si[s] = (SENSORS[kind], link, -1, -1)
-    ai = np.array([(0, ref, -1) if kind == "angular" else (1, *st.lin_act[ref]) for kind, ref in st.actuators],
-                  np.int32).reshape(-1, 3)
-    pi = i32(st.springs, -1, 2)
-    ei = i32(st.edges, -1)
-    wi = np.array([TERRAINS[st.terrain], hidden, int(st.plane == "horizontal"), int(st.follow), int(st.follow_loop),
-                   int(art)], np.int32)
-    x = numbers(model.structure, p)
-    return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, x["lf"], x["cf"], x["sf"], x["af"], x["pf"], x["ef"],
-                  x["wf"], x["rough"], f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
-
-
-def numbers(structure, params, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
-    """The float tables of :data:`ROW_TABLES` (float64) of ``params`` (a ``sim.Params``) whose
-    leaves carry the leading axes ``batch`` (``()``: one creature; ``(B,)``: B rows, as a tuned or
-    ensemble model's) -> {name: [*batch, *the table's shape]}. See :class:`Packed` for the
-    columns."""
-    p, st = params, structure
-    L, C, S, A = len(st.links), len(st.contacts), len(st.sensors), len(st.actuators)
-    P, E, K = len(st.springs), len(st.edges), np.shape(p.rough)[-2]
-    f = lambda x, *shape: np.broadcast_to(np.asarray(x, np.float64), (*batch, *shape)) if shape else \
-        np.broadcast_to(np.asarray(x, np.float64), batch)
-    col = lambda x, n: f(x, n)[..., None]
-    lf = np.concatenate([col(p.mass, L), col(p.inertia, L), f(p.com, L, 2), f(p.anchor, L, 2), f(p.root_pose, L, 3),
-                         f(p.mu, L, 3), f(p.jspring, L, 3), f(p.limit, L, 4)], -1)
-    cf = np.concatenate([f(p.contact, C, 2), col(p.contact_load, C)], -1)
-    sf = np.concatenate([col(p.sens_min, S), col(p.sens_max, S), f(p.sens_pts, S, 2, 2).reshape(*batch, S, 4)], -1)
-    af = np.concatenate([col(p.act_min, A), col(p.act_max, A), col(p.act_ks, A), col(p.act_kd, A),
-                         f(p.act_pts, A, 2, 2).reshape(*batch, A, 4)], -1)
-    pf = np.concatenate([f(p.spr_pts, P, 2, 2).reshape(*batch, P, 4), f(p.spr, P, 3)], -1)
-    ef = f(p.edge, E, 2, 2).reshape(*batch, E, 4)
-    w = lambda x: f(x)[..., None]
-    wf = np.concatenate([w(p.gravity), w(p.ground_k), w(p.ground_c), w(p.slip), w(p.dt), f(p.terrain, 4),
-                         w(p.water_k), w(p.water_t), w(p.follow_ds), w(p.follow_speed)], -1)
-    assert lf.shape[-1] == LF and wf.shape[-1] == W_COUNT
-    out = {"lf": lf, "cf": cf, "sf": sf, "af": af, "pf": pf, "ef": ef, "wf": wf, "rough": f(p.rough, K, 3)}
-    return {k: np.ascontiguousarray(v) for k, v in out.items()}
-
-
-# ------------------------------------------------------------------ the C++ kernel (sanlab/sim/_kernel)
-
-
-def _library():
-    """The compiled kernel (built by the package's install: setup.py), loaded once."""
-    global _LIB
-    if _LIB is None:
-        import ctypes
-        import importlib.machinery
-        from pathlib import Path
-
-        here = Path(__file__).parent
-        for suffix in importlib.machinery.EXTENSION_SUFFIXES:
-            path = here / f"_kernel_lib{suffix}"
-            if path.exists():
-                break
-        else:
-            raise RuntimeError(f"sanlab's simulator kernel is not built in {here}: reinstall with `pip install -e .`")
-        lib = ctypes.CDLL(str(path))
-        if (here / "_kernel").is_dir():  # installed with its sources: the build must be of them
-            lib.sanlab_kernel_source.restype = ctypes.c_char_p
-            built, now = lib.sanlab_kernel_source().decode(), source_hash(here / "_kernel")
-            if built != now:
-                raise RuntimeError(f"sanlab's simulator kernel {path.name} was built from other sources ({built}, "
-                                   f"these are {now}): rebuild it with `pip install -e .`")
-        P = ctypes.c_void_p
-        i32, i64 = ctypes.c_int32, ctypes.c_int64
-        lib.sanlab_rollout.restype = None
-        lib.sanlab_rollout.argtypes = [i32, i32, P, P, P, P, P, P, P, i32, P, P, i32, P, P, P, i64, i64, i64, i64]
-        lib.sanlab_inspect.restype = None
-        lib.sanlab_inspect.argtypes = [i32, i32, P, P, P, P, P, i64]
-        lib.sanlab_kernel_lanes.restype = ctypes.c_int
-        lib.sanlab_start.restype = None
-        lib.sanlab_start.argtypes = [P, P, P, P, P, P, ctypes.c_int64]
-        _LIB = lib
-    return _LIB
-
-
-_LIB = None
-
-
-def source_hash(folder) -> str:
-    """The hash of the kernel's sources in ``folder``, as setup.py stamps it into the build."""
-    import hashlib
-    from pathlib import Path
-
-    h = hashlib.sha256()
-    for f in sorted(Path(folder).glob("*.[hc]*")):
-        h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()[:16]
-
-
-def lanes() -> int:
-    """Creatures per tile (the SIMD width the kernel was built for)."""
-    return int(_library().sanlab_kernel_lanes())
-
-
-def _tile(x: np.ndarray, W: int) -> np.ndarray:
-    """[B, ...] -> [T, ..., W], the batch padded with copies of its last row; always a new array:
-    the kernel writes its state back in place, and a view (W = 1, or a 1-D array) would hand it
-    the caller's own memory."""
-    B, rest = x.shape[0], x.shape[1:]
-    T, full = -(-B // W), B // W
-    n = math.prod(rest)
-    out = np.empty((T, n, W), np.float64)
-    # written through a [T, W, n] view of the tile layout: no padded copy of x in between (a
-    # Gymnasium step tiles nine small arrays per call, where each allocation shows)
-    view = out.transpose(0, 2, 1)
-    flat = x.reshape(B, n)
-    if full:
-        view[:full] = flat[: full * W].reshape(full, W, n)
-    if full < T:
-        r = B - full * W
-        view[full, :r] = flat[full * W :]
-        view[full, r:] = flat[B - 1]
-    return out.reshape(T, *rest, W)
-
-
-def _untile(x: np.ndarray, B: int) -> np.ndarray:
-    T, W = x.shape[0], x.shape[-1]
-    rest = x.shape[1:-1]
-    return x.reshape(T, -1, W).transpose(0, 2, 1).reshape(T * W, *rest)[:B]
-
-
-ROW_TABLES = ("lf", "cf", "sf", "af", "pf", "ef", "wf", "rough")  # the numbers a row may carry its own of
-
-# what the observers accumulate per row (step.h, "observers"): the metric's ingredients (start
-# and end centre of mass (m), start height, hopping's integral (m^2 s), pursuit's (m), fell (0/1),
-# deepest contact (m)), then the descriptors' sums, then tracking's (the sum over steps of the
-# distance to the follow point, and that distance at the first step, m); then duty [touch
-# sensors], the ring of sensor words and their start times [EVENTS] each
-ACC = ("p0x", "p0y", "y0", "hop", "pursuit", "fell", "deepest", "px", "py", "steps", "height", "height2", "turn",
-       "angle", "airborne", "joint_speed", "word", "candidate", "since", "changes", "gap", "gap0")
-EVENTS = 64
-METRIC_KINDS = ("distance", "distance_upright", "hopping", "pursuit", "tracking")
-
-
-@dataclass(frozen=True)
-class Observe:
-    """What a rollout accumulates besides the state: the ingredients of a metric (paper §5.1; see
-    ``sanlab.metrics``) and the behaviour descriptors (``sanlab.descriptors``). Link, dof and sensor
-    numbers index the model's; angles in rad, heights in m above the ground."""
-
-    kind: str = "distance"  # one of METRIC_KINDS: which integral to keep (hopping's, pursuit's, tracking's)
-    fell_links: tuple[int, ...] = ()  # fallen once one turns past fell_angle from upright
-    fell_angle: float = math.pi / 2
-    fell_com_height: float | None = None  # fallen once the centre of mass comes closer to the ground
-    fell_link_height: float | None = None  # or a fell link's centre of mass
-    depth: bool = False  # keep the deepest contact
-    root: int = -1  # the descriptors' rotating root link (-1: none)
-    sensors: int = 0  # sensors in the descriptors' word (0: no word; at most 30)
-    joints: tuple[int, ...] = ()  # dofs of the joints whose mean speed is kept
-    touch: tuple[int, ...] = ()  # sensor indices whose duty is kept
-
-    @property
-    def size(self) -> int:
-        """Accumulator values per row."""
-        return len(ACC) + len(self.touch) + 2 * EVENTS
-
-    def check(self, pk: Packed) -> None:
-        """Raise ValueError unless every index it names is one of ``pk``'s (the kernel reads and
-        writes by them: an index past a table would be read or written past it)."""
-        L, S, D = pk.li.shape[0], pk.si.shape[0], pk.ndof
-        if self.kind not in METRIC_KINDS:
-            raise ValueError(f"observe.kind: expected one of {METRIC_KINDS}, got {self.kind!r}")
-        if self.kind in ("pursuit", "tracking") and not pk.wi[W_FOLLOW]:
-            raise ValueError(f"observe.kind: {self.kind} needs a follow path (the model has none)")
-        for name, values, n in (("fell_links", self.fell_links, L), ("joints", self.joints, D),
-                                ("touch", self.touch, S), ("root", () if self.root == -1 else (self.root,), L)):
-            bad = [v for v in values if not (isinstance(v, (int, np.integer)) and 0 <= v < n)]
-            if bad:
-                raise ValueError(f"observe.{name}: expected indices in [0, {n}), got {bad[0]!r}")
-        if not (isinstance(self.sensors, (int, np.integer)) and 0 <= self.sensors <= min(30, S)):
-            raise ValueError(f"observe.sensors: expected 0 to {min(30, S)} (the creature's sensors, at most 30), "
-                             f"got {self.sensors!r}")
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """(oi int32, of float64), the kernel's config (step.h, "observers")."""
-        oi = [METRIC_KINDS.index(self.kind), self.fell_com_height is not None, self.fell_link_height is not None,
-              self.depth, self.root, self.sensors, len(self.fell_links), len(self.joints), len(self.touch),
-              *self.fell_links, *self.joints, *self.touch]
-        of = [self.fell_angle, self.fell_com_height or 0.0, self.fell_link_height or 0.0]
-        return np.array(oi, np.int32), np.array(of, np.float64)
-
-
-def _dims(pk: Packed, N: int) -> np.ndarray:
-    return np.array([pk.li.shape[0], pk.ci.shape[0], pk.ti.shape[0], pk.ndof, pk.si.shape[0], pk.ai.shape[0],
-                     pk.ri.shape[1], pk.rough.shape[0], N, pk.si.shape[0] + N, pk.pi.shape[0], pk.ei.shape[0],
-                     pk.follow.shape[0]], np.int32)
-
-
-def _tables(pk: Packed, B: int, rows: dict | None, W: int) -> tuple[Any, np.ndarray, list]:
-    """The kernel's tables for a call of B rows in tiles of W (``rows``: per-row ones, see
-    :func:`run_san`): (their addresses, the per-row flags, the arrays, which must outlive the
-    call). Without per-row tables the answer is kept for the last few creatures: a Gymnasium
-    step or a studio chunk calls the kernel thousands of times on one creature."""
-    if not rows:
-        hit = _SHARED.get(id(pk))
-        if hit is not None and hit[0] is pk:  # the creature itself is held, so its id is its own
-            _SHARED.move_to_end(id(pk))
-            return hit[1]
-    rows = _check_rows(pk, B, rows)
-    T = -(-B // W)
-    tables = []
-    for name in TABLES:
-        shared = np.ascontiguousarray(getattr(pk, name))
-        if name not in rows:
-            tables.append(shared)
-            continue
-        x = rows[name]
-        if T * W != B:  # padded like the state: copies of the last row
-            x = np.concatenate([x, np.repeat(x[-1:], T * W - B, 0)])
-        tables.append(np.ascontiguousarray(x))
-    answer = (_pointers(tables), np.array([name in rows for name in ROW_TABLES], np.int32), tables)
-    if not rows:
-        _SHARED[id(pk)] = (pk, answer)
-        while len(_SHARED) > 8:
-            _SHARED.popitem(last=False)
-    return answer
-
-
-_SHARED: OrderedDict = OrderedDict()  # id(pk) -> (pk, _tables' answer) for the last creatures called
-
-
-def _check_rows(pk: Packed, B: int, rows: dict | None) -> dict:
-    """``rows`` (see :func:`run_san`) as float64 arrays, or a ValueError naming the one that is
-    not a table a row may carry, or not of its shape."""
-    rows = rows or {}
-    unknown = sorted(set(rows) - set(ROW_TABLES))
-    if unknown:
-        raise ValueError(f"rows: expected tables among {ROW_TABLES}, got {unknown}")
-    out = {}
-    for name, x in rows.items():
-        shape = (B, *getattr(pk, name).shape)
-        out[name] = np.asarray(x, np.float64)
-        if out[name].shape != shape:
-            raise ValueError(f"rows[{name!r}]: expected shape {shape}, got {out[name].shape}")
-    return out
-
-
-def _pointers(arrays: list):
-    import ctypes
-
-    return (ctypes.c_void_p * len(arrays))(*[a.__array_interface__["data"][0] for a in arrays])
+__all__ = [  # the kernel's calls, and what they take from the modules it is split into
+    "ACC", "ENTRY_POINTS", "EVENTS", "F_MASS", "F_MU", "INSPECT", "KINDS", "L_PARENT", "METRIC_KINDS", "ROW_TABLES",
+    "SENSORS", "TABLES", "TERRAINS", "W_ARTICULATED", "W_DT", "Observe", "Packed", "centre_of_mass", "check",
+    "check_count", "energy", "follow_point", "lanes", "momenta", "numbers", "pack", "poses", "run_open", "run_san",
+    "sense", "source_hash", "start", "velocity",
+]
 
 
 def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
     clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
-    [B, C, 2] at the contact points). The momenta of a state at rest are zero. As the XLA
-    engine's ``seat_on_ground`` and ``make_state`` computed them, to round-off."""
+    [B, C, 2] at the contact points). The momenta of a state at rest are zero."""
     W = lanes()
     q = _rows_of("q", q, pk.ndof)
     B = q.shape[0]
@@ -416,8 +77,8 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
     qt, st = _tile(q, W), _tile(on, W)
     anchor = np.zeros((qt.shape[0], pk.ci.shape[0], 2, W))
-    _library().sanlab_start(_dims(pk, 0).ctypes.data, tables, per_row.ctypes.data, qt.ctypes.data,
-                            st.ctypes.data, anchor.ctypes.data, qt.shape[0])
+    _call("sanlab_start", dims=_dims(pk, 0).ctypes.data, tables=tables, per_row=per_row.ctypes.data, q=qt.ctypes.data,
+          seat_rows=st.ctypes.data, anchor=anchor.ctypes.data, T=qt.shape[0])
     return _untile(qt, B), _untile(anchor, B)
 
 
@@ -448,6 +109,9 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     N = np.shape(istate)[1]
     T = -(-B // W)
     rows = _check_rows(pk, B, rows)  # first: a bad table is reported before bad weights, as it always was
+    if N != pk.wi[W_HIDDEN] + pk.ai.shape[0]:
+        raise ValueError(f"istate: expected {pk.wi[W_HIDDEN] + pk.ai.shape[0]} nodes per row (the tables' "
+                         f"{pk.wi[W_HIDDEN]} hidden and {pk.ai.shape[0]} actuator nodes), got {N}")
     w = np.asarray(weights)
     if w.shape != (B, N, pk.si.shape[0] + N) or np.any(w != np.round(w)) or np.abs(w).max(initial=0) > 2:
         raise ValueError(f"weights: expected integers in [-2, 2] of shape {(B, N, pk.si.shape[0] + N)}, got {w.shape}")
@@ -466,7 +130,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     return res
 
 
-KINDS = {"san": 0, "hold": 1, "sine": 2, "reflex": 3, "pattern": 4}  # the kernel's controllers (kernel.cpp)
+KINDS = {name: k for k, name in enumerate(layout.KINDS)}  # the kernel's controllers (kernel.cpp)
 
 
 def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 0.0, rows: dict | None = None,
@@ -520,6 +184,22 @@ def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 
     return res
 
 
+COUNT_MAX = 2**63 - 1  # the kernel's counts are int64: a larger one would wrap
+
+
+def check_count(name: str, x) -> int:
+    """x as a whole number in [0, COUNT_MAX], or a ValueError naming it."""
+    n, whole = -1, False
+    try:
+        n = int(x)
+        whole = n == x and not isinstance(x, bool)
+    except (TypeError, ValueError, OverflowError):
+        pass
+    if not whole or not 0 <= n <= COUNT_MAX:
+        raise ValueError(f"{name}: expected a whole number in [0, 2**63 - 1], got {x!r}")
+    return n
+
+
 def _shaped(name: str, x, shape: tuple) -> np.ndarray:
     """x as float64 of ``shape``, or a ValueError naming it."""
     a = np.asarray(x, np.float64)
@@ -540,10 +220,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     D, C, S, A = pk.ndof, pk.ci.shape[0], pk.si.shape[0], pk.ai.shape[0]
     if observe is not None:
         observe.check(pk)
-    if int(steps) != steps or steps < 0:
-        raise ValueError(f"steps: expected a whole number >= 0, got {steps}")
-    if int(every) != every or every < 0:
-        raise ValueError(f"every: expected a whole number >= 0, got {every}")
+    steps, every = check_count("steps", steps), check_count("every", every)
     tables, per_row, _keep = _tables(pk, B, rows, W)
     q, p = _shaped("q", q, (B, D)), _shaped("p", p, (B, D))
     anchor = _shaped("anchor", anchor, (B, C, 2))
@@ -568,10 +245,10 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     ns = cst.shape[1]
     frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
-    _library().sanlab_rollout(kind, int(scalar), dims.ctypes.data, tables, per_row.ctypes.data,
-                              _pointers(st), par_t.ctypes.data, cst_t.ctypes.data, addr(w16), NP, addr(oi), addr(of),
-                              int(acc is None), addr(acc_t), qd.ctypes.data, addr(frames), int(every), n_frames, T,
-                              int(steps))
+    _call("sanlab_rollout", kind=kind, scalar=int(scalar), dims=dims.ctypes.data, tables=tables,
+          per_row=per_row.ctypes.data, state=_pointers(st), par=par_t.ctypes.data, cst=cst_t.ctypes.data,
+          weights=addr(w16), NP=NP, oi=addr(oi), of=addr(of), init=int(acc is None), acc=addr(acc_t),
+          qd=qd.ctypes.data, frames=addr(frames), every=int(every), n_frames=n_frames, T=T, steps=int(steps))
     res = {n: _untile(a, B) for n, a in zip(("q", "p", "anchor", "t", "dmax"), st)}
     res["cstate"] = _untile(cst_t, B)
     res["qd"] = _untile(qd, B)
@@ -587,7 +264,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
 # ------------------------------------------------------------------ inspectors: single configurations
 
 
-INSPECT = ("poses", "energy", "momenta", "velocity", "sense", "follow_point", "centre_of_mass")  # kernel.cpp's order
+INSPECT = layout.INSPECT  # the inspectors, in kernel.cpp's order
 
 
 def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None, scalar: bool) -> np.ndarray:
@@ -597,8 +274,8 @@ def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None
     tables, per_row, _keep = _tables(pk, B, rows, W)
     xt = _tile(x, W)
     out = np.zeros((xt.shape[0], n_out, W))
-    _library().sanlab_inspect(INSPECT.index(kind), int(scalar), _dims(pk, 0).ctypes.data, tables,
-                              per_row.ctypes.data, xt.ctypes.data, out.ctypes.data, xt.shape[0])
+    _call("sanlab_inspect", kind=INSPECT.index(kind), scalar=int(scalar), dims=_dims(pk, 0).ctypes.data, tables=tables,
+          per_row=per_row.ctypes.data, **{"in": xt.ctypes.data}, out=out.ctypes.data, T=xt.shape[0])
     return _untile(out, B)
 
 

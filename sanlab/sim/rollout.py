@@ -20,8 +20,7 @@ and ``sanlab.descriptors.Descriptors`` are observers):
     observe() -> kernel.Observe            # what to accumulate along the way
     collect(columns: dict) -> acc          # the accumulator from the kernel's named columns
 
-Until issue 46, this was an XLA program compiled per creature (since removed); the signature and
-the :class:`Result` are the same, its arrays NumPy float64.
+A :class:`Result`'s arrays are NumPy float64.
 """
 
 from __future__ import annotations
@@ -81,17 +80,18 @@ class Result(NamedTuple):
 VELOCITY_LIMIT = 1e4  # |qd| beyond this (m/s, rad/s) counts as blown up
 
 
+def stayed_finite(q: Any, qd: Any, p: Any, t: Any) -> np.ndarray:
+    """[B] bool: each row's state q, qd, p [B, D] and time t [B] finite, and no speed past
+    :data:`VELOCITY_LIMIT` (a run that blew up is flagged, never fatal)."""
+    return (np.isfinite(q).all(1) & (np.abs(qd) < VELOCITY_LIMIT).all(1) & np.isfinite(p).all(1)
+            & np.isfinite(t))
+
+
 def devices() -> list[str]:
     """What a batch is spread over: the CPU's cores (one OpenMP thread per core)."""
     import os
 
     return ["cpu"] * (os.cpu_count() or 1)
-
-
-def batch_quantum() -> int:
-    """Creatures per tile: a batch of any size runs; one whose size is a multiple of this wastes
-    no lane."""
-    return kernel.lanes()
 
 
 def rollout(
@@ -106,8 +106,6 @@ def rollout(
     state0: State | None = None,
     cstate0: Any = None,
     params_batched: bool = False,
-    pad_to: int | None = None,
-    fence: bool | None = None,
 ) -> Result:
     """Roll out a batch of controllers on ``model`` on the kernel.
 
@@ -117,23 +115,24 @@ def rollout(
     state0: initial state (default: the creature's pose at rest), unbatched or [B, ...]; its
     time must be one for the batch. cstate0: the controller's state to go on from (a SAN's
     ``SanState``; default: at rest). params_batched: model.params leaves carry the batch axis
-    too (tuning, ensembles, designs: each row its own numbers). pad_to, fence: accepted for the
-    XLA engine's callers, and without effect (the kernel pads its own tiles and has no fences).
+    too (tuning, ensembles, designs: each row its own numbers).
 
     Returns a :class:`Result` of NumPy arrays. A controller's result is bit for bit the same
-    alone or anywhere in any batch, on any number of threads. Raises ValueError for a negative
-    duration, a record_fps that is negative or not finite, neither seconds nor steps, a
+    alone or anywhere in any batch, on any number of threads. Raises ValueError for a duration
+    that is negative, not finite or not a whole number of steps in [0, 2**63 - 1], a record_fps that is negative or not finite, neither seconds nor steps, a
     controller of no kind the kernel runs, or parameters of the wrong shape.
     """
-    del pad_to, fence
     one = first_row(model) if params_batched else model
     dt = float(model.structure.dt)
     if steps is None:
         if seconds is None:
             raise ValueError("give seconds or steps")
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer, np.floating)) \
+                or not (math.isfinite(seconds) and 0 <= seconds / dt <= kernel.COUNT_MAX):
+            raise ValueError(f"seconds: expected a duration >= 0 of at most 2**63 - 1 steps of dt = {dt:g} s, "
+                             f"got {seconds!r}")
         steps = int(round(seconds / dt))
-    if steps < 0:
-        raise ValueError(f"steps: expected >= 0, got {steps} (seconds={seconds})")
+    steps = kernel.check_count("steps", steps)
     if record_fps is not None and not (math.isfinite(record_fps) and record_fps >= 0):
         raise ValueError(f"record_fps: expected a finite rate >= 0 (frames per second), got {record_fps}")
     every = 0
@@ -181,8 +180,7 @@ def rollout(
         params = cparams if kind == "reflex" else np.asarray(cparams, np.float64)
         r = kernel.run_open(pk, kind, params, q, p, anchor, steps, t0=t0, rows=rows, observe=ob, every=every)
     state = State(q=r["q"], qd=r["qd"], t=r["t"], p=r["p"], anchor=r["anchor"])
-    finite = (np.isfinite(r["q"]).all(1) & (np.abs(r["qd"]) < VELOCITY_LIMIT).all(1) & np.isfinite(r["p"]).all(1)
-              & np.isfinite(r["t"]))
+    finite = stayed_finite(r["q"], r["qd"], r["p"], r["t"])
     acc = observer.collect(columns(r["acc"], ob)) if observer is not None and ob is not None else None
     cstate = _san_state(r["istate"], r["out"]) if kind == "san" else r["t"]
     frames = None

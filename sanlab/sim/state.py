@@ -130,17 +130,21 @@ def velocity(model: Model, state: State) -> np.ndarray:
     return _back(kernel.velocity(pk, q, p), single)
 
 
-def poses(model: Model, q: Any) -> dict:
+def poses(model: Model, q: Any, params_batched: bool = False) -> dict:
     """World placement of configurations q [..., D] (for drawing and analysis): ``links``
     [..., L, 3] (origin x, y and absolute angle of each link frame), ``contacts`` [..., C, 2]
     (contact points), ``depth`` [..., C] (penetration, > 0 when touching; horizontal plane: 1),
-    ``com`` [..., 2] (the centre of mass of the links not welded to the world)."""
-    pk = packed(model)
+    ``com`` [..., 2] (the centre of mass of the links not welded to the world).
+    params_batched: the model's parameters carry a leading axis of B rows (a design or tuning
+    batch) and q is [B, D], row b placed on body b. Raises ValueError for q of the wrong shape."""
+    pk = packed(first_row(model) if params_batched else model)
     a = np.asarray(q, np.float64)
-    if a.ndim < 1 or a.shape[-1] != pk.ndof or a.size == 0:
-        raise ValueError(f"q: expected shape (..., {pk.ndof}) (the creature's coordinates), got {a.shape}")
+    if a.ndim < 1 or a.shape[-1] != pk.ndof or a.size == 0 or (params_batched and a.ndim != 2):
+        want = f"(B, {pk.ndof})" if params_batched else f"(..., {pk.ndof})"
+        raise ValueError(f"q: expected shape {want} (the creature's coordinates), got {a.shape}")
     lead = a.shape[:-1]
-    out = kernel.poses(pk, a.reshape(-1, pk.ndof))
+    rows = row_tables(model, a.shape[0]) if params_batched else None
+    out = kernel.poses(pk, a.reshape(-1, pk.ndof), rows=rows)
     return {k: v.reshape(*lead, *v.shape[1:]) for k, v in out.items()}
 
 
@@ -189,7 +193,7 @@ def step(model: Model, state: State, u: Any) -> State:
 
 def terrain_height(model: Model, x: Any) -> tuple[np.ndarray, np.ndarray]:
     """The ground's height h(x) and slope h'(x) (m, and m/m) at x [...] (m) in the vertical
-    plane: the kernel's ground (``_kernel/step.h``, ``terrain``), for drawing and checks."""
+    plane: the kernel's ground (``_kernel/terrain.h``), for drawing and checks."""
     st, p = model.structure, model.params
     x = np.asarray(x, np.float64)
     zero = np.zeros_like(x)

@@ -59,7 +59,7 @@ def test_one_member_is_todays_single_sample_score():
     got = ev(W)
     m = sim.compile_creature(BOUNDER)
     r = sim.rollout(m, ev.san, ev.san.params(W, BOUNDER.san.delay_on, BOUNDER.san.delay_off), 1.0,
-                    observer=ev.metric, pad_to=32)
+                    observer=ev.metric)
     before = scores(ev.metric, r.acc, r.finite, 1.0, "vertical")
     np.testing.assert_array_equal(got.score, before["score"])
     np.testing.assert_array_equal(got.speed_cm_s, before["speed_cm_s"])

@@ -149,12 +149,11 @@ def test_seeding_and_determinism():
 
 def test_numbers_do_not_depend_on_num_envs():
     """A sub-environment's numbers are the same in a batch of 2 or of 3 (its neighbours and the
-    kernel's padding lanes do not matter). (The XLA engine's devices= is accepted and changes
-    nothing: the kernel's threads change no bit, tests/sim/test_kernel.py.)"""
+    kernel's padding lanes do not matter)."""
     acts = actions(SanlabVectorEnv(3, "bounder", **SHORT).action_space, 9, 30)  # [3, A] each; the first N rows for N
     runs = []
     for n in (N, 3):
-        e = SanlabVectorEnv(n, "bounder", devices=("cpu",), **SHORT)
+        e = SanlabVectorEnv(n, "bounder", **SHORT)
         e.reset(seed=2)
         trace = []
         for act in acts:

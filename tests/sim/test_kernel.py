@@ -21,7 +21,7 @@ import pytest
 
 from sanlab import creature, sim
 from sanlab.creature.spec import Terrain
-from sanlab.engine_report import random_san_params
+from sanlab.random_sans import random_san_params
 from sanlab.sim import kernel
 
 VERTICAL = ("cart", "bounder", "twolink", "threelink", "fourlink", "star", "luxo", "walker")
@@ -96,7 +96,7 @@ def test_the_thread_count_changes_no_bit(tmp_path):
     code = """
 import numpy as np, sanlab
 from sanlab import creature, sim
-from sanlab.engine_report import random_san_params
+from sanlab.random_sans import random_san_params
 from tests.sim.test_kernel import run_kernel
 spec = creature.load("bounder")
 m = sim.compile_creature(spec, dtype="float64")
@@ -203,18 +203,21 @@ def test_the_gpus_form_steps_every_creature_bit_for_bit_as_the_simd_tiles(name):
 
 def test_a_kernel_built_from_other_sources_is_refused(tmp_path):
     # after a pull that changed the kernel's sources without a rebuild, the old library would read
-    # its arguments by the old layout: kernel.py compares the build's stamp with its sources
+    # its arguments by the old layout: native.py (the kernel's loader) compares the build's stamp
+    # with its sources
     import shutil
     import sysconfig
 
     here = ROOT / "sanlab" / "sim"
-    assert kernel._library().sanlab_kernel_source().decode() == kernel.source_hash(here / "_kernel")
+    from sanlab.sim import native
+
+    assert native._library().sanlab_kernel_source().decode() == native.source_hash(here / "_kernel")
     suffix = sysconfig.get_config_var("EXT_SUFFIX")
-    shutil.copy(here / "kernel.py", tmp_path / "kernel.py")
+    shutil.copy(here / "native.py", tmp_path / "native.py")
     shutil.copy(here / f"_kernel_lib{suffix}", tmp_path / f"_kernel_lib{suffix}")
     shutil.copytree(here / "_kernel", tmp_path / "_kernel")
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import kernel\n"
-            "try:\n    kernel.lanes()\nexcept RuntimeError as e:\n    print(e)\n")
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import native\n"
+            "try:\n    native.lanes()\nexcept RuntimeError as e:\n    print(e)\n")
     ok = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert ok.returncode == 0 and ok.stdout == "", ok.stdout + ok.stderr  # the same sources: loads
     with (tmp_path / "_kernel" / "step.h").open("a") as f:

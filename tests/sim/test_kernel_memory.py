@@ -26,20 +26,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 HARNESS = """
-import importlib.util, pickle, sys
+import ctypes, pickle, sys
 import numpy as np
-spec = importlib.util.spec_from_file_location("kernel_alone", sys.argv[1])
-K = importlib.util.module_from_spec(spec)
-sys.modules["kernel_alone"] = K
-spec.loader.exec_module(K)
-
-
-class Load(pickle.Unpickler):
-    def find_class(self, module, name):
-        return getattr(K, name) if module == "sanlab.sim.kernel" else super().find_class(module, name)
-
-
-for c in Load(open(sys.argv[2], "rb")).load():
+from sanlab.sim import kernel as K, native
+assert native.use(ctypes.CDLL(sys.argv[1])) is native._library()  # every call goes to the sanitizer's build
+for c in pickle.load(open(sys.argv[2], "rb")):
     B, N = c["B"], c["N"]
     z = np.zeros((B, N))
     for scalar in (False, True):
@@ -73,8 +64,8 @@ def _libasan() -> str | None:
 @pytest.mark.slow
 def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     from sanlab import creature, descriptors, sim
-    from sanlab.engine_report import random_san_params
     from sanlab.metrics import Metric
+    from sanlab.random_sans import random_san_params
     from sanlab.sim import kernel
     from tests.sim.test_kernel import DATA, chain, observe_of
 
@@ -86,7 +77,6 @@ def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     subprocess.run(["g++", "-O1", "-g", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fopenmp", "-fPIC",
                     "-shared", "-std=c++17", "-fsanitize=address", "-fno-omit-frame-pointer", "-o",
                     str(tmp_path / f"_kernel_lib{suffix}"), str(src)], check=True)
-    shutil.copy(ROOT / "sanlab" / "sim" / "kernel.py", tmp_path / "kernel.py")
     cases = []
     specs = [creature.load(n) for n in ("bounder", "crawler", "fish", "twolink")]
     specs += [creature.load(str(DATA / "kitchen_sink.toml")), creature.loads(chain(12), source="chain12")]
@@ -107,6 +97,6 @@ def test_the_kernel_reads_and_writes_only_its_own_memory(tmp_path):
     with open(tmp_path / "cases.pkl", "wb") as f:
         pickle.dump(cases, f)
     env = dict(os.environ, LD_PRELOAD=asan, ASAN_OPTIONS="detect_leaks=0:abort_on_error=0")
-    out = subprocess.run([sys.executable, "-c", HARNESS, str(tmp_path / "kernel.py"), str(tmp_path / "cases.pkl")],
+    out = subprocess.run([sys.executable, "-c", HARNESS, str(tmp_path / f"_kernel_lib{suffix}"), str(tmp_path / "cases.pkl")],
                          env=env, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0 and "clean" in out.stdout, out.stderr[-3000:]

@@ -32,8 +32,8 @@ import numpy as np
 import pytest
 
 from sanlab import creature, descriptors, sim
-from sanlab.engine_report import random_san_params
 from sanlab.metrics import Metric, MetricAcc, scores
+from sanlab.random_sans import random_san_params
 from sanlab.sim import kernel
 from tests.sim.test_kernel import HORIZONTAL, TERRAINS, VERTICAL, _on, chain, observe_of, relative_error
 

@@ -6,7 +6,7 @@ MuJoCo's (and the converter's) are the root link's origin: ``sim.root_coordinate
 :func:`sanlab.interop.mjcf.qpos_index` maps the order.
 
 Without contacts both simulators integrate the same ODE M(q) q'' = f(q, q'). sanlab's step is its
-own (semi-implicit Euler in momentum form, see ``sanlab.sim.dynamics``), so it is checked against
+own (semi-implicit Euler in momentum form, docs/simulator.md "The step"), so it is checked against
 the continuous-time motion, MuJoCo's RK4, and must *converge* to it: within the tolerance at
 dt = 1e-4, and with half the error at half the step (first order). Any modelling difference (a
 mass-matrix entry, an inertial term, the sign of gravity's torque, the angle convention, the frame

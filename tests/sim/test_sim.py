@@ -265,7 +265,7 @@ def test_a_recording_refuses_a_negative_duration_or_rate_and_records_none_at_a_t
     m = sim.compile_creature(spec)
     san, p = random_sans(spec, 2, seed=3)
     for kw in ({"steps": -5, "record_fps": 30}, {"seconds": -0.1, "record_fps": 30}, {"steps": -1}):
-        with pytest.raises(ValueError, match="steps: expected >= 0"):
+        with pytest.raises(ValueError, match=r"^(steps|seconds): expected"):
             sim.rollout(m, san, p, **kw)
     for fps in (-30.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="record_fps"):

@@ -24,40 +24,40 @@ using namespace sanlab;
 // [0, 1] from the tile's sensor values t.bits at time `time` (s), its parameters `par` [n_param]
 // and its state `st` [n_state] (updated in place), both values of V in the tile's scratch.
 // One rollout template serves them all, so every kind steps, observes and records alike.
-enum { K_SAN, K_HOLD, K_SINE, K_REFLEX, K_PATTERN };
+// (their kinds: layout.h, K_SAN ... K_PATTERN)
 
-// the SAN (step.h: san): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
+// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
 template <class V> struct SanControl {
   const short *weights;
   int NP;
   size_t per_tile;
-  static size_t n_param(const Model &m) { return 2 * (size_t)m.N; }
-  static size_t n_state(const Model &m) { return 2 * (size_t)m.N; }
+  static size_t n_param(const Model &m) { return 2 * (size_t)m.nnode; }
+  static size_t n_state(const Model &m) { return 2 * (size_t)m.nnode; }
   SanControl at(int64_t b) const { return {weights + (size_t)b * per_tile, NP, per_tile}; }
   void act(const Model &m, Tile<V> &t, const V *par, V *st, V) const {
-    san(m, t, weights, NP, par, par + m.N, st, st + m.N);
+    san(m, t, weights, NP, par, par + m.nnode, st, st + m.nnode);
   }
 };
 
 // external activations u [A], held for every step of the call (sim.ConstantController)
 template <class V> struct HoldControl {
-  static size_t n_param(const Model &m) { return m.A; }
+  static size_t n_param(const Model &m) { return m.nact; }
   static size_t n_state(const Model &) { return 0; }
   HoldControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
-    for (int a = 0; a < m.A; ++a) t.act[a] = par[a];
+    for (int a = 0; a < m.nact; ++a) t.act[a] = par[a];
   }
 };
 
 // u_a = 0.5 + 0.5 sin(2 pi f t + phase_a): phases [A] (rad), then f (Hz) (sim.SineController,
 // whose clock is the rollout's time here)
 template <class V> struct SineControl {
-  static size_t n_param(const Model &m) { return m.A + 1; }
+  static size_t n_param(const Model &m) { return m.nact + 1; }
   static size_t n_state(const Model &) { return 0; }
   SineControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
-    const V w = (2 * M_PI) * par[m.A] * time;  // the engine's order: ((2 pi) f) t
-    for (int a = 0; a < m.A; ++a) {
+    const V w = (2 * M_PI) * par[m.nact] * time;  // ((2 pi) f) t, the order the stored gaits ran in
+    for (int a = 0; a < m.nact; ++a) {
       V s, c;
       sincos(w + par[a], s, c);
       t.act[a] = 0.5 + 0.5 * s;
@@ -70,13 +70,13 @@ template <class V> struct SineControl {
 // low_a, high_a) for each actuator (phase and duty as fractions of the period, levels as
 // activations in [0, 1]), then the period (s); t is the rollout's time before the step.
 template <class V> struct PatternControl {
-  static size_t n_param(const Model &m) { return 4 * (size_t)m.A + 1; }
+  static size_t n_param(const Model &m) { return 4 * (size_t)m.nact + 1; }
   static size_t n_state(const Model &) { return 0; }
   PatternControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
     using Ls = Lanes<V>;
-    const V cycles = time / par[4 * m.A];
-    for (int a = 0; a < m.A; ++a) {
+    const V cycles = time / par[4 * m.nact];
+    for (int a = 0; a < m.nact; ++a) {
       const V *pa = par + 4 * a;
       const V x = cycles - pa[0];
       t.act[a] = Ls::sel(x - Ls::floor(x) < pa[1], pa[3], pa[2]);
@@ -86,27 +86,20 @@ template <class V> struct PatternControl {
 
 // u = clip(W bits + b, 0, 1): W [A][S], then b [A] (sim.ReflexController)
 template <class V> struct ReflexControl {
-  static size_t n_param(const Model &m) { return (size_t)m.A * m.S + m.A; }
+  static size_t n_param(const Model &m) { return (size_t)m.nact * m.nsensor + m.nact; }
   static size_t n_state(const Model &) { return 0; }
   ReflexControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
     using Ls = Lanes<V>;
-    for (int a = 0; a < m.A; ++a) {
+    for (int a = 0; a < m.nact; ++a) {
       V x{};
-      for (int s = 0; s < m.S; ++s) x = x + par[a * m.S + s] * t.bits[s];
-      t.act[a] = Ls::min(Ls::max(x + par[m.A * m.S + a], V{}), V{} + 1.0);
+      for (int s = 0; s < m.nsensor; ++s) x = x + par[a * m.nsensor + s] * t.bits[s];
+      t.act[a] = Ls::min(Ls::max(x + par[m.nact * m.nsensor + a], V{}), V{} + 1.0);
     }
   }
 };
 
 // ---------------------------------------------------------------- rollouts
-
-// The observers' config (see step.h, "observers"), or none
-struct Observe {
-  const int32_t *oi;
-  const double *of;
-  int init;  // 1: start the accumulators from this call's first state
-};
 
 // Frames to record: every `every` steps from the first, the first `n` of them; each frame holds
 // q, qd [D] (the velocity of that state), bits [S], u [A], then the controller's state before
@@ -116,39 +109,39 @@ struct Record {
 };
 
 // A tile's state, copied in and out of the caller's arrays: q, p [D], anchor [C][2], t, dmax
-inline size_t state_values(const Model &m) { return 2 * (size_t)m.D + 2 * (size_t)m.C + 2; }
+inline size_t state_values(const Model &m) { return 2 * (size_t)m.ndof + 2 * (size_t)m.ncontact + 2; }
 
+// `steps` steps of a tile (step.h: step), recording the frames asked for; then the final state's
+// velocity and, for the metric, its centre of mass
 template <class V, class Ctl>
-static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *s, const V *par, V *cst, int64_t steps,
-                     const Observe &o, V *acc, V *qd_out, const Record &rec, V *frames) {
-  V *q = s, *p = q + m.D, (*anchor)[2] = (V(*)[2])(p + m.D), *time = (V *)(anchor + m.C), *dmax = time + 1;
-  const int ns = (int)Ctl::n_state(m), at_u = 2 * m.D + m.S, at_state = at_u + m.A;
+static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *state, const V *par, V *cst, int64_t steps,
+                     const Observers &o, V *acc, V *qd_out, const Record &rec, V *frames) {
+  V *q = state, *p = q + m.ndof, (*anchor)[2] = (V(*)[2])(p + m.ndof), *time = (V *)(anchor + m.ncontact);
+  StepState<V> s{q, p, anchor, time, time + 1};
+  const int ns = (int)Ctl::n_state(m), at_u = 2 * m.ndof + m.nsensor, at_state = at_u + m.nact;
   if (o.oi && o.init) {
     positions(m, q, t);
     observe_init(m, t, o.oi, acc);
   }
   for (int64_t n = 0; n < steps; ++n) {
-    prepare(m, q, p, t);
-    sense(m, t, *time);
     const bool keep = frames && n % rec.every == 0 && n / rec.every < rec.n;
     V *f = keep ? frames + (n / rec.every) * rec.values : nullptr;
     // the caller's frame buffer need not be aligned for V: stored value by value, unaligned
     auto put = [&](int at, const V &v) { std::memcpy((void *)(f + at), &v, sizeof(V)); };
-    if (keep) {  // the state before this step, and the controller's state before its update
-      for (int d = 0; d < m.D; ++d) { put(d, q[d]); put(m.D + d, t.qd[d]); }
-      for (int k = 0; k < m.S; ++k) put(2 * m.D + k, t.bits[k]);
+    auto seen = [&] {  // the state before this step, and the controller's state before its update
+      if (!keep) return;
+      for (int d = 0; d < m.ndof; ++d) { put(d, q[d]); put(m.ndof + d, t.qd[d]); }
+      for (int k = 0; k < m.nsensor; ++k) put(2 * m.ndof + k, t.bits[k]);
       for (int k = 0; k < ns; ++k) put(at_state + k, cst[k]);
-    }
-    ctl.act(m, t, par, cst, *time);
-    if (keep)
-      for (int k = 0; k < m.A; ++k) put(at_u + k, t.act[k]);
-    if (o.oi) observe(m, t, o.oi, o.of, *time, acc);
-    advance(m, t, q, p, anchor, *dmax);
-    *time = *time + t.wf[W_DT];
+    };
+    auto acted = [&] {
+      if (keep)
+        for (int k = 0; k < m.nact; ++k) put(at_u + k, t.act[k]);
+    };
+    step(m, t, s, ctl, par, cst, o, acc, seen, acted);
   }
-  // the final state's velocity M^-1 p (state coordinates) and, for the metric, its centre of mass
   prepare(m, q, p, t);
-  for (int d = 0; d < m.D; ++d) qd_out[d] = t.qd[d];
+  for (int d = 0; d < m.ndof; ++d) qd_out[d] = t.qd[d];
   if (o.oi) centre_of_mass(m, t, acc[A_PX], acc[A_PY], (V *)nullptr, (V *)nullptr);
 }
 
@@ -157,20 +150,22 @@ struct Tables {
   Model m;
   std::vector<int32_t> dense, kid_start, kids;
   Tables(const int32_t *dims, const void *const *tables) {
-    m.L = dims[0]; m.C = dims[1]; m.T = dims[2]; m.D = dims[3]; m.S = dims[4]; m.A = dims[5]; m.R = dims[6];
-    m.K = dims[7]; m.N = dims[8]; m.I = dims[9]; m.P = dims[10]; m.E = dims[11]; m.F = dims[12];
+    m.nlink = dims[DIM_LINKS]; m.ncontact = dims[DIM_CONTACTS]; m.ntree = dims[DIM_TREES]; m.ndof = dims[DIM_DOFS];
+    m.nsensor = dims[DIM_SENSORS]; m.nact = dims[DIM_ACTUATORS]; m.nchain = dims[DIM_CHAIN];
+    m.nrough = dims[DIM_ROUGH]; m.nnode = dims[DIM_NODES]; m.ninput = dims[DIM_INPUTS];
+    m.nspring = dims[DIM_SPRINGS]; m.nedge = dims[DIM_EDGES]; m.nfollow = dims[DIM_FOLLOW];
     const int32_t **ints[] = {&m.li, &m.ri, &m.rl, &m.rn, &m.ti, &m.ci, &m.si, &m.ai, &m.pi, &m.ei, &m.wi};
     const double **reals[] = {&m.lf, &m.cf, &m.sf, &m.af, &m.pf, &m.ef, &m.wf, &m.rough, &m.follow};
     int k = 0;
     for (auto p : ints) *p = (const int32_t *)tables[k++];
     for (auto p : reals) *p = (const double *)tables[k++];
-    dense.resize(m.D);
-    for (int d = 0; d < m.D; ++d) dense[d] = d;
+    dense.resize(m.ndof);
+    for (int d = 0; d < m.ndof; ++d) dense[d] = d;
     m.dense_idx = dense.data();
-    kid_start.assign(m.L + 1, 0);
-    for (int i = 0; i < m.L; ++i) {
-      for (int j = 0; j < m.L; ++j)
-        if (m.li[j * LI + L_PARENT] == i) kids.push_back(j);
+    kid_start.assign(m.nlink + 1, 0);
+    for (int i = 0; i < m.nlink; ++i) {
+      for (int j = 0; j < m.nlink; ++j)
+        if (m.link(j).parent == i) kids.push_back(j);
       kid_start[i + 1] = (int32_t)kids.size();
     }
     kids.push_back(0);  // never read: keeps data() valid for a creature of one link
@@ -185,8 +180,9 @@ template <class V>
 static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *tables, const int32_t *per_row, int64_t b) {
   using Ls = Lanes<V>;
   const int W = Ls::W;
-  const size_t counts[] = {(size_t)(m.L * LF), (size_t)(m.C * 3), (size_t)(m.S * 6), (size_t)(m.A * 8), (size_t)(m.P * 7),
-                           (size_t)(m.E * 4), (size_t)W_COUNT, (size_t)(m.K * 3)};
+  const size_t counts[] = {(size_t)m.nlink * LF_WIDTH, (size_t)m.ncontact * CF_WIDTH, (size_t)m.nsensor * SF_WIDTH,
+                           (size_t)m.nact * AF_WIDTH, (size_t)m.nspring * PF_WIDTH, (size_t)m.nedge * EF_WIDTH,
+                           (size_t)WF_WIDTH, (size_t)m.nrough * ROUGH_WIDTH};
   V *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
   for (int k = 0; k < 8; ++k) {
     const double *src = (const double *)tables[11 + k];
@@ -237,11 +233,11 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
                     int64_t steps) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
-  const Observe o{oi, of, init};
+  const Observers o{oi, of, init};
   const size_t na = oi ? (size_t)obs_values(oi) : 0, npar = Ctl::n_param(m), nst = Ctl::n_state(m);
-  const size_t sizes[] = {(size_t)m.D, (size_t)m.D, (size_t)(2 * m.C), 1, 1};
-  const Record rec{every > 0 ? every : 1, n_frames, 2 * m.D + m.S + m.A + (int64_t)nst};
-  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.D, [&](Tile<V> &tile, V *s, int64_t b) {
+  const size_t sizes[] = {(size_t)m.ndof, (size_t)m.ndof, (size_t)(2 * m.ncontact), 1, 1};
+  const Record rec{every > 0 ? every : 1, n_frames, 2 * m.ndof + m.nsensor + m.nact + (int64_t)nst};
+  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.ndof, [&](Tile<V> &tile, V *s, int64_t b) {
     V *at = s;
     for (int k = 0; k < 5; ++k) { load(at, state[k], b, sizes[k]); at += sizes[k]; }
     V *p = at, *c = p + npar, *a = c + nst, *v = a + na;
@@ -254,7 +250,7 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
     for (int k = 0; k < 5; ++k) { store(state[k], at, b, sizes[k]); at += sizes[k]; }
     store(cst, c, b, nst);
     if (na) store(acc, a, b, na);
-    store(qd, v, b, m.D);
+    store(qd, v, b, m.ndof);
   });
 }
 
@@ -266,7 +262,7 @@ static void rollout_kind(int32_t kind, const int32_t *dims, const void *const *t
   auto run = [&](const auto &ctl) {
     rollout<V>(ctl, dims, tables, per_row, state, par, cst, oi, of, init, acc, qd, frames, every, n_frames, T, steps);
   };
-  if (kind == K_SAN) run(SanControl<V>{(const short *)weights, NP, (size_t)Lanes<V>::W * dims[9] * NP});
+  if (kind == K_SAN) run(SanControl<V>{(const short *)weights, NP, (size_t)Lanes<V>::W * dims[DIM_INPUTS] * NP});
   else if (kind == K_HOLD) run(HoldControl<V>{});
   else if (kind == K_SINE) run(SineControl<V>{});
   else if (kind == K_PATTERN) run(PatternControl<V>{});
@@ -277,17 +273,17 @@ static void rollout_kind(int32_t kind, const int32_t *dims, const void *const *t
 //
 // What the host asks of single configurations, per row: each reads in [n_in] and writes
 // out [n_out] (values of V, one per row of the tile; see inspect_sizes).
-enum { I_POSES, I_ENERGY, I_MOMENTA, I_VELOCITY, I_SENSE, I_FOLLOW, I_COM };
+// (their kinds: layout.h, I_POSES ... I_CENTRE_OF_MASS)
 
 static void inspect_sizes(const Model &m, int kind, size_t &n_in, size_t &n_out) {
-  const size_t D = m.D;
+  const size_t D = m.ndof;
   switch (kind) {
-    case I_POSES: n_in = D; n_out = 3 * (size_t)m.L + 3 * (size_t)m.C + 2; break;  // links, contacts, depth, com
+    case I_POSES: n_in = D; n_out = 3 * (size_t)m.nlink + 3 * (size_t)m.ncontact + 2; break;  // links, contacts, depth, com
     case I_ENERGY: n_in = 2 * D; n_out = 3; break;                                  // q, p -> kinetic, gravity, elastic
     case I_MOMENTA: n_in = 2 * D; n_out = D; break;                                 // q, qd -> p
     case I_VELOCITY: n_in = 2 * D; n_out = D; break;                                // q, p -> qd
-    case I_SENSE: n_in = D + 1; n_out = m.S; break;                                 // q, t -> bits
-    case I_FOLLOW: n_in = 1; n_out = 2; break;                                      // t -> follow point
+    case I_SENSE: n_in = D + 1; n_out = m.nsensor; break;                                 // q, t -> bits
+    case I_FOLLOW_POINT: n_in = 1; n_out = 2; break;                                      // t -> follow point
     default: n_in = 2 * D; n_out = 4; break;                                        // q, p -> com, its velocity
   }
 }
@@ -298,34 +294,34 @@ template <class V> static void inspect(const Model &m, Tile<V> &t, int kind, con
     case I_POSES: {
       positions(m, q, t);
       V *o = out;
-      for (int i = 0; i < m.L; ++i) { *o++ = t.X[i][0]; *o++ = t.X[i][1]; *o++ = t.th[i]; }
-      for (int c = 0; c < m.C; ++c) { *o++ = t.cp[c][0]; *o++ = t.cp[c][1]; }
-      for (int c = 0; c < m.C; ++c) *o++ = t.depth[c];
+      for (int i = 0; i < m.nlink; ++i) { *o++ = t.X[i][0]; *o++ = t.X[i][1]; *o++ = t.th[i]; }
+      for (int c = 0; c < m.ncontact; ++c) { *o++ = t.cp[c][0]; *o++ = t.cp[c][1]; }
+      for (int c = 0; c < m.ncontact; ++c) *o++ = t.depth[c];
       centre_of_mass(m, t, o[0], o[1], (V *)nullptr, (V *)nullptr);
       break;
     }
     case I_ENERGY:
-      prepare(m, q, in + m.D, t);
+      prepare(m, q, in + m.ndof, t);
       energy(m, t, out[0], out[1], out[2]);
       break;
     case I_MOMENTA:
       positions(m, q, t);
-      momenta(m, t, in + m.D, out);
+      momenta(m, t, in + m.ndof, out);
       break;
     case I_VELOCITY:
-      prepare(m, q, in + m.D, t);
-      for (int d = 0; d < m.D; ++d) out[d] = t.qd[d];
+      prepare(m, q, in + m.ndof, t);
+      for (int d = 0; d < m.ndof; ++d) out[d] = t.qd[d];
       break;
     case I_SENSE:
       positions(m, q, t);
-      sense(m, t, in[m.D]);
-      for (int s = 0; s < m.S; ++s) out[s] = t.bits[s];
+      sense(m, t, in[m.ndof]);
+      for (int s = 0; s < m.nsensor; ++s) out[s] = t.bits[s];
       break;
-    case I_FOLLOW:
+    case I_FOLLOW_POINT:
       follow_point(m, t, in[0], out[0], out[1]);
       break;
     default:
-      prepare(m, q, in + m.D, t);
+      prepare(m, q, in + m.ndof, t);
       centre_of_mass(m, t, out[0], out[1], &out[2], &out[3]);
   }
 }
@@ -344,16 +340,16 @@ int sanlab_kernel_lanes() { return Lanes<vd>::W; }
 // Runs `steps` steps of T tiles of W creatures under one kind of controller (kernel.py: run_san,
 // run_open); scalar = 1: one creature per thread in plain double (W = 1), the form a GPU thread
 // runs, here for the tests that it steps every creature bit for bit as the vector form does.
-// kind: 0 SAN, 1 hold, 2 sine, 3 reflex, 4 pattern (see the controllers above for their parameters).
-// dims: L, C, T, D, S, A, R, K, N, I, P, E, F (kernel.py; N = 0 and I = S but for a SAN);
-// tables: the creature's tables in the order of kernel.TABLES; per_row: for each float table but
+// kind: layout.h's K_SAN ... K_PATTERN (see the controllers above for their parameters).
+// dims: the counts of layout.DIMS, in its order (DIM_LINKS ...; nodes 0 and inputs = sensors but for a SAN);
+// tables: the creature's tables in the order of layout.ORDER; per_row: for each float table but
 // the follow path (lf, cf, sf, af, pf, ef, wf, rough), 1 where it holds one copy per row
 // ([T * W, ...]: mixed batches), 0 where one copy serves every row; state: q, p [T, D, W], anchor
 // [T, C, 2, W], t, dmax [T, W] (updated in place); par [T, n_param, W] the controller's
 // parameters, cst [T, n_state, W] its state (updated in place); float64. weights: a SAN's int16
 // [T * W, I, NP], each creature's transposed (one row of NP nodes per input), NP the node count
 // rounded up to a multiple of 32 (zeros past N); null for the others.
-// oi, of: the observers' config (step.h, "observers"), or null for none; acc [T, obs_values, W]
+// oi, of: the observers' config (observe.h), or null for none; acc [T, obs_values, W]
 // their accumulators (started here when init is 1); qd [T, D, W] receives the final velocity.
 // frames: null, or [T, n_frames, 2 D + S + A + n_state, W] for a frame every `every` steps.
 void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
@@ -389,25 +385,25 @@ void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const voi
   else run(vd{});
 }
 
-// Start states at rest (dynamics.make_state with no velocity): q [T, D, W] seated on the ground in
-// place on the lanes where seat [T, W] is nonzero (dynamics.seat_on_ground), and the friction
+// Start states at rest: q [T, D, W] seated on the ground in
+// place on the lanes where seat [T, W] is nonzero (step.h: seat), and the friction
 // anchors anchor [T, C, 2, W] at the contact points of the resulting pose.
 void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *q, const double *seat_rows,
                   double *anchor, int64_t T) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
-  over_tiles<vd>(m, tables, per_row, T, 2 * m.D + 1 + 2 * m.C, [&](Tile<vd> &tile, vd *qt, int64_t b) {
-    vd *seated = qt + m.D, *on = seated + m.D, *cp = on + 1;
-    load(qt, q, b, m.D);
-    std::memcpy(seated, qt, m.D * sizeof(vd));
+  over_tiles<vd>(m, tables, per_row, T, 2 * m.ndof + 1 + 2 * m.ncontact, [&](Tile<vd> &tile, vd *qt, int64_t b) {
+    vd *seated = qt + m.ndof, *on = seated + m.ndof, *cp = on + 1;
+    load(qt, q, b, m.ndof);
+    std::memcpy(seated, qt, m.ndof * sizeof(vd));
     load(on, seat_rows, b, 1);
     seat(m, tile, seated);
-    for (int d = 0; d < m.D; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
+    for (int d = 0; d < m.ndof; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
     positions(m, qt, tile);
-    store(q, qt, b, m.D);
-    for (int c = 0; c < m.C; ++c)
+    store(q, qt, b, m.ndof);
+    for (int c = 0; c < m.ncontact; ++c)
       for (int a = 0; a < 2; ++a) cp[2 * c + a] = tile.cp[c][a];
-    store(anchor, cp, b, 2 * m.C);
+    store(anchor, cp, b, 2 * m.ncontact);
   });
 }
 }

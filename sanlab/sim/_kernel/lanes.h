@@ -1,0 +1,92 @@
+// Lanes: the value type the kernel is written over. A GCC vector of W doubles on the CPU (one SIMD
+// register per value: every operation of a step is one vector instruction for a whole tile of W
+// creatures), or plain double (one creature per thread: the GPU's form, and the tests' reference).
+// sin and cos are one polynomial on every lane and target, so a trajectory does not depend on
+// which lane computed it.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+namespace sanlab {
+
+template <class V> struct Lanes;
+
+template <> struct Lanes<double> {
+  static constexpr int W = 1;
+  using M = bool;
+  static double sel(bool m, double a, double b) { return m ? a : b; }
+  static double sqrt(double a) { return __builtin_sqrt(a); }
+  static double floor(double a) { return __builtin_floor(a); }
+  static double abs(double a) { return __builtin_fabs(a); }
+  static double min(double a, double b) { return a < b ? a : b; }
+  static double max(double a, double b) { return a > b ? a : b; }
+  static bool any(bool m) { return m; }
+  static bool on(bool m, int) { return m; }
+  static double lane(double a, int) { return a; }
+  static void set(double &a, int, double v) { a = v; }
+};
+
+#ifndef SANLAB_LANES
+#define SANLAB_LANES 8
+#endif
+typedef double vd __attribute__((vector_size(8 * SANLAB_LANES)));
+typedef long vm __attribute__((vector_size(8 * SANLAB_LANES)));
+
+template <> struct Lanes<vd> {
+  static constexpr int W = SANLAB_LANES;
+  using M = vm;
+  static vd sel(vm m, vd a, vd b) { return m ? a : b; }
+  static vd sqrt(vd a) {
+    vd r;
+    for (int l = 0; l < W; ++l) r[l] = __builtin_sqrt(a[l]);
+    return r;
+  }
+  static vd floor(vd a) {
+    vd r;
+    for (int l = 0; l < W; ++l) r[l] = __builtin_floor(a[l]);
+    return r;
+  }
+  static vd abs(vd a) { return a < 0.0 ? -a : a; }
+  // min/max as the scalar form: a < b ? a : b (NaN handling the same on every lane)
+  static vd min(vd a, vd b) { return a < b ? a : b; }
+  static vd max(vd a, vd b) { return a > b ? a : b; }
+  static bool any(vm m) {
+    long r = 0;
+    for (int l = 0; l < W; ++l) r |= m[l];
+    return r != 0;
+  }
+  static double lane(vd a, int l) { return a[l]; }
+  static bool on(vm m, int l) { return m[l] != 0; }
+  static void set(vd &a, int l, double v) { a[l] = v; }
+};
+
+// sin and cos on lanes: Cody-Waite reduction to [-pi/4, pi/4] and fdlibm's kernel polynomials
+// (|error| about 1 ulp), branch-free so that it vectorises; the same code on every target, so a
+// creature's trajectory does not depend on which lane or target computed it.
+template <class V> static inline void sincos(V x, V &s, V &c) {
+  using Ls = Lanes<V>;
+  const double p1 = 1.57079632673412561417e+00, p2 = 6.07710050630396597660e-11, p3 = 2.02226624879595063154e-21;
+  V k = Ls::floor(x * 0.63661977236758134308 + 0.5);
+  V r = ((x - k * p1) - k * p2) - k * p3;
+  V z = r * r;
+  V ps = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (-1.98412698298579493134e-04 +
+         z * (2.75573137070700676789e-06 + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+  V hz = 0.5 * z;
+  V w = 1.0 - hz;
+  V pc = w + (((1.0 - w) - hz) + z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 +
+         z * (2.48015872894767294178e-05 + z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 +
+         z * -1.13596475577881948265e-11))))));
+  // quadrant n = k mod 4: sin = (ps, pc, -ps, -pc)[n], cos = (pc, -ps, -pc, ps)[n]
+  V q = k - 4.0 * Ls::floor(k * 0.25);
+  auto swap = (q == 1.0) | (q == 3.0);
+  V s0 = Ls::sel(swap, pc, ps), c0 = Ls::sel(swap, ps, pc);
+  s = Ls::sel(q >= 2.0, -s0, s0);
+  c = Ls::sel((q == 1.0) | (q == 2.0), -c0, c0);
+}
+
+// a wrapped to [-pi, pi) (rad)
+template <class V> static inline V wrap_angle(V a) {
+  return a - (2 * M_PI) * Lanes<V>::floor((a + M_PI) * (0.5 / M_PI));
+}
+
+}  // namespace sanlab
