@@ -7,6 +7,11 @@ generation is scored. Evaluation ``idx`` belongs to generation ``idx // popsize`
 replaced by a fresh one (a *restart*, seeded from the run's seed and the restart's number) every
 ``generations`` generations, or sooner when it has converged (``should_stop``).
 
+A strategy may first spend ``warmup`` evaluations (indices 0 .. warmup - 1) on candidates of its
+own choosing, one at a time in any order (:meth:`Generational.warm`: e.g. random SANs, the
+paper's phase 1), and start its first optimiser from what they scored; generation ``g`` then
+holds the indices ``warmup + g * popsize`` onwards.
+
 Everything an optimiser draws follows from its seed and the scores it was told, and the library
 stores every score exactly, so an interrupted run resumes by replaying its stored generations
 through fresh optimisers with the same seeds: it asks the same candidates again and ends exactly
@@ -38,6 +43,7 @@ class Generational:
     phase: ClassVar[int] = 1
     popsize: int
     generations: int | None = None
+    warmup: int = 0  # evaluations asked (by :meth:`warm`) before the first optimiser
 
     def __init__(self, problem: Problem):
         self.problem = problem
@@ -47,9 +53,14 @@ class Generational:
         self._full: list[Any] = []  # all of its points (a last generation cut by the budget asks fewer)
         self._asked: set[int] = set()
         self._scores: dict[int, float] = {}  # scores of the generation in flight, told or stored
-        self._next = 0  # the first evaluation index of the next generation
+        self._next = 0  # the first evaluation index of the next generation (after the warm-up)
         self._stored = 0
         self._best = 0.0
+        self._warm_todo: list[int] | None = None  # warm-up indices not yet asked (None: not begun)
+        self.warm_scores: dict[int, float] = {}  # the warm-up's scores, by index
+        # the best candidate so far (score, idx, candidate), updated as the warm-up and each
+        # generation close (in index order, so a resumed run has the same): a restart starts there
+        self.elite: tuple[float, int, Candidate] | None = None
 
     # -- what a subclass writes
 
@@ -65,11 +76,25 @@ class Generational:
         """What to store of ``candidate``, scored as row ``k`` of ``scores``."""
         raise NotImplementedError
 
+    def warm(self, idx: int) -> Candidate:
+        """The warm-up's candidate ``idx`` (only with ``warmup`` > 0); the optimisers then read
+        ``warm_scores``."""
+        raise NotImplementedError
+
     # -- the strategy
 
     @property
     def done(self) -> bool:
-        return self._next >= self.problem.budget and not self._gen
+        return self._warmed and max(self._next, self._n_warm) >= self.problem.budget and not self._gen
+
+    @property
+    def _n_warm(self) -> int:
+        return min(self.warmup, self.problem.budget)
+
+    @property
+    def _warmed(self) -> bool:
+        """Every warm-up evaluation is scored (then the optimisers begin)."""
+        return len(self.warm_scores) >= self._n_warm
 
     @property
     def run_ids(self) -> tuple[str, ...]:
@@ -79,8 +104,15 @@ class Generational:
         rng = np.random.default_rng([self.problem.seed, 56, restart, again])
         return int(rng.integers(2**31 - 1))
 
+    def _end_warmup(self) -> None:
+        """The warm-up is scored: its best is the first elite, and generations begin after it."""
+        self._next = self._n_warm
+        if self.warm_scores:
+            i = max(sorted(self.warm_scores), key=lambda j: self.warm_scores[j])  # the first of the best
+            self.elite = (self.warm_scores[i], i, self.warm(i))
+
     def _new_generation(self) -> None:
-        g = self._next // self.popsize
+        g = (self._next - self._n_warm) // self.popsize
         restart = g // self.generations if self.generations else 0
         if restart != self._restart:
             self._restart, self._again = restart, 0
@@ -97,6 +129,13 @@ class Generational:
         self._scores = {}
 
     def ask(self, n: int) -> list[Candidate]:
+        if not self._warmed:
+            if self._warm_todo is None:
+                self._warm_todo = [i for i in range(self._n_warm) if i not in self.warm_scores]
+            take, self._warm_todo = self._warm_todo[:n], self._warm_todo[n:]
+            return [self.warm(i) for i in take]  # [] while the last of them are being scored
+        if self._next < self._n_warm:
+            self._end_warmup()
         if not self._gen:
             if self._next >= self.problem.budget:
                 return []
@@ -112,6 +151,9 @@ class Generational:
         if len(self._gen) == self.popsize:
             with _one_blas_thread():
                 self._opt.tell([(x, -self._scores[i]) for (i, _), x in zip(self._gen, self._full)])
+        for i, x in self._gen:
+            if self.elite is None or self._scores[i] > self.elite[0]:
+                self.elite = (self._scores[i], i, self.candidate(i, x))
         self._next = self._gen[-1][0] + 1
         self._gen = []
 
@@ -119,7 +161,11 @@ class Generational:
         rows = []
         for k, c in enumerate(candidates):
             s = float(scores.score[k])
-            self._scores[c.idx] = s if math.isfinite(s) else 0.0
+            s = s if math.isfinite(s) else 0.0
+            if c.idx < self._n_warm:
+                self.warm_scores[c.idx] = s
+            else:
+                self._scores[c.idx] = s
             rows.append(self.row(c, scores, k))
         self._stored += len(candidates)
         if len(scores):
@@ -134,6 +180,10 @@ class Generational:
         stored = {e.idx: (e.score if e.score == e.score else 0.0) for e in evaluations}
         self._stored = len(stored)
         self._best = max(stored.values(), default=0.0)
+        self.warm_scores = {i: s for i, s in stored.items() if i < self._n_warm}
+        if not self._warmed:
+            return  # the warm-up asks what it lacks; no generation was drawn before it ended
+        self._end_warmup()
         while self._next < self.problem.budget:
             self._new_generation()
             self._scores = {i: stored[i] for i, _ in self._gen if i in stored}

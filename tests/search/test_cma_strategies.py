@@ -13,6 +13,7 @@ import pytest
 
 from sanlab import __version__, creature
 from sanlab.evaluate import ScoreBatch
+from sanlab.evaluate.ensemble import search_key
 from sanlab.evaluate.records import GaitParams
 from sanlab.library import Library
 from sanlab.san import San
@@ -102,3 +103,37 @@ def test_a_search_of_one_seed_asks_the_same_and_another_seed_does_not(cls, tmp_p
         return [c.weights.tobytes() + (b"" if c.pattern is None else c.pattern.tobytes()) for c in s.ask(8)]
 
     assert first(3) == first(3) and first(3) != first(4)
+
+
+def test_catcma_warms_up_on_the_random_searchs_own_sans_then_starts_from_the_best(tmp_path):
+    p = Problem("r", SAN, 120, seed=5, gait_params=GaitParams(0.1, 0.1))
+    s = CatCma(p)
+    assert s.warmup == 20  # a sixth of the budget
+    warm = s.ask(64)
+    assert [c.idx for c in warm] == list(range(20)) and s.ask(8) == []  # waits for the warm-up's scores
+    for c in warm:
+        assert np.array_equal(c.weights, SAN.random_weights(5, c.idx)) and c.key == search_key(5, c.idx)
+    best = 13
+    s.tell(warm, batch([1.0 if c.idx == best else 0.1 for c in warm]))
+    first = s.ask(64)
+    assert [c.idx for c in first] == list(range(20, 20 + s.popsize))
+    assert s.elite is not None and s.elite[1] == best
+    # the generation is drawn about the best random SAN: most weights stay where it has them
+    same = np.mean([np.mean(c.weights == SAN.random_weights(5, best)) for c in first])
+    assert same > 0.4
+
+
+def test_catcma_resumed_in_its_warm_up_ends_as_an_uninterrupted_run(tmp_path):
+    score = lambda c: float(np.sum(c.weights == 1)) + 0.001 * c.idx
+    with Library(str(tmp_path / "a.db")) as lib:
+        whole = CatCma(Problem(run(lib), SAN, 90, seed=2, gait_params=GaitParams(0.1, 0.1)))
+        drive(whole, lib, score)
+        cut = CatCma(Problem(run(lib), SAN, 90, seed=2, gait_params=GaitParams(0.1, 0.1)))
+        cands = cut.ask(7)  # 7 of the 15 warm-up SANs, then the process dies
+        t = cut.tell(cands, batch([score(c) for c in cands]))
+        lib.commit(t.evaluations, t.trace, t.finished)
+        again = CatCma(Problem(cut.run_ids[0], SAN, 90, seed=2, gait_params=GaitParams(0.1, 0.1)))
+        again.resume(lib.top(cut.run_ids[0], None), [])
+        drive(again, lib, score)
+        enc = lambda r: sorted((e.idx, e.encoding) for e in lib.top(r, None))
+        assert enc(cut.run_ids[0]) == enc(whole.run_ids[0]) and len(enc(whole.run_ids[0])) == 90
