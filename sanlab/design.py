@@ -61,7 +61,8 @@ class DesignSettings:
     """What a design run does: ``designs`` bodies in all (the reference not counted),
     ``generation`` per round of the ``strategy``; per body ``controllers`` random SANs, ``top``
     chains of ``trials`` trials, scored over ``seconds`` (None: the file's) with an ensemble of
-    ``ensemble`` members; ``validate`` best bodies scored again on ``seeds``. ``prune``: a body of
+    ``ensemble`` members (``search``: phase 1's strategy, "random" or "catcma", see
+    ``sanlab.search.catcma``); ``validate`` best bodies scored again on ``seeds``. ``prune``: a body of
     the search whose phase-1 best speed is below this fraction of the reference's skips phase 2
     and scores 0 (0: none is pruned); the validation never prunes."""
 
@@ -77,6 +78,7 @@ class DesignSettings:
     validate: int = 2
     seeds: tuple[int, ...] = (1,)
     prune: float = 0.0
+    search: str = "random"  # each body's phase 1: "random" (§5.2), or "catcma" (``controllers`` evaluations of it)
 
 
 @dataclass
@@ -170,8 +172,12 @@ class DesignResult:
 
 
 def settings_json(s: DesignSettings) -> dict:
-    """``s`` as a JSON object (the library's key of a design with the file's text)."""
-    return {**asdict(s), "seeds": list(s.seeds)}
+    """``s`` as a JSON object (the library's key of a design with the file's text); ``search``
+    only when it is not random search, so the designs made before it had a choice keep their key."""
+    out = {**asdict(s), "seeds": list(s.seeds)}
+    if s.search == "random":
+        del out["search"]
+    return out
 
 
 def free_json(design: Design) -> list[dict]:
@@ -258,7 +264,7 @@ def _run(lib: Library, design: Design, design_id: str, text: str, where: str, s:
             else:
                 body.speeds[seed] = robust_tuned(lib, t, where, seed=seed, controllers=s.controllers,
                                                  trials=s.trials, top=s.top, ens=ens, seconds=seconds,
-                                                 backend=backend, prune_below=prune_below)
+                                                 backend=backend, prune_below=prune_below, strategy=s.search)
             lib.add_design_score(design_id, body.round, body.index, seed, body.values, body.speeds[seed])
         done[0] += 1
         if seed == s.seed:

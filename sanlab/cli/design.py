@@ -56,7 +56,8 @@ def design(
     designs: Annotated[int, typer.Option(min=1, help="Bodies to score in the search (the reference not counted).")] = 8,
     generation: Annotated[int, typer.Option(min=1, help="Bodies per round of the strategy.")] = 4,
     strategy: Annotated[str, typer.Option(help="cma-es (pyribs' CMA-ES over the free numbers; needs pip install 'sanlab[qd]') or random.")] = "cma-es",
-    controllers: Annotated[int, typer.Option(min=1, help="Random SANs of each body's phase 1.")] = 200,
+    controllers: Annotated[int, typer.Option(min=1, help="Each body's phase 1: random SANs, or --search's evaluations.")] = 200,
+    search: Annotated[str, typer.Option(help="Each body's phase 1: random (§5.2) or catcma (random SANs, then CatCMAwM from the best).")] = "random",
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials of each chain of each body's phase 2.")] = 100,
     top: Annotated[int, typer.Option(min=1, help="Chains per body: its best phase-1 SANs tuned.")] = 2,
     seconds: Annotated[float | None, typer.Option(min=0.01, help="Evaluation time (s); default: the file's.")] = None,
@@ -126,8 +127,10 @@ def design(
 
     engine = backend_or_exit(backend, address, workers)
 
+    if search not in ("random", "catcma"):
+        raise fail(f"design: --search: expected random or catcma, got {safe(search)}")
     settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
-                              validate, valid_seeds, prune)
+                              validate, valid_seeds, prune, search)
     from sanlab.design import reference_name
 
     for k, total in d.off_totals():  # said before the hours of the design, not after

@@ -608,3 +608,22 @@ def test_a_free_numbers_name_is_refused_as_every_other_name_is(name):
     msg = str(e.value)
     assert msg.startswith("hopper.toml: links[1].points[1][1].name: expected a name (printable, not blank, no spaces "
                           "around it, at most 64 characters), got ") and msg.isprintable()
+
+
+def test_a_design_scores_each_body_with_the_phase_1_search_it_is_given(monkeypatch, tmp_path):
+    import sanlab.reproduce
+    from sanlab.design import DesignSettings, run_design, settings_json
+
+    seen = []
+
+    def fake(lib, text, where, *, seed, prune_below=None, strategy="random", **kw):
+        seen.append(strategy)
+        return {"speed": 10.0 * loads(text).links[0].mass, "gait": None, "search": "s", "phase1_cm_s": 1.0, "chains": []}
+
+    monkeypatch.setattr(sanlab.reproduce, "robust_tuned", fake)
+    design, _ = load_design(str(HOPPER))
+    s = DesignSettings(designs=4, generation=4, strategy="random", validate=1, seeds=(1,), search="catcma")
+    with Library(tmp_path / "d.db") as lib:
+        run_design(lib, design, HOPPER.read_text(), "hopper.toml", s)
+    assert seen and set(seen) == {"catcma"}
+    assert settings_json(s)["search"] == "catcma" and "search" not in settings_json(DesignSettings())  # old keys kept
