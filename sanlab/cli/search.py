@@ -58,7 +58,7 @@ def _ribs_or_exit() -> None:
 def search(
     ctx: typer.Context,
     creature: Annotated[str | None, typer.Argument(metavar="CREATURE", help="Built-in name or .toml file (omit with --resume).")] = None,
-    controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Random SANs to evaluate.")] = 200,
+    controllers: Annotated[int, typer.Option("--controllers", "-n", min=1, help="Controllers to evaluate (random SANs, or --strategy's).")] = 200,
     seconds: Annotated[float | None, typer.Option(help="Evaluation time (s); default: the creature file's.")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the random weights.")] = 0,
     metric: Annotated[str | None, typer.Option(help=f"{METRIC_HELP}; default: the creature file's.")] = None,
@@ -66,8 +66,10 @@ def search(
         "Controllers simulated (and committed) together, at most --controllers; map-elites' generation "
         "(default 256; map-elites 64)."))] = None,
     strategy: Annotated[str, typer.Option(help=(
-        "random (§5.2: random SANs) or map-elites (a repertoire: the best gait in each cell of --grid; needs "
-        "pip install 'sanlab[qd]')."))] = "random",
+        "random (§5.2: random SANs; many modes), catcma (the fastest SAN: a sixth random, then CatCMAwM over the "
+        "weights from the best; give -n in the thousands), map-elites (a repertoire: the best gait in each cell of "
+        "--grid; needs pip install 'sanlab[qd]') or pattern (open-loop square waves, no SAN: the ceiling's search; "
+        "see sanlab ceiling)."))] = "random",
     grid: Annotated[str | None, typer.Option(help=(
         "map-elites: two behaviour descriptors NAME,NAME or NAME:LO:HI,NAME:LO:HI (default vx_cm_s,airborne; "
         "names: vx_cm_s, height_m, height_sd_m, turns_per_s, airborne, joint_speed_rad_s, period_s; a range left "
@@ -91,8 +93,11 @@ def search(
 ) -> None:
     """Phase 1 (paper §5.2): evaluate random SANs, keep every score, show the best gaits.
 
-    With --strategy map-elites, -n controllers are spent on a repertoire instead: the first tenth
-    random, then mutants of the archive's elites, keeping the best gait of each cell of --grid."""
+    With --strategy catcma, -n controllers find the fastest SAN instead: the first sixth random,
+    then a mixed-integer CMA-ES (CatCMAwM) over the weights from the best of them. With --strategy
+    map-elites, they are spent on a repertoire: the first tenth random, then mutants of the
+    archive's elites, keeping the best gait of each cell of --grid. With --strategy pattern, on
+    open-loop square waves (pattern gaits, no SAN; `sanlab ceiling` makes the creature's ceiling of them)."""
     check_dtype(dtype)
     # The creature is read, and refused, before the simulator is imported: a mistyped name is answered at once
     spec = load_or_exit(creature)[0] if creature is not None and resume is None else None
