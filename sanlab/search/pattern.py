@@ -25,8 +25,6 @@ resumes by replaying its stored generations and ends exactly as an uninterrupted
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 from sanlab.evaluate.ensemble import search_key
@@ -56,14 +54,6 @@ def decode(x: np.ndarray, actuators: int) -> np.ndarray:
     lo, hi = PERIOD_RANGE
     out[..., 4 * A] = lo * (hi / lo) ** np.clip(x[..., 2 * A], 0.0, 1.0)
     return out
-
-
-def describe(pattern: Sequence[float], actuators: Sequence[str]) -> list[str]:
-    """One line per actuator of a pattern, e.g. "hip: high 0.92 for 40 % of 0.42 s from 0.25"."""
-    p = np.asarray(pattern, float)
-    period = float(p[-1])
-    return [f"{name}: {p[4 * a + 3]:.2f} for {100 * p[4 * a + 1]:.0f} % of {period:.3f} s from phase {p[4 * a]:.2f}, "
-            f"else {p[4 * a + 2]:.2f}" for a, name in enumerate(actuators)]
 
 
 class PatternSearch(Generational):
