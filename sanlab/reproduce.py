@@ -732,7 +732,8 @@ def _ceiling_cells(rows: list[Row]) -> str:
     if not have:
         return " - | - |"
     c = float(np.median([r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
-    vouched = "" if all((r.ceiling or {}).get("verdict") == "robust" for r in have) else " (not robust)"
+    vouched = "" if all((r.ceiling or {}).get("verdict") == "robust" and not (r.ceiling or {}).get("fell")
+                        for r in have) else " (not vouched for)"
     frac = float(np.median([r.robust_speed / r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
     return f" {c:.1f}{vouched} | {frac:.2f} |"
 

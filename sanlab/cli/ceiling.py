@@ -81,7 +81,8 @@ def ceiling(
     if c is None:
         console.print(f"pattern ceiling of {escape(name)}: none (every pattern fell or blew up in run {run_id})")
         return
-    vouched = "audited: robust" if c.robust else f"audit: {c.verdict or 'not audited'}: not vouched for"
+    vouched = ("audited: robust" if c.robust else "its audit's ensemble fell: not vouched for" if c.fell
+               else f"audit: {c.verdict or 'not audited'}: not vouched for")
     console.print(f"pattern ceiling of [bold]{escape(name)}[/bold]: [bold]{c.speed_cm_s:.1f} cm/s[/bold] "
                   f"(gait {c.gait}, {vouched}; run {run_id}, {c.evaluations} patterns, {seconds:.0f} s)")
     print_next(db, [f"sanlab show {c.gait}", f"sanlab render {c.gait} -o ceiling.png"])

@@ -189,7 +189,7 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
         console.print(f"[dim]no pattern ceiling stored for this creature file: sanlab ceiling {safe(gait.source or gait.spec.name)}"
                       " measures how fast an open loop drives the body[/dim]")
     elif gait.kind == "san" and ceiling["fraction"] is not None:
-        vouched = "audited: robust" if ceiling["verdict"] == "robust" else "not vouched for by an audit"
+        vouched = "audited: robust" if ceiling["verdict"] == "robust" and not ceiling["fell"] else "not vouched for by an audit"
         console.print(f"{100 * ceiling['fraction']:.0f} % of its pattern ceiling ({ceiling['speed_cm_s']:.1f} cm/s, "
                       f"gait {ceiling['gait']}, {vouched})")
     _print_values(values)

@@ -24,18 +24,22 @@ AUDITED = 3  # best patterns audited, in order, until one is robust
 @dataclass(frozen=True)
 class Ceiling:
     """A creature's pattern ceiling: the pattern gait (``RUN#IDX``), its stored speed (cm/s) and
-    score, whether an audit vouched for it (``verdict``: "robust", or the best unaudited or not
-    robust pattern's verdict, None when never audited), and its run's evaluations."""
+    score, its audit's verdict ("robust", or the best unaudited or not robust pattern's verdict,
+    None when never audited), whether the audit's ensemble fell under a nudge (more than half
+    its members: a pattern whose stored speed was the luck of its draws, as the walker's can be),
+    and its run's evaluations."""
 
     gait: str
     speed_cm_s: float
     score: float
     verdict: str | None
     evaluations: int
+    fell: bool = False
 
     @property
     def robust(self) -> bool:
-        return self.verdict == "robust"
+        """Vouched for: the audit found its speed robust and its ensembles standing."""
+        return self.verdict == "robust" and not self.fell
 
     def fraction(self, speed_cm_s: float) -> float | None:
         """``speed_cm_s`` (a SAN gait's, cm/s) over the ceiling's; None without a ceiling speed."""
@@ -45,13 +49,14 @@ class Ceiling:
 
     def to_json(self) -> dict:
         return {"gait": self.gait, "speed_cm_s": self.speed_cm_s, "score": self.score, "verdict": self.verdict,
-                "evaluations": self.evaluations}
+                "fell": self.fell, "evaluations": self.evaluations}
 
 
 def find(lib: Library, creature_text: str, metric: str | None, seconds: float | None) -> Ceiling | None:
     """The pattern ceiling stored in ``lib`` for this creature file (its exact text), metric and
-    evaluation time: the fastest pattern gait an audit found robust, or, when none was, the
-    fastest pattern (its verdict says so); None when no pattern search of it is stored."""
+    evaluation time: the fastest pattern gait an audit vouched for (robust, its ensembles
+    standing), or, when none was, the fastest pattern (its verdict and ``fell`` say so); None
+    when no pattern search of it is stored."""
     best: Ceiling | None = None
     for run in lib.runs():
         s = run.settings
@@ -64,7 +69,8 @@ def find(lib: Library, creature_text: str, metric: str | None, seconds: float | 
             if e.nonfinite or e.fell or not math.isfinite(e.speed_cm_s):
                 continue
             a = audits.get(e.idx)
-            c = Ceiling(e.gait_id, e.speed_cm_s, e.score, None if a is None else a.verdict, lib.count(run.run_id))
+            fell = a is not None and any(bool(v) for v in dict(a.result.get("fell") or {}).values())
+            c = Ceiling(e.gait_id, e.speed_cm_s, e.score, None if a is None else a.verdict, lib.count(run.run_id), fell)
             if best is None or (c.robust, c.speed_cm_s) > (best.robust, best.speed_cm_s):
                 best = c
             if a is None or c.robust:
@@ -105,9 +111,10 @@ def measure(lib: Library, creature_text: str, source: str, *, evaluations: int =
     for e in lib.top(run_id, AUDITED):
         if e.nonfinite or e.fell:
             break
-        a = audits.get(e.idx)
-        verdict = a.verdict if a is not None else audit_and_store(lib, e.gait_id, log=log).verdict
-        if verdict == "robust":
+        if e.idx not in audits:
+            audit_and_store(lib, e.gait_id, log=log)
+        a = lib.audits(run_id)[e.idx]
+        if a.verdict == "robust" and not any(bool(v) for v in dict(a.result.get("fell") or {}).values()):
             break
     run = lib.get_run(run_id)
     s = run.settings

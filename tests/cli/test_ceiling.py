@@ -37,7 +37,7 @@ def test_the_ceiling_is_an_audited_pattern_of_the_creature(lib_path):
         assert run.settings.strategy == "pattern"
         e = lib.gait(c["gait"])
         assert "pattern" in e.params and lib.audit(c["gait"]) is not None  # audited, whatever its verdict
-        assert c["verdict"] == lib.audit(c["gait"]).verdict
+        assert c["verdict"] == lib.audit(c["gait"]).verdict and c["fell"] == any(lib.audit(c["gait"]).result["fell"].values())
         found = find(lib, run.creature_text, run.settings.metric, run.settings.seconds)
         assert found is not None and found.gait == c["gait"]
         assert find(lib, run.creature_text + "\n# another file", run.settings.metric, run.settings.seconds) is None
@@ -90,3 +90,26 @@ def test_search_and_tune_quote_their_best_against_the_ceiling(lib_path):
     t = runner.invoke(app, ["tune", f"{run_id}/1", "--trials", "4", "--db", db])
     assert t.exit_code == 0, t.output
     assert "the tuned gait" in t.output and "of the creature's pattern ceiling" in t.output
+
+
+def test_a_pattern_whose_audit_ensemble_fell_is_not_the_ceiling_a_standing_one_is(tmp_path):
+    """The walker's first ceiling: a pattern the audit found robust in speed while more than half
+    of its members fell at dt/2 and dt/4 (79 cm/s over the audit's members, 168.7 stored); on
+    fresh ensembles it fell. A ceiling is vouched for only when its audit's ensembles stand."""
+    from sanlab.creature import read_source
+    from sanlab.search import run_search
+    from sanlab.search.pattern import POPSIZE
+
+    text, where = read_source("cart")
+    with Library(str(tmp_path / "f.db")) as lib:
+        run = run_search(lib, text, where, controllers=POPSIZE, seconds=0.5, strategy="pattern", batch=POPSIZE)
+        first, second = lib.top(run, 2)
+        lib.add_audit(first.gait_id, {"verdict": "robust", "fell": {"dt/2": True, "dt/4": True}}, flagged=False, worst=0.0)
+        lib.add_audit(second.gait_id, {"verdict": "robust", "fell": {"dt/2": False, "dt/4": False}}, flagged=False,
+                      worst=0.0)
+        c = find(lib, text, lib.get_run(run).settings.metric, 0.5)
+        assert c is not None and c.gait == second.gait_id and c.robust and not c.fell
+        lib.add_audit(second.gait_id, {"verdict": "robust", "fell": {"dt/2": False, "dt/4": True}}, flagged=False,
+                      worst=0.0)
+        c = find(lib, text, lib.get_run(run).settings.metric, 0.5)
+        assert c is not None and c.gait == first.gait_id and c.fell and not c.robust  # none vouched for: the fastest, so marked

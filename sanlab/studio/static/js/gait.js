@@ -76,7 +76,7 @@ export class GaitView {
             ["score", fmt(g.score, 4)], ["speed", `${fmt(g.speed_cm_s)} cm/s`],
             ["pattern ceiling", g.ceiling ? h("span", { id: "ceiling" }, `${fmt(g.ceiling.speed_cm_s)} cm/s`,
               g.kind === "san" && g.ceiling.fraction !== null ? ` (this gait: ${Math.round(100 * g.ceiling.fraction)} %)` : "",
-              g.ceiling.verdict === "robust" ? "" : " (not vouched for by an audit)") : "none stored (sanlab ceiling)"],
+              g.ceiling.verdict === "robust" && !g.ceiling.fell ? "" : " (not vouched for by an audit)") : "none stored (sanlab ceiling)"],
             ["rank", g.rank], ["flags", flags(g)],
             ["metric", g.metric], ["evaluated for", `${fmt(g.seconds)} s`], ["run", h("a", { href: `#/run/${g.run_id}` }, g.run_id)],
             ["parent", g.parent ? h("a", { href: gaitHref(g.parent) }, g.parent) : "–"]]
