@@ -312,12 +312,13 @@ def scratch_values(dims: np.ndarray, n_param: int, n_state: int, n_acc: int) -> 
 
 
 def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: Any = 0.0,
-            threads: int = 128, on: Any = None) -> dict:
+            rows: dict | None = None, threads: int = 128, on: Any = None) -> dict:
     """``steps`` steps of B creatures under SANs on the GPU, one creature per thread: arguments and
-    result as :func:`sanlab.sim.kernel.run_san` with neither per-row tables, observers nor frames
-    (the keys q, p, anchor, istate, out, t, dmax, qd). ``threads`` per block. ``on``: where to
+    result as :func:`sanlab.sim.kernel.run_san` (``rows``: per-row tables, as there) without
+    observers or frames (the keys q, p, anchor, istate, out, t, dmax, qd). ``threads`` per block. ``on``: where to
     run (None: the GPU; the tests pass a host emulation of the same entry points). Raises
-    GpuUnavailable without a GPU or NVRTC, ValueError for arrays of the wrong shape (as the CPU's)."""
+    GpuUnavailable without a GPU or NVRTC, ValueError for arrays or per-row tables of the wrong
+    shape (as the CPU's)."""
     from sanlab.sim import kernel
 
     B = np.shape(q)[0] if np.ndim(q) else 0
@@ -345,7 +346,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     steps = kernel.check_count("steps", steps)
     s = _session() if on is None else on
     dims = _dims(pk, N)
-    _, per_row, arrays = _tables(pk, B, None, 1)
+    _, per_row, arrays = _tables(pk, B, rows, 1)
     held: list = []
 
     def put(a) -> ctypes.c_uint64:

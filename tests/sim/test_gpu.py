@@ -117,6 +117,24 @@ def test_gpu_entry_points_step_every_creature_bit_for_bit_as_the_cpus_scalar_for
     assert host.blocks == {}  # every block it allocated was given back
 
 
+def test_gpu_rows_that_carry_their_own_numbers_step_as_on_the_cpu(host):
+    # a per-row table is each thread's own row; a shared one, one address every thread reads
+    pk, args = _case("bounder", B=6)
+    scale = np.linspace(0.8, 1.25, 6)
+    lf = np.repeat(pk.lf[None], 6, 0)
+    lf[:, :, kernel.F_MASS] *= scale[:, None]
+    wf = np.repeat(pk.wf[None], 6, 0)
+    wf[:, kernel.W_DT] *= np.where(np.arange(6) % 2, 0.5, 1.0)
+    rows = {"lf": lf, "wf": wf}
+    got = gpu.run_san(pk, *args, 200, rows=rows, threads=4, on=host)
+    want = kernel.run_san(pk, *args, 200, rows=rows, scalar=True)
+    for key in got:
+        assert np.array_equal(got[key], want[key]), key
+    assert len({got["q"][i].tobytes() for i in range(6)}) == 6  # the rows did differ
+    with pytest.raises(ValueError, match="lf"):
+        gpu.run_san(pk, *args, 10, rows={"lf": lf[:3]}, on=host)
+
+
 def test_a_continued_gpu_run_goes_on_from_the_state_it_is_given(host):
     pk, args = _case("walker", B=3)
     first = gpu.run_san(pk, *args, 150, on=host)

@@ -36,7 +36,14 @@ static inline void gpu_rollout(const Ctl &ctl, const int32_t *dims, const void *
   const Record rec{every > 0 ? every : 1, n_frames, 2 * m.ndof + m.nsensor + m.nact + (int64_t)nst};
   double *mem = scratch + b * per_thread;
   Tile<double> tile = tile_at<double>(m, mem);
-  fill_numbers(m, tile, tables, per_row, b);
+  // the creature's numbers read where they are, not copied as fill_numbers does for the CPU's
+  // lanes: a shared table is one address every thread reads (a broadcast), a per-row one [B, n]
+  // is the thread's row (the tile keeps the room for them unused)
+  size_t counts[8];
+  row_table_sizes(m, counts);
+  double **numbers[] = {&tile.lf, &tile.cf, &tile.sf, &tile.af, &tile.pf, &tile.ef, &tile.wf, &tile.rough};
+  for (int k = 0; k < 8; ++k)  // never written: a step reads them through the tile's const accessors
+    *numbers[k] = (double *)tables[11 + k] + (per_row[k] ? b * counts[k] : 0);
   double *s = mem + tile_values<double>(m), *at = s;
   for (int k = 0; k < 5; ++k) {
     for (size_t v = 0; v < sizes[k]; ++v) at[v] = state[k][b * sizes[k] + v];

@@ -22,15 +22,22 @@ static inline void model_of(Model &m, const int32_t *dims, const void *const *ta
   for (auto p : reals) *p = (const double *)tables[k++];
 }
 
+// The values of each float table a row may carry its own of (layout.ROW_TABLES: lf, cf, sf, af,
+// pf, ef, wf, rough), one row's
+static inline void row_table_sizes(const Model &m, size_t n[8]) {
+  n[0] = (size_t)m.nlink * LF_WIDTH; n[1] = (size_t)m.ncontact * CF_WIDTH; n[2] = (size_t)m.nsensor * SF_WIDTH;
+  n[3] = (size_t)m.nact * AF_WIDTH; n[4] = (size_t)m.nspring * PF_WIDTH; n[5] = (size_t)m.nedge * EF_WIDTH;
+  n[6] = (size_t)WF_WIDTH; n[7] = (size_t)m.nrough * ROUGH_WIDTH;
+}
+
 // A tile's numbers: each lane's row's own (per_row[k]: [T * W, n] tables), or the shared ones on
 // every lane
 template <class V>
 static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *tables, const int32_t *per_row, int64_t b) {
   using Ls = Lanes<V>;
   const int W = Ls::W;
-  const size_t counts[] = {(size_t)m.nlink * LF_WIDTH, (size_t)m.ncontact * CF_WIDTH, (size_t)m.nsensor * SF_WIDTH,
-                           (size_t)m.nact * AF_WIDTH, (size_t)m.nspring * PF_WIDTH, (size_t)m.nedge * EF_WIDTH,
-                           (size_t)WF_WIDTH, (size_t)m.nrough * ROUGH_WIDTH};
+  size_t counts[8];
+  row_table_sizes(m, counts);
   V *dst[] = {tile.lf, tile.cf, tile.sf, tile.af, tile.pf, tile.ef, tile.wf, tile.rough};
   for (int k = 0; k < 8; ++k) {
     const double *src = (const double *)tables[11 + k];
