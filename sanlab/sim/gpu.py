@@ -87,8 +87,8 @@ def source() -> str:
 
 
 def source_hash() -> str:
-    """The hash of every kernel source (as setup.py's), the NVRTC version and the options: the
-    cache's key."""
+    """The hash of every kernel source (as setup.py's), the NVRTC version, the options and the
+    headers given to NVRTC: the cache's key (with the arch and the kinds built)."""
     h = hashlib.sha256()
     for f in sorted(KERNEL.glob("*.[hc]*")):
         h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
@@ -100,9 +100,18 @@ class CompileError(RuntimeError):
     """NVRTC refused the kernel: the message holds its log (every line it rejected)."""
 
 
-def _compile(arch: str, extra: tuple[str, ...] = ()) -> tuple[bytes, str]:
-    """NVRTC on gpu.cu for ``arch`` ("sm_90": a CUBIN; "compute_90": PTX): (the binary, the log).
-    Raises CompileError with NVRTC's log where it fails."""
+def _kinds(kinds) -> tuple[str, ...]:
+    kinds = tuple(layout.KINDS) if kinds is None else tuple(kinds)
+    bad = [k for k in kinds if k not in ENTRIES]
+    if bad or not kinds:
+        raise ValueError(f"kinds: expected some of {list(layout.KINDS)}, got {list(kinds)}")
+    return tuple(k for k in layout.KINDS if k in kinds)
+
+
+def _compile(arch: str, extra: tuple[str, ...] = (), kinds=None) -> tuple[bytes, str]:
+    """NVRTC on gpu.cu for ``arch`` ("sm_90": a CUBIN; "compute_90": PTX) with the entry points of
+    ``kinds`` (controller kinds, layout.KINDS; None: all): (the binary, the log). Raises
+    CompileError with NVRTC's log where it fails."""
     lib = _nvrtc()
     prog = ctypes.c_void_p()
     src = source().encode()
@@ -115,7 +124,7 @@ def _compile(arch: str, extra: tuple[str, ...] = ()) -> tuple[bytes, str]:
     texts = (ctypes.c_char_p * len(HEADERS))(*[t.encode() for t in HEADERS.values()])
     check(lib.nvrtcCreateProgram(ctypes.byref(prog), src, b"gpu.cu", len(HEADERS), texts, names), "nvrtcCreateProgram")
     try:
-        opts = [*OPTIONS, f"-arch={arch}", f"-I{KERNEL}", *extra]
+        opts = [*OPTIONS, f"-arch={arch}", f"-I{KERNEL}", *(f"-DSANLAB_GPU_{k.upper()}" for k in _kinds(kinds)), *extra]
         argv = (ctypes.c_char_p * len(opts))(*[o.encode() for o in opts])
         rc = lib.nvrtcCompileProgram(prog, len(opts), argv)
         n = ctypes.c_size_t()
@@ -142,14 +151,18 @@ def cache_dir() -> Path:
     return Path(base) / "gpu"
 
 
-def build(arch: str = ARCH) -> bytes:
+def build(arch: str = ARCH, kinds=None) -> bytes:
     """The kernel built for ``arch`` ("sm_90": a CUBIN the driver loads as it is; "compute_90":
-    PTX the driver compiles on load), from the disk cache when these sources, this NVRTC and these
-    options built it before. Raises GpuUnavailable without NVRTC, CompileError where it fails."""
-    path = cache_dir() / f"{source_hash()}-{arch}.{'cubin' if arch.startswith('sm_') else 'ptx'}"
+    PTX the driver compiles on load) with the entry points of ``kinds`` (None: every controller
+    kind), from the disk cache when these sources, this NVRTC and these options built it before.
+    Raises GpuUnavailable without NVRTC, CompileError where it fails, ValueError for an unknown
+    kind."""
+    ks = _kinds(kinds)
+    tag = "all" if len(ks) == len(layout.KINDS) else "+".join(ks)
+    path = cache_dir() / f"{source_hash()}-{arch}-{tag}.{'cubin' if arch.startswith('sm_') else 'ptx'}"
     if path.exists():
         return path.read_bytes()
-    binary, _ = _compile(arch)
+    binary, _ = _compile(arch, kinds=ks)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(f".{os.getpid()}.tmp")
     tmp.write_bytes(binary)
@@ -157,9 +170,9 @@ def build(arch: str = ARCH) -> bytes:
     return binary
 
 
-def compile_ptx(arch: str = "compute_90") -> str:
+def compile_ptx(arch: str = "compute_90", kinds=None) -> str:
     """The kernel's PTX for a virtual ``arch`` (text), cached as :func:`build`."""
-    return build(arch).rstrip(b"\0").decode()
+    return build(arch, kinds).rstrip(b"\0").decode()
 
 
 def resources(arch: str = ARCH) -> dict[str, dict[str, int]]:
@@ -243,15 +256,22 @@ class _Session:
         self.ctx = ctypes.c_void_p()
         _check(lib.cuDevicePrimaryCtxRetain(ctypes.byref(self.ctx), dev), "cuDevicePrimaryCtxRetain")
         _check(lib.cuCtxSetCurrent(self.ctx), "cuCtxSetCurrent")
-        image = build(self.arch)  # a CUBIN for this device: no JIT at load, any driver of NVRTC's major version
-        self.module = ctypes.c_void_p()
-        _check(lib.cuModuleLoadData(ctypes.byref(self.module), image), "cuModuleLoadData")
         self.functions: dict[str, ctypes.c_void_p] = {}
-        for kind, entry in ENTRIES.items():
-            f = ctypes.c_void_p()
-            _check(lib.cuModuleGetFunction(ctypes.byref(f), self.module, entry.encode()), "cuModuleGetFunction")
-            self.functions[kind] = f
+        self.modules: list[ctypes.c_void_p] = []
         self.lib = lib
+
+    def function(self, kind: str) -> ctypes.c_void_p:
+        """The entry point of controller ``kind``, built (one module per kind: a first call waits for
+        its own kind's build alone) and loaded on first use. The image is a CUBIN for this device's
+        arch: the driver JITs nothing, and any driver of NVRTC's major version or later loads it."""
+        if kind not in self.functions:
+            module = ctypes.c_void_p()
+            _check(self.lib.cuModuleLoadData(ctypes.byref(module), build(self.arch, (kind,))), "cuModuleLoadData")
+            self.modules.append(module)
+            f = ctypes.c_void_p()
+            _check(self.lib.cuModuleGetFunction(ctypes.byref(f), module, ENTRIES[kind].encode()), "cuModuleGetFunction")
+            self.functions[kind] = f
+        return self.functions[kind]
 
     def alloc(self, nbytes: int) -> ctypes.c_uint64:
         p = ctypes.c_uint64()
@@ -273,7 +293,7 @@ class _Session:
     def launch(self, kind: str, args: list, blocks: int, threads: int) -> None:
         """gpu.cu's entry for controller ``kind`` over blocks x threads threads, waited for."""
         argv = (ctypes.c_void_p * len(args))(*[ctypes.cast(ctypes.byref(a), ctypes.c_void_p) for a in args])
-        _check(self.lib.cuLaunchKernel(self.functions[kind], blocks, 1, 1, threads, 1, 1, 0, None, argv, None),
+        _check(self.lib.cuLaunchKernel(self.function(kind), blocks, 1, 1, threads, 1, 1, 0, None, argv, None),
                "cuLaunchKernel")
         _check(self.lib.cuCtxSynchronize(), "the rollout")
 

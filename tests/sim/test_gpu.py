@@ -89,7 +89,8 @@ def host(tmp_path_factory) -> HostEmulation:
     lib = d / "gpu_host.so"
     # the CPU build's flags (setup.py), and its pragma's no-SLP (kernel.cpp) on the command line
     subprocess.run([cxx, "-std=c++17", "-O2", "-march=native", "-ffp-contract=off", "-fno-math-errno",
-                    "-fno-tree-slp-vectorize", "-D__CUDACC_RTC__", "-include", str(d / "shim.h"), "-I", str(gpu.KERNEL),
+                    "-fno-tree-slp-vectorize", "-D__CUDACC_RTC__", *(f"-DSANLAB_GPU_{k.upper()}" for k in layout.KINDS),
+                    "-include", str(d / "shim.h"), "-I", str(gpu.KERNEL),
                     "-x", "c++", str(gpu.KERNEL / "gpu.cu"), "-shared", "-fPIC", "-o", str(lib)], check=True)
     return HostEmulation(ctypes.CDLL(str(lib)))
 
@@ -196,12 +197,14 @@ def test_the_kernel_compiles_through_nvrtc_to_sm_90_without_spills_within_the_re
 @pytest.mark.slow
 def test_the_ptx_is_built_once_and_then_read_from_the_disk_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SANLAB_CACHE", str(tmp_path))
-    ptx = gpu.compile_ptx("compute_90")
-    assert ".target sm_90" in ptx and all(f".entry {e}(" in ptx for e in gpu.ENTRIES.values())
+    ptx = gpu.compile_ptx("compute_90", ("san",))  # the SAN's entry alone: what a first search builds
+    assert ".target sm_90" in ptx and ".entry sanlab_gpu_san(" in ptx and ".entry sanlab_gpu_hold(" not in ptx
     files = list((tmp_path / "gpu").iterdir())
-    assert len(files) == 1 and files[0].name.endswith("-compute_90.ptx")
+    assert len(files) == 1 and files[0].name.endswith("-compute_90-san.ptx")
     files[0].write_bytes(b"marker\0")  # the second call reads the cache, not NVRTC
-    assert gpu.compile_ptx("compute_90") == "marker"
+    assert gpu.compile_ptx("compute_90", ("san",)) == "marker"
+    with pytest.raises(ValueError, match="kinds: expected some of"):
+        gpu.build("compute_90", ("walk",))
 
 
 @needs_nvrtc

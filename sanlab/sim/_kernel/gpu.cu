@@ -75,14 +75,25 @@ static inline void gpu_rollout(const Ctl &ctl, const int32_t *dims, const void *
   dims, tables, per_row, state, par, cst, oi, of, init, acc, qd, frames, every, n_frames, derived, scratch,     \
       per_thread, B, steps
 
-// one entry per controller (layout.h's K_SAN ... K_PATTERN): each compiles, and reports its
-// registers, alone
+// one entry per controller (layout.h's K_SAN ... K_PATTERN), each built where gpu.py defines its
+// SANLAB_GPU_<KIND> (a search's first call waits for the SAN's alone), and reporting its
+// registers alone
+#ifdef SANLAB_GPU_SAN
 extern "C" __global__ void sanlab_gpu_san(SANLAB_GPU_ARGS) {
   gpu_rollout(SanControl<double>{(const short *)weights, NP, (size_t)dims[DIM_INPUTS] * NP}, SANLAB_GPU_PASS);
 }
+#endif
+#ifdef SANLAB_GPU_HOLD
 extern "C" __global__ void sanlab_gpu_hold(SANLAB_GPU_ARGS) { gpu_rollout(HoldControl<double>{}, SANLAB_GPU_PASS); }
+#endif
+#ifdef SANLAB_GPU_SINE
 extern "C" __global__ void sanlab_gpu_sine(SANLAB_GPU_ARGS) { gpu_rollout(SineControl<double>{}, SANLAB_GPU_PASS); }
+#endif
+#ifdef SANLAB_GPU_REFLEX
 extern "C" __global__ void sanlab_gpu_reflex(SANLAB_GPU_ARGS) { gpu_rollout(ReflexControl<double>{}, SANLAB_GPU_PASS); }
+#endif
+#ifdef SANLAB_GPU_PATTERN
 extern "C" __global__ void sanlab_gpu_pattern(SANLAB_GPU_ARGS) {
   gpu_rollout(PatternControl<double>{}, SANLAB_GPU_PASS);
 }
+#endif
