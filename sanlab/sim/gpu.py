@@ -216,12 +216,29 @@ def _driver():
             lib = ctypes.CDLL("libcuda.so.1")
         except OSError:
             raise GpuUnavailable("no GPU: the CUDA driver (libcuda.so.1) is not installed on this machine") from None
+        _signatures(lib)
         rc = lib.cuInit(0)
         count = ctypes.c_int()
         if rc or lib.cuDeviceGetCount(ctypes.byref(count)) or count.value < 1:
             raise GpuUnavailable(f"no GPU: the CUDA driver found no device (cuInit returned {rc})")
         _CUDA = lib
     return _CUDA
+
+
+def _signatures(lib) -> None:
+    """The driver functions' C signatures (ctypes would pass a bare int as a 32-bit one: a size over
+    2 GiB would not fit)."""
+    P, I, U, S = ctypes.c_void_p, ctypes.c_int, ctypes.c_uint, ctypes.c_size_t
+    D = ctypes.c_uint64  # CUdeviceptr
+    for name, args in {
+        "cuInit": [U], "cuDeviceGetCount": [P], "cuDeviceGet": [P, I], "cuDeviceGetName": [P, I, I],
+        "cuDeviceGetAttribute": [P, I, I], "cuDevicePrimaryCtxRetain": [P, I], "cuCtxSetCurrent": [P],
+        "cuModuleLoadData": [P, ctypes.c_char_p], "cuModuleGetFunction": [P, P, ctypes.c_char_p],
+        "cuMemAlloc_v2": [P, S], "cuMemFree_v2": [D], "cuMemcpyHtoD_v2": [D, P, S], "cuMemcpyDtoH_v2": [P, D, S],
+        "cuLaunchKernel": [P, U, U, U, U, U, U, U, P, P, P], "cuCtxSynchronize": [], "cuGetErrorString": [I, P],
+    }.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = I, args
 
 
 def device() -> str:
@@ -275,17 +292,17 @@ class _Session:
 
     def alloc(self, nbytes: int) -> ctypes.c_uint64:
         p = ctypes.c_uint64()
-        _check(self.lib.cuMemAlloc_v2(ctypes.byref(p), max(int(nbytes), 8)), "cuMemAlloc")
+        _check(self.lib.cuMemAlloc_v2(ctypes.byref(p), max(int(nbytes), 8)), f"cuMemAlloc of {int(nbytes)} bytes")
         return p
 
     def put(self, a: np.ndarray) -> ctypes.c_uint64:
         a = np.ascontiguousarray(a)
         p = self.alloc(a.nbytes)
-        _check(self.lib.cuMemcpyHtoD_v2(p, a.ctypes.data_as(ctypes.c_void_p), ctypes.c_size_t(a.nbytes)), "cuMemcpyHtoD")
+        _check(self.lib.cuMemcpyHtoD_v2(p, a.ctypes.data, a.nbytes), "cuMemcpyHtoD")
         return p
 
     def get(self, p: ctypes.c_uint64, a: np.ndarray) -> None:
-        _check(self.lib.cuMemcpyDtoH_v2(a.ctypes.data_as(ctypes.c_void_p), p, ctypes.c_size_t(a.nbytes)), "cuMemcpyDtoH")
+        _check(self.lib.cuMemcpyDtoH_v2(a.ctypes.data, p, a.nbytes), "cuMemcpyDtoH")
 
     def free(self, p: ctypes.c_uint64) -> None:
         self.lib.cuMemFree_v2(p)
