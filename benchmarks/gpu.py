@@ -9,14 +9,15 @@ On a machine with a GPU (and the ``gpu`` extra: ``pip install -e '.[gpu]'``), pr
   ``--check-steps`` steps on the GPU against the CPU's scalar form (``kernel.run_san(...,
   scalar=True)``, which the tests hold to the SIMD tiles): "same bits" or how many creatures
   differ and by how much;
-- rate: bounder creature-steps/s at each of ``--batches`` for ``--steps`` steps (dt = 1 ms,
+- rate: bounder creature-steps/s at each of ``--batches`` and ``--threads`` a block for ``--steps`` steps (dt = 1 ms,
   closed-loop SANs, float64), beside the CPU's SIMD tiles at ``--cpu-batch`` in the same run, as
   a ratio; the goal (issue 58) is 10^9 on one H100.
 On a machine without one it prints ``unmeasured: no GPU (<why>)`` and exits 0; ``--build`` then
 still times NVRTC's build (it needs no GPU).
 
-    python benchmarks/gpu.py [--batches 16384,131072,1048576] [--steps 1000] [--check 64]
-                             [--check-steps 2000] [--creatures all] [--cpu-batch 2048] [--build]
+    python benchmarks/gpu.py [--batches 16384,131072,1048576] [--steps 1000] [--threads 64,128]
+                             [--check 64] [--check-steps 2000] [--creatures all] [--cpu-batch 2048]
+                             [--build]
 """
 
 from __future__ import annotations
@@ -104,6 +105,7 @@ def main() -> None:
     ap.add_argument("--check-steps", type=int, default=2000)
     ap.add_argument("--creatures", default="all")
     ap.add_argument("--cpu-batch", type=int, default=2048)
+    ap.add_argument("--threads", default="64,128", help="threads a block to time (254 registers a thread: at most 256)")
     ap.add_argument("--build", action="store_true", help="without a GPU: time NVRTC's build for sm_90 anyway")
     a = ap.parse_args()
     try:
@@ -152,16 +154,18 @@ def main() -> None:
     best = 0.0
     for B in (int(x) for x in a.batches.split(",")):
         pk, gargs = inputs("bounder", B, 0, distinct=4096)
-        gpu.run_san(pk, **gargs, steps=1)  # allocations and first touch outside the timing
-        t = time.perf_counter()
-        gpu.run_san(pk, **gargs, steps=a.steps)
-        s_ = time.perf_counter() - t
-        rate = B * a.steps / s_
-        best = max(best, rate)
         N = gargs["istate"].shape[1]
         per = (gpu.scratch_values(gpu._dims(pk, N), 2 * N, 2 * N, 0)) * 8
-        print(f"  batch {B:>8d}: {rate / 1e6:9.1f} M creature-steps/s ({rate / cpu_rate:.1f}x the CPU), {s_:.2f} s, "
-              f"scratch {per * B / 2**30:.2f} GiB ({per} B a thread)")
+        s_ = 0.0
+        for threads in (int(x) for x in a.threads.split(",")):
+            gpu.run_san(pk, **gargs, steps=1, threads=threads)  # allocations and first touch outside the timing
+            t = time.perf_counter()
+            gpu.run_san(pk, **gargs, steps=a.steps, threads=threads)
+            s_ = time.perf_counter() - t
+            rate = B * a.steps / s_
+            best = max(best, rate)
+            print(f"  batch {B:>8d}, {threads:>3d} threads a block: {rate / 1e6:9.1f} M creature-steps/s "
+                  f"({rate / cpu_rate:.1f}x the CPU), {s_:.2f} s, scratch {per * B / 2**30:.2f} GiB ({per} B a thread)")
         if s_ > 120:
             print("  (larger batches skipped: this one took over 2 minutes)")
             break
