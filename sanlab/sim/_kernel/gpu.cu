@@ -10,7 +10,8 @@
 // for the others), oi, of, acc [B, obs_values] (null: no observers), qd [B, D], frames [B,
 // n_frames, values] or null; then derived [D + L + 1 + max(1, kids)] int32: dense_idx, kid_start,
 // kids (kernel.cpp's Tables builds the same on the CPU), and scratch [B, per_thread] float64,
-// per_thread = sanlab_gpu_scratch(...) values: the tile's (tables.h: tile_layout) and the state's.
+// per_thread as gpu.py's scratch_values counts it: the tile's (tables.h: tile_layout, which
+// kernel.cpp's sanlab_tile_values answers) and the state's.
 // The scratch is one block per thread (thread b's at b * per_thread): the lane-innermost layout
 // that would make neighbouring threads read neighbouring addresses is the next step (docs/gpu.md).
 #include "rollout.h"
