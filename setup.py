@@ -28,7 +28,7 @@ setup(
         Extension(
             "sanlab.sim._kernel_lib",
             sources=["sanlab/sim/_kernel/kernel.cpp"],
-            depends=sorted(str(p) for p in Path("sanlab/sim/_kernel").glob("*.h")),
+            depends=sorted(str(p) for p in Path("sanlab/sim/_kernel").glob("*.[hc]*")),  # every source the hash covers
             define_macros=[("SANLAB_KERNEL_SOURCE", '"%s"' % kernel_source_hash(Path("sanlab/sim/_kernel")))],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-march=native", "-ffp-contract=off", "-fno-math-errno", "-fopenmp"],

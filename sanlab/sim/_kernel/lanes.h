@@ -3,9 +3,23 @@
 // creatures), or plain double (one creature per thread: the GPU's form, and the tests' reference).
 // sin and cos are one polynomial on every lane and target, so a trajectory does not depend on
 // which lane computed it.
+//
+// The same headers compile for a GPU at run time through NVRTC (sanlab/sim/gpu.py, gpu.cu), which
+// defines __CUDACC_RTC__ and has no C++ standard library, no GCC vector types and no __builtin_*:
+// there only Lanes<double> exists, over CUDA's sqrt, floor, fabs and atan2 (sqrt, floor and fabs
+// are exact in IEEE double, as GCC's builtins are, so they give the same bits).
 #pragma once
+#ifdef __CUDACC_RTC__  // <cstdint> and <cstddef> are gpu.py's (HEADERS): their few typedefs
+#define SANLAB_MATH(f) ::f
+#else
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#define SANLAB_MATH(f) __builtin_##f
+#endif
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
 
 namespace sanlab {
 
@@ -15,9 +29,12 @@ template <> struct Lanes<double> {
   static constexpr int W = 1;
   using M = bool;
   static double sel(bool m, double a, double b) { return m ? a : b; }
-  static double sqrt(double a) { return __builtin_sqrt(a); }
-  static double floor(double a) { return __builtin_floor(a); }
-  static double abs(double a) { return __builtin_fabs(a); }
+  static double sqrt(double a) { return SANLAB_MATH(sqrt)(a); }
+  static double floor(double a) { return SANLAB_MATH(floor)(a); }
+  static double abs(double a) { return SANLAB_MATH(fabs)(a); }
+  // the eye's angle: glibc's atan2 on the CPU, CUDA's (2 ulp) on a GPU: the one function whose
+  // bits may differ between the two (docs/gpu.md)
+  static double atan2(double y, double x) { return SANLAB_MATH(atan2)(y, x); }
   static double min(double a, double b) { return a < b ? a : b; }
   static double max(double a, double b) { return a > b ? a : b; }
   static bool any(bool m) { return m; }
@@ -26,6 +43,7 @@ template <> struct Lanes<double> {
   static void set(double &a, int, double v) { a = v; }
 };
 
+#ifndef __CUDACC_RTC__  // the CPU's SIMD tiles
 #ifndef SANLAB_LANES
 #define SANLAB_LANES 8
 #endif
@@ -59,6 +77,7 @@ template <> struct Lanes<vd> {
   static bool on(vm m, int l) { return m[l] != 0; }
   static void set(vd &a, int l, double v) { a[l] = v; }
 };
+#endif  // __CUDACC_RTC__
 
 // sin and cos on lanes: Cody-Waite reduction to [-pi/4, pi/4] and fdlibm's kernel polynomials
 // (|error| about 1 ulp), branch-free so that it vectorises; the same code on every target, so a

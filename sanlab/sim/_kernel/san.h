@@ -4,11 +4,47 @@
 
 namespace sanlab {
 
-// The SAN's node update (paper §4, Figures 6 and 7; sanlab.san.San.step in NumPy). The weights are small integers and every input is
-// 0 or 1, so a node's sum is the integer sum of its weights from the inputs that are on: per
-// creature, the rows of its weights W[i][:] (int16, nodes padded to whole vectors) of the inputs
-// that are on, added with a mask, 32 nodes per instruction. Exact, as the float sums were.
-// weights: the tile's creatures' [W][I][NP] (NP = N rounded up to whole vectors of NS nodes).
+// The SAN's node update (paper §4, Figures 6 and 7; sanlab.san.San.step in NumPy), after the node
+// sums t.total: each node's internal state integrates at rate k1 (sum > 0) or k2 and is clipped to
+// [0, 1]; its output flips to 0 or 1 where the state reaches that end; an actuator node's
+// activation is its sum clipped to [-2, 2] and mapped to [0, 1].
+template <class V> static inline void san_update(const Model &m, Tile<V> &t, const V *k1, const V *k2, V *istate,
+                                                 V *out) {
+  using Ls = Lanes<V>;
+  const int N = m.nnode, H = m.world().hidden;
+  const V dt = t.world().dt;
+  for (int n = 0; n < N; ++n) {
+    V rate = Ls::sel(t.total[n] > 0.0, k1[n], k2[n]);
+    V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0);
+    istate[n] = s;
+    V o = out[n];
+    out[n] = Ls::sel((o == 1.0) & (s == 0.0), V{}, Ls::sel((o == 0.0) & (s == 1.0), V{} + 1.0, o));
+    if (n >= H) t.act[n - H] = (Ls::min(Ls::max(t.total[n], V{} - 2.0), V{} + 2.0) + 2.0) * 0.25;
+  }
+}
+
+// The weights are small integers and every input is 0 or 1, so a node's sum is the integer sum of
+// its weights from the inputs that are on. weights: the creature's [I][NP] int16, one row of nodes
+// per input (NP = N rounded up to a multiple of NS). The scalar form, one creature per thread (the
+// GPU's, and the CPU's reference): node by node, in int. Exact, as the tiles' int16 vectors are
+// (|a sum| <= 2 I, far inside int16), so both forms give the same bits.
+static inline void san(const Model &m, Tile<double> &t, const short *weights, int NP, const double *k1,
+                       const double *k2, double *istate, double *out) {
+  const int N = m.nnode, S = m.nsensor, I = m.ninput;
+  for (int n = 0; n < N; ++n) {
+    int acc = 0;
+    for (int i = 0; i < I; ++i) {
+      double x = i < S ? t.bits[i] : out[i - S];
+      if (x != 0.0) acc += weights[i * NP + n];
+    }
+    t.total[n] = (double)acc;
+  }
+  san_update(m, t, k1, k2, istate, out);
+}
+
+#ifndef __CUDACC_RTC__
+// The tiles' form: per creature, the rows of its weights W[i][:] of the inputs that are on, added
+// with a mask, 32 nodes per instruction. weights: the tile's creatures' [W][I][NP].
 typedef short vs __attribute__((vector_size(64)));
 typedef short vs_u __attribute__((vector_size(64), aligned(2)));  // the caller's rows: any alignment
 constexpr int NS = 32;
@@ -16,7 +52,7 @@ constexpr int NS = 32;
 template <class V> static inline void san(const Model &m, Tile<V> &t, const short *weights, int NP, const V *k1,
                                           const V *k2, V *istate, V *out) {
   using Ls = Lanes<V>;
-  const int N = m.nnode, S = m.nsensor, H = m.world().hidden, I = m.ninput, chunks = NP / NS;
+  const int N = m.nnode, S = m.nsensor, I = m.ninput, chunks = NP / NS;
   for (int l = 0; l < Ls::W; ++l) {
     vs acc[8];  // up to 256 nodes
     for (int c = 0; c < chunks; ++c) acc[c] = vs{};
@@ -28,15 +64,8 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
     }
     for (int n = 0; n < N; ++n) Ls::set(t.total[n], l, (double)acc[n / NS][n % NS]);
   }
-  const V dt = t.world().dt;
-  for (int n = 0; n < N; ++n) {
-    V rate = Ls::sel(t.total[n] > 0.0, k1[n], k2[n]);
-    V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0);
-    istate[n] = s;
-    V o = out[n];
-    out[n] = Ls::sel((o == 1.0) & (s == 0.0), V{}, Ls::sel((o == 0.0) & (s == 1.0), V{} + 1.0, o));
-    if (n >= H) t.act[n - H] = (Ls::min(Ls::max(t.total[n], V{} - 2.0), V{} + 2.0) + 2.0) * 0.25;
-  }
+  san_update(m, t, k1, k2, istate, out);
 }
+#endif
 
 }  // namespace sanlab

@@ -13,9 +13,9 @@ template <class V> static inline void follow_point(const Model &m, const Tile<V>
   V u = t.world().follow_speed * time / t.world().follow_ds;
   for (int l = 0; l < Ls::W; ++l) {
     double ul = Ls::lane(u, l);
-    if (m.world().follow_loop) ul = ul - (n - 1) * __builtin_floor(ul / (n - 1));
+    if (m.world().follow_loop) ul = ul - (n - 1) * Lanes<double>::floor(ul / (n - 1));
     ul = ul < 0.0 ? 0.0 : (ul > n - 1 ? n - 1 : ul);
-    int i0 = ul >= 0.0 ? (int)__builtin_floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
+    int i0 = ul >= 0.0 ? (int)Lanes<double>::floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
     if (i0 > n - 2) i0 = n - 2;
     double f = ul - i0;
     const double *a = m.follow + 2 * i0, *b = a + 2;
@@ -51,7 +51,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
       V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[li][1];
       V dx = fx - ex, dy = fy - ey;
       V num = ax * dy - ay * dx, den = ax * dx + ay * dy;
-      for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, __builtin_atan2(Ls::lane(num, l), Ls::lane(den, l)));
+      for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, Lanes<double>::atan2(Ls::lane(num, l), Ls::lane(den, l)));
     } else {
       V pax, pay, pbx, pby;
       point_at(t, si.on, sf.point_x, sf.point_y, pax, pay);
