@@ -702,11 +702,12 @@ def _scoring(ens: Ensemble) -> str:
             f"at {steps} in turn (the tuned gait's on a held-out ensemble); ")
 
 
-def _table(rows: list[Row]) -> list[str]:
-    """One seed's table: a row per creature."""
+def _table(rows: list[Row], strategy: str = "random") -> list[str]:
+    """One seed's table: a row per creature (``strategy``: phase 1's, which names two columns)."""
+    found = "random" if strategy == "random" else "phase 1"
     lines = [
-        "| creature | links | sensors | actuators | hidden | Table 1 speed (cm/s) | sanlab best random (cm/s) "
-        "| after tuning (cm/s) | tuned gait nudged (cm/s) | audit | robust tuned gait (cm/s) | useful random SANs "
+        f"| creature | links | sensors | actuators | hidden | Table 1 speed (cm/s) | sanlab best {found} (cm/s) "
+        f"| after tuning (cm/s) | tuned gait nudged (cm/s) | audit | robust tuned gait (cm/s) | useful {found} SANs "
         "| tuned gait | wall time |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -880,7 +881,7 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
     for sd in seeds:
         if len(seeds) > 1 or files is not None:  # one seed's table gets a heading of its own after the files
             lines += [f"## Seed {sd}", ""]
-        lines += _table([r for r in rows if r.seed == sd]) + [""]
+        lines += _table([r for r in rows if r.seed == sd], strategy) + [""]
     from sanlab.audit import LEVEL, MAX_MEMBERS, MEMBERS, NUDGES, THRESHOLD
 
     nudges = " and ".join(name for name, _, _ in NUDGES)
