@@ -158,7 +158,7 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
     values = file_values(gait)
     audit = library_call(lib.audit, ev.gait_id)
     flagged = audit is not None and audit.flagged
-    ceiling = _ceiling(lib, gait, ev.speed_cm_s)
+    found, ceiling = _ceiling(lib, gait, ev.speed_cm_s)
     if network and gait.kind == "pattern":
         raise fail(f"--network: gait {ev.gait_id} is an open-loop pattern (the pattern ceiling): it has no SAN to show")
     summary = record("gait", {"gait": ev.gait_id, "kind": gait.kind, "rank": ev.rank, "creature": gait.spec.name, "metric": gait.metric,
@@ -189,7 +189,7 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
         console.print(f"[dim]no pattern ceiling stored for this creature file: sanlab ceiling {safe(gait.source or gait.spec.name)}"
                       " measures how fast an open loop drives the body[/dim]")
     elif gait.kind == "san" and ceiling["fraction"] is not None:
-        vouched = "audited: robust" if ceiling["verdict"] == "robust" and not ceiling["fell"] else "not vouched for by an audit"
+        vouched = "audited: robust" if found is not None and found.robust else "not vouched for by an audit"
         console.print(f"{100 * ceiling['fraction']:.0f} % of its pattern ceiling ({ceiling['speed_cm_s']:.1f} cm/s, "
                       f"gait {ceiling['gait']}, {vouched})")
     _print_values(values)
@@ -208,13 +208,13 @@ def _show_gait(lib: Library, gait_id: str, network: bool, as_json: bool, db: str
     print_next(db, [f"sanlab render {gid}", *san_next, *audit_next, *[f"sanlab export {gid}"] * (gait.kind == "san")])
 
 
-def _ceiling(lib: Library, gait, speed_cm_s: float) -> dict | None:
-    """The creature's pattern ceiling in this library (``sanlab.search.ceiling.find``) and the
-    fraction of it ``speed_cm_s`` is, as ``show --json`` prints it; None without one."""
+def _ceiling(lib: Library, gait, speed_cm_s: float):
+    """The creature's pattern ceiling in this library (``sanlab.search.ceiling.find``), and it
+    with the fraction of it ``speed_cm_s`` is, as ``show --json`` prints it; (None, None) without one."""
     from sanlab.search.ceiling import find
 
     c = library_call(find, lib, gait.creature_text, gait.metric, gait.seconds)
-    return None if c is None else {**c.to_json(), "fraction": c.fraction(speed_cm_s)}
+    return c, None if c is None else {**c.to_json(), "fraction": c.fraction(speed_cm_s)}
 
 
 def _print_values(values: dict) -> None:

@@ -69,13 +69,18 @@ def find(lib: Library, creature_text: str, metric: str | None, seconds: float | 
             if e.nonfinite or e.fell or not math.isfinite(e.speed_cm_s):
                 continue
             a = audits.get(e.idx)
-            fell = a is not None and any(bool(v) for v in dict(a.result.get("fell") or {}).values())
+            fell = a is not None and _fell(a)
             c = Ceiling(e.gait_id, e.speed_cm_s, e.score, None if a is None else a.verdict, lib.count(run.run_id), fell)
             if best is None or (c.robust, c.speed_cm_s) > (best.robust, best.speed_cm_s):
                 best = c
             if a is None or c.robust:
                 break  # this run's best robust, or its best unaudited: nothing below it can beat them
     return best
+
+
+def _fell(audit) -> bool:
+    """The audit's ensemble fell under some nudge (more than half its members; ``sanlab.audit``)."""
+    return any(bool(v) for v in dict(audit.result.get("fell") or {}).values())
 
 
 def _same(a: float | None, b: float | None) -> bool:
@@ -114,7 +119,7 @@ def measure(lib: Library, creature_text: str, source: str, *, evaluations: int =
         if e.idx not in audits:
             audit_and_store(lib, e.gait_id, log=log)
         a = lib.audits(run_id)[e.idx]
-        if a.verdict == "robust" and not any(bool(v) for v in dict(a.result.get("fell") or {}).values()):
+        if a.verdict == "robust" and not _fell(a):
             break
     run = lib.get_run(run_id)
     s = run.settings
