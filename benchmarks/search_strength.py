@@ -8,6 +8,8 @@ group's median: every score's objective):
   trials): a sixth of the budget on random SANs, the rest on simulated annealing of the best;
 - ``catcma``: CatCMAwM over the weights (``search --strategy catcma``) for the whole budget;
 - ``catcma+sa``: CatCMAwM for half, annealing of its best for the other half;
+- ``rhythm``: SANs built as clocks, CMA-ES over their rhythm (``search --strategy rhythm``);
+- ``rhythm+sa``: the rhythm search for half, annealing of its best for the other half;
 - ``pattern``: CMA-ES over open-loop square waves (``search --strategy pattern``): the ceiling.
 
 Each strategy's anytime curve is its best search-time score after each tenth of the budget, and
@@ -23,11 +25,13 @@ finishes, and a run with the same ``--out`` skips what is there: an interrupted 
 on where it stopped.
 
     python benchmarks/search_strength.py [--creatures bounder,walker] [--seeds 0] [--evaluations 3000]
-        [--strategies random+sa,catcma,catcma+sa,pattern] [--out search_strength.jsonl]
+        [--strategies random+sa,catcma,catcma+sa,rhythm,rhythm+sa,pattern] [--out search_strength.jsonl]
 
-The last line gives, over the creatures and seeds measured, the median ratios of ``catcma`` and
-``catcma+sa`` to ``random+sa``, and the lowest and the median share of the pattern's speed that
-the best SAN strategy reached: ``catcma_vs_random=.. catcma_sa_vs_random=.. best_san_of_ceiling_min=.. median=..``.
+The last lines give, over the creatures and seeds measured, the median ratios of ``catcma``,
+``catcma+sa``, ``rhythm`` and ``rhythm+sa`` to ``random+sa``, and the lowest and the median
+share of the pattern's speed that the best SAN strategy, and ``rhythm+sa`` alone, reached:
+``catcma_vs_random=.. catcma_sa_vs_random=.. best_san_of_ceiling_min=.. median=..`` and
+``rhythm_vs_random=.. rhythm_sa_vs_random=.. rhythm_sa_of_ceiling_min=.. median=..``.
 """
 
 from __future__ import annotations
@@ -46,7 +50,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 SPEED_CREATURES = ("bounder", "walker", "luxo", "fourlink", "threelink", "cart", "twolink", "star", "fish")
-STRATEGIES = ("random+sa", "catcma", "catcma+sa", "pattern")
+STRATEGIES = ("random+sa", "catcma", "catcma+sa", "rhythm", "rhythm+sa", "pattern")
 
 
 def heldout(lib, gait_id: str, n: int, terrain: str = "flat") -> dict:
@@ -100,9 +104,9 @@ def one(creature: str, strategy: str, seed: int, budget: int, n_heldout: int) ->
         c0, t0 = time.process_time(), time.perf_counter()
         runs = []
         first = {"random+sa": ("random", budget // 6), "catcma": ("catcma", budget), "catcma+sa": ("catcma", budget // 2),
-                 "pattern": ("pattern", budget)}[strategy]
+                 "rhythm": ("rhythm", budget), "rhythm+sa": ("rhythm", budget // 2), "pattern": ("pattern", budget)}[strategy]
         run_id = run_search(lib, text, where, controllers=first[1], seed=seed, strategy=first[0],
-                            batch=32 if first[0] == "pattern" else 256)
+                            batch=32 if first[0] in ("pattern", "rhythm") else 256)
         runs.append(run_id)
         gait = lib.top(run_id, 1)[0].gait_id
         if strategy.endswith("+sa"):
@@ -152,6 +156,7 @@ def report(rows: list[dict]) -> None:
     keys = sorted({(r["creature"], r["seed"]) for r in rows})
     print(f"\n{'creature':10s} {'seed':>4s} " + " ".join(f"{s:>18s}" for s in STRATEGIES) + "   (held-out cm/s; % of pattern)")
     vs_random, sa_vs_random, of_ceiling = [], [], []
+    rh_vs_random, rhsa_vs_random, rhsa_of_ceiling = [], [], []
     for c, s in keys:
         ceiling = by.get((c, s, "pattern"), {}).get("heldout", {}).get("speed_cm_s")
         cells = []
@@ -171,7 +176,14 @@ def report(rows: list[dict]) -> None:
             vs_random.append(cc["heldout"]["speed_cm_s"] / base["heldout"]["speed_cm_s"])
         if base and cs and base["heldout"]["speed_cm_s"] > 0:
             sa_vs_random.append(cs["heldout"]["speed_cm_s"] / base["heldout"]["speed_cm_s"])
-        sans = [r["heldout"]["speed_cm_s"] for r in (base, cc, cs) if r]
+        rh, rs = by.get((c, s, "rhythm")), by.get((c, s, "rhythm+sa"))
+        if base and rh and base["heldout"]["speed_cm_s"] > 0:
+            rh_vs_random.append(rh["heldout"]["speed_cm_s"] / base["heldout"]["speed_cm_s"])
+        if base and rs and base["heldout"]["speed_cm_s"] > 0:
+            rhsa_vs_random.append(rs["heldout"]["speed_cm_s"] / base["heldout"]["speed_cm_s"])
+        if rs and ceiling:
+            rhsa_of_ceiling.append(rs["heldout"]["speed_cm_s"] / ceiling)
+        sans = [r["heldout"]["speed_cm_s"] for r in (base, cc, cs, rh, rs) if r]
         if sans and ceiling:
             of_ceiling.append(max(sans) / ceiling)
     print("\nanytime curves: best search-time score after each tenth of the budget; CPU s")
@@ -194,6 +206,9 @@ def report(rows: list[dict]) -> None:
     low = min(of_ceiling) if of_ceiling else math.nan
     print(f"catcma_vs_random={med(vs_random):.2f} catcma_sa_vs_random={med(sa_vs_random):.2f} "
           f"best_san_of_ceiling_min={low:.2f} median={med(of_ceiling):.2f}")
+    low = min(rhsa_of_ceiling) if rhsa_of_ceiling else math.nan
+    print(f"rhythm_vs_random={med(rh_vs_random):.2f} rhythm_sa_vs_random={med(rhsa_vs_random):.2f} "
+          f"rhythm_sa_of_ceiling_min={low:.2f} median={med(rhsa_of_ceiling):.2f}")
 
 
 if __name__ == "__main__":

@@ -385,10 +385,11 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
     key = gait_key(lib, g)
     morphology = g.params.scale is not None
     dtype0 = run.dtype or "float32"
-    # A phase-1 gait is scored as its search scored it, with the creature file's own parameters
-    # (a parameter vector takes another compiled path, equal only to the last bits, and a chaotic
-    # gait would already differ there); a tuned or imported one with its parameter vector.
-    theta = None if run.kind == "search" else Space(g.spec, morphology=morphology).nominal(g.params)[None]
+    # A gait is scored as it was scored: a random search's with the creature file's own parameters,
+    # any other (tuned, imported, a rhythm search's clock with its own delays and ranges) with its
+    # parameter vector.
+    own = g.params.k1 is not None or bool(g.params.model) or morphology
+    theta = Space(g.spec, morphology=morphology).nominal(g.params)[None] if run.kind != "search" or own else None
 
     def scored(factor: float, dtype: str, ensemble: Ensemble, k: Key):
         ev = nudged_evaluator(g.spec, factor, dtype, batch=1, metric=g.metric, seconds=g.seconds, terrain=terrain,

@@ -13,6 +13,7 @@ from sanlab.library import Library, LibraryError, SearchSettings
 from sanlab.search import driver, registry
 from sanlab.search.base import Grid, Problem
 from sanlab.search.map_elites import parse_grid
+from sanlab.search.space import Space
 
 SearchProgress = driver.Progress  # the name reporters of phase 1 have used
 
@@ -72,7 +73,8 @@ def run_search(
         # the evaluator pads every call to its batch: 64 controllers in a batch of 256 simulated
         # 256; a controller's score does not depend on its batch, so this changes no result
         batch = min(batch, controllers)
-    ev = Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=batch, ensemble=ens)
+    space = Space(spec) if getattr(registry.STRATEGIES[strategy], "needs_space", False) else None
+    ev = Evaluator(spec, metric=metric, seconds=seconds, dtype=dtype, batch=batch, ensemble=ens, space=space)
     on, off = ev.delays()
     if run_id is None:
         settings = SearchSettings(
@@ -84,7 +86,7 @@ def run_search(
             total=controllers, dtype=dtype, device=backend.describe(), sanlab_version=__version__,
         ).run_id
     problem = Problem(run_id, ev.san, controllers, seed, gait_params=GaitParams(on, off), dtype=dtype,
-                      grid=grid if strategy != "random" else None, generation=batch)
+                      grid=grid if strategy != "random" else None, generation=batch, space=space)
     searcher = registry.make(strategy, problem)
     searcher.resume(library.top(run_id, None), [])
     driver.run(searcher, ev, library, reporter, backend)

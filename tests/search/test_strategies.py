@@ -52,7 +52,9 @@ def problem(name: str, run_id: str) -> Problem:
     san = SPACE.san
     if cls.phase == 1:
         grid = Grid(("vx_cm_s", "airborne"), ((-0.5, 0.5), (0.25, 0.75)), (4, 4))
-        return Problem(run_id, san, BUDGET, seed=3, gait_params=GaitParams(0.1, 0.1), grid=grid, generation=6)
+        space = SPACE if getattr(cls, "needs_space", False) else None  # the rhythm search builds clocks in it
+        return Problem(run_id, san, BUDGET, seed=3, gait_params=GaitParams(0.1, 0.1), grid=grid, generation=6,
+                       space=space)
     weights = san.random_weights(3, 0)
     return Problem(run_id, san, BUDGET, seed=3, stream=1, space=SPACE, start=Start(weights, SPACE.nominal(), None))
 
@@ -88,7 +90,7 @@ def stored(lib: Library, run_id: str):
 
 
 def test_the_registry_has_both_phases():
-    assert names(1) == ["random", "catcma", "map-elites", "pattern"] and set(names(2)) == {"sga", "sa"}
+    assert names(1) == ["random", "catcma", "map-elites", "rhythm", "pattern"] and set(names(2)) == {"sga", "sa"}
     with pytest.raises(ValueError, match="expected one of"):
         make("newton", problem("random", "x"))
 

@@ -1,0 +1,268 @@
+"""Phase 1 by the rhythm: SANs whose hidden nodes make a clock, searched by CMA-ES over its rhythm.
+
+The paper's SAN can hold a rhythm of its own: a node fed +1 by an input that is always on and -2
+by itself switches on after T_on and off after T_off, for ever (Figure 7's hysteresis), and its
+delays are among the parameters phase 2 tunes (§5.3). Random weights rarely make such a clock, so
+random search finds the rhythms the sensors happen to make; on the bounder and the walker the
+fastest open-loop square waves (``sanlab.search.pattern``, the pattern ceiling) run 2x the SANs
+that search finds (issue 56). This strategy searches SANs *as* rhythms: CMA-ES over the same
+2 A + 1 numbers as the pattern search (per actuator a phase and a duty, one period), each point
+built into a SAN by :func:`clock` and evaluated, and stored, as that SAN: its weights, node
+delays and actuator and sensor ranges (a gait like a tuned one, ``GaitParams.k1``/``model``),
+tuned, audited, exported and shown as any.
+
+The clock (:func:`clock`), in steps of the creature's dt (P steps a period):
+
+- a *bias*: the first angle, tilt or eye sensor, its range opened to the whole circle (a length
+  sensor's to [0, 1000 m]; on a horizontal plane a touch sensor is always on), is always on;
+- a *root* node (actuator 0's): +1 from the bias, -2 from itself, T_off its on-steps and T_on
+  its off-steps, a free-running oscillator of period P;
+- every other actuator's node a *follower*: triggered by the rising edge of a node (+1 from it)
+  or its falling edge (-1 from it, +1 from the bias), -2 from itself; it switches on T_on after
+  the edge and off T_off later, so it keeps its phase to the root cycle after cycle (no drift).
+  Each follower takes the trigger that keeps its phase and duty exactly when one does (its pulse
+  must end before the next edge and not fire twice within one window); the steps it misses by
+  otherwise are the clock's *slip*;
+- each actuator node sums 2 from its clock node and c in {-2, -1, 0} from the bias, so its
+  activation switches between (c + 2) / 4 and (c + 4) / 4, and the actuator's range is set so
+  that those are the ends of its range; where that range would not fit the actuator's bounds
+  (±180°) and a hidden node is spare, a *twin* of the clock node (same inputs and delays, so the
+  same output) adds 2 more, and the activation switches between 0 and 1.
+
+It needs A <= H hidden nodes and a sensor to serve as the bias. Every node starts off (§4), so
+the SAN starts its rhythm where the root has just switched off; the search, which scores the SAN
+and not the square wave, finds phases that start well (the walker's best pattern falls when
+started at 6 of 8 other points of its cycle). The SAN senses nothing but its bias: its sensors
+enter once ``sanlab tune`` or a weight search moves them. Where a closed loop matters (the cart,
+the fourlink), random SANs still win: ``benchmarks/search_strength.py`` and
+docs/search-strength.md compare them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sanlab.evaluate.ensemble import search_key
+from sanlab.evaluate.records import ScoreBatch
+from sanlab.library.records import EvaluationRow
+from sanlab.search.base import Candidate, Problem
+from sanlab.search.pattern import PatternSearch, decode
+from sanlab.search.space import Space
+
+LENGTH_OPEN = 1000.0  # m: a length sensor's upper end when it serves as the bias
+WARMUP = 1 / 6  # of the budget on random SANs first, as ``sanlab.search.catcma`` spends it
+
+
+@dataclass(frozen=True)
+class Clock:
+    """A SAN built from a pattern: weights [N, I] (int8), its parameter vector [P] of ``space``
+    (node delays, actuator and sensor ranges), and its slip (steps by which the followers miss
+    the pattern's phases and duties, summed; 0: exact)."""
+
+    weights: np.ndarray
+    theta: np.ndarray
+    slip: float
+
+
+def bias_sensor(space: Space) -> int | None:
+    """The sensor :func:`clock` holds always on, or None when the creature has none that can be."""
+    spec = space.spec
+    for s, x in enumerate(spec.sensors):
+        if x.kind in ("angle", "tilt", "eye", "length"):
+            return s
+    if spec.world.plane == "horizontal":
+        return next((s for s, x in enumerate(spec.sensors) if x.kind == "touch"), None)
+    return None
+
+
+def clock(space: Space, pattern: np.ndarray) -> Clock:
+    """The SAN that plays ``pattern`` ([4 A + 1]: per actuator phase, duty, low, high, then the
+    period, s; ``sim.PatternController``) on ``space``'s creature (module docstring). ValueError
+    when the creature has fewer hidden nodes than actuators or no sensor to serve as the bias."""
+    spec, san = space.spec, space.san
+    S, H, A = san.n_sensors, san.n_hidden, san.n_actuators
+    bias = bias_sensor(space)
+    if A > H or bias is None:
+        raise ValueError(f"{spec.name}: a clock needs at least as many hidden nodes as actuators ({H} < {A})"
+                         if A > H else f"{spec.name}: a clock needs an angle, tilt, eye or length sensor as its bias")
+    pattern = np.asarray(pattern, float)
+    index = {name: i for i, name in enumerate(space.names)}
+    theta = space.nominal()
+
+    def put(name: str, value: float) -> None:
+        i = index[name]
+        p = space.params[i]
+        theta[i] = min(max(value, p.lo), p.hi)
+
+    sensor = spec.sensors[bias]
+    if sensor.kind in ("angle", "tilt", "eye"):
+        put(f"{sensor.name}.min", -math.pi)
+        put(f"{sensor.name}.max", math.pi)
+    elif sensor.kind == "length":
+        put(f"{sensor.name}.max", LENGTH_OPEN)
+        put(f"{sensor.name}.min", 0.0)
+    dt = spec.dt
+    P = max(4, int(round(pattern[4 * A] / dt)))
+    lo_steps = math.ceil(0.01 / dt + 0.25)  # the shortest and longest delays the space allows (0.01-1 s)
+    hi_steps = max(lo_steps, math.floor(1.0 / dt + 0.25))
+    rise = np.mod(np.round(np.mod(pattern[0:4 * A:4], 1.0) * P), P).astype(int)
+    on = np.clip(np.round(pattern[1:4 * A:4] * P), 1, P - 1).astype(int)
+    # an actuator the pattern starts at its upper level is driven by a node carrying its lower
+    # phases, inverted: every node starts off (§4), and so does that one's wave
+    starts_high = ((-rise) % P) < on
+    rise, on = np.where(starts_high, (rise + on) % P, rise), np.where(starts_high, P - on, on)
+
+    def fit(n) -> int:
+        return min(max(int(n), lo_steps), hi_steps)
+
+    # the root, free-running on the bias: a node of its own, switching off as the pattern's time 0
+    # passes (so the SAN, all nodes off at first, starts where the pattern starts), on for the
+    # part of the period that lets the followers keep their phases best; with no node to spare,
+    # actuator 0's node (the SAN then starts where that one switches off)
+    if H > A:
+        trees = [_tree(np.append(rise, P - o), np.append(on, o), P, A, fit) for o in _root_lengths(P)]
+        tree = min(trees, key=lambda t: t[3])
+    else:
+        tree = _tree(rise, on, P, 0, fit)
+    node, trigger, delays, slip = tree
+    W = np.zeros((san.n_nodes, san.n_inputs), np.int8)
+    for k, (h, edge) in trigger.items():
+        if h < 0:
+            W[k, bias] = 1
+        else:
+            W[k, S + h] = edge
+            if edge == -1:
+                W[k, bias] = 1
+        W[k, S + k] = -2
+    # the actuators: levels from the clock node, the bias offset and, where needed, a twin
+    ends = []
+    for a, act in enumerate(spec.actuators):
+        low, high = pattern[4 * a + 2], pattern[4 * a + 3]
+        tl, th = act.min + low * (act.max - act.min), act.min + high * (act.max - act.min)
+        p = space.params[index[f"{act.name}.min"]]
+        best_c = None
+        for c in (-1, -2, 0):
+            width = 2 * (th - tl)
+            amin = tl - (c + 2) / 4 * width
+            over = max(0.0, p.lo - amin) + max(0.0, amin + width - p.hi)
+            if best_c is None or over < best_c[0] - 1e-12:
+                best_c = (over, c, amin, amin + width)
+        assert best_c is not None
+        ends.append(best_c)
+    spare = list(range(len(node), H))
+    for a in sorted(range(A), key=lambda a: -ends[a][0]):
+        act = spec.actuators[a]
+        h = node[a]
+        sign = -1 if starts_high[a] else 1
+        W[H + a, S + h] = 2 * sign
+        over, c, amin, amax = ends[a]
+        if over > 1e-12 and spare:
+            t = spare.pop(0)
+            W[t] = W[h]
+            W[t, S + h], W[t, S + t] = 0, -2
+            delays[t] = delays[h]
+            W[H + a, S + t] = 2 * sign
+            c, amin, amax = -2, act.min + pattern[4 * a + 2] * (act.max - act.min), act.min + pattern[4 * a + 3] * (act.max - act.min)
+        swing = 2 * int(np.count_nonzero(W[H + a, S:S + H]))  # 2 from the node, 2 more from a twin
+        W[H + a, bias] = c if sign == 1 else c + swing  # inverted: the same two levels
+        put(f"{act.name}.max", amax)
+        put(f"{act.name}.min", amin)
+    for h, (n_r, n_f) in delays.items():
+        # a quarter step short of whole steps: the node switches on the same step at dt and dt/2
+        put(f"H{h + 1}.T_on", (n_r - 0.25) * dt)
+        put(f"H{h + 1}.T_off", (n_f - 0.25) * dt)
+    return Clock(W, theta, float(slip))
+
+
+def _root_lengths(P: int) -> list[int]:
+    """The root's on-steps tried: half the period first (ties keep it), then eighths."""
+    return [P // 2] + [P * k // 8 for k in (1, 2, 3, 5, 6, 7) if 0 < P * k // 8 < P]
+
+
+def _tree(rise: np.ndarray, on: np.ndarray, P: int, root: int, fit):
+    """The clock's wiring for waves ``rise``/``on`` (steps; index ``root`` is the root's): which
+    node each wave gets (wave -> node), each node's trigger (node -> (trigger node or -1 for the
+    bias, +1 rising or -1 falling edge)), each node's (T_on, T_off) in steps, and the slip."""
+    node = {root: 0}
+    trigger: dict[int, tuple[int, int]] = {0: (-1, 1)}
+    delays = {0: (fit(P - on[root]), fit(on[root]))}
+    slip = float(abs(delays[0][0] - (P - on[root])) + abs(delays[0][1] - on[root]))
+    todo = [b for b in range(len(rise)) if b != root]
+    while todo:
+        best = None
+        for b in todo:
+            for a, h in node.items():
+                for edge in (1, -1):  # rising, falling
+                    start = rise[a] if edge == 1 else rise[a] + on[a]
+                    window = on[a] if edge == 1 else P - on[a]
+                    n_r, n_f = (rise[b] - start) % P, on[b]
+                    miss = 0.0
+                    if n_r > window:  # the trigger is off before the follower has risen
+                        miss += n_r - window
+                        n_r = window
+                    n_r2, n_f2 = fit(n_r), fit(n_f)
+                    miss += abs(n_r2 - n_r) + abs(n_f2 - n_f)
+                    if n_r2 + n_f2 > P:  # still on at the next edge: it slips a cycle
+                        miss += n_r2 + n_f2 - P
+                    rest = window - n_r2 - n_f2  # steps it rises again within the window
+                    if rest >= n_r2:
+                        miss += P  # a second pulse
+                    elif rest > 0 and rest * n_f2 / n_r2 > P - window:
+                        miss += rest * n_f2 / n_r2 - (P - window)  # not yet back to rest at the next edge
+                    # the first cycle: every node starts off and the root has just switched off
+                    if start % P > rise[b]:
+                        miss += on[b]  # its trigger's edge first comes after it should rise: a pulse lost
+                    if edge == -1 and a != root:  # a node not yet on reads as one just switched off
+                        if n_r2 <= rise[a]:
+                            miss += on[b]  # an extra pulse before the trigger's first
+                        elif rise[a] * n_f2 / n_r2 > on[a]:
+                            miss += rise[a] * n_f2 / n_r2 - on[a]  # not back to rest when it first falls
+                    if best is None or miss < best[0]:
+                        best = (miss, b, h, edge, n_r2, n_f2)
+        assert best is not None
+        miss, b, h, edge, n_r, n_f = best
+        slip += miss
+        k = len(node)
+        node[b] = k
+        trigger[k] = (h, edge)
+        delays[k] = (n_r, n_f)
+        todo.remove(b)
+    return node, trigger, delays, slip
+
+
+class RhythmSearch(PatternSearch):
+    """``problem.budget`` SANs: the first :data:`WARMUP` of them the random SANs a random search
+    of the same seed draws (stored as its rows are, so the closed loops random search finds are
+    found here too), then each the :func:`clock` of a pattern drawn by the pattern search's CMA-ES
+    (restarts, population and ranges as ``sanlab.search.pattern``), scored and stored as a SAN
+    with its own node delays and ranges. Needs ``problem.space`` (a Space without morphology;
+    the evaluator must hold the same); ValueError when the creature cannot hold a clock."""
+
+    needs_space = True  # the runner gives the problem and the evaluator a Space of the creature
+
+    def __init__(self, problem: Problem):
+        super().__init__(problem)
+        if problem.space is None or problem.space.morphology:
+            raise ValueError("the rhythm search needs the creature's parameter space, without morphology")
+        self.space = problem.space
+        self._nominal = self.space.nominal()
+        self.warmup = int(problem.budget * WARMUP)
+        clock(self.space, decode(np.full(self.dim, 0.5), self.actuators))  # a creature that cannot hold one fails here
+
+    def warm(self, idx: int) -> Candidate:
+        """Random SAN ``idx`` of the run's seed, with the creature file's parameters."""
+        p = self.problem
+        return Candidate(idx, p.san.random_weights(p.seed, idx), self._nominal, search_key(p.seed, idx))
+
+    def candidate(self, idx: int, point) -> Candidate:
+        c = clock(self.space, decode(point, self.actuators))
+        return Candidate(idx, c.weights, c.theta, search_key(self.problem.seed, idx))
+
+    def row(self, candidate: Candidate, scores: ScoreBatch, k: int) -> EvaluationRow:
+        p = self.problem
+        assert candidate.theta is not None
+        params = p.gait_params if candidate.idx < self._n_warm else self.space.gait_params(candidate.theta, None)
+        return EvaluationRow(p.run_id, candidate.idx, p.san.encode(candidate.weights), params, scores.row(k))

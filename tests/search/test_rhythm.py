@@ -1,0 +1,152 @@
+"""The rhythm search's clocks (``sanlab.search.rhythm``): a SAN built from a pattern plays that
+pattern, step for step, from its first step; the search drives toward a known best rhythm; and
+its gaits are scored, stored, replayed and audited as the SANs they are."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from sanlab import __version__, creature
+from sanlab.evaluate import ScoreBatch
+from sanlab.evaluate.ensemble import search_key
+from sanlab.evaluate.evaluator import Evaluator
+from sanlab.library import Library
+from sanlab.search.base import Problem
+from sanlab.search.pattern import decode
+from sanlab.search.rhythm import RhythmSearch, bias_sensor, clock
+from sanlab.search.space import Space
+
+
+def targets(space: Space, c, steps: int, rng) -> np.ndarray:
+    """The actuator targets [steps, A] (rad or m) the clock's SAN asks for, stepped in NumPy
+    (``San.step``, the kernel's arithmetic) with its bias on and every other sensor at random."""
+    san, spec = space.san, space.spec
+    k1, k2, over = space._arrays(c.theta)
+    params = san.params(c.weights, 1.0, 1.0)._replace(k1=k1, k2=k2)
+    istate, out = np.zeros(san.n_nodes), np.zeros(san.n_nodes)
+    bias = bias_sensor(space)
+    rows = []
+    for _ in range(steps):
+        bits = rng.integers(0, 2, san.n_sensors).astype(float)
+        bits[bias] = 1.0
+        istate, out, u = san.step(params, istate, out, bits, spec.dt)
+        rows.append(over["act_min"] + u * (over["act_max"] - over["act_min"]))
+    return np.array(rows)
+
+
+def wanted(spec, pattern: np.ndarray, steps: int) -> np.ndarray:
+    """The pattern's targets [steps, A] (``sim.PatternController``'s rule) at the end of each step."""
+    A = len(spec.actuators)
+    t = np.arange(1, steps + 1) * spec.dt
+    lo, hi = np.array([a.min for a in spec.actuators]), np.array([a.max for a in spec.actuators])
+    out = np.empty((steps, A))
+    for a in range(A):
+        up = np.mod(t / pattern[4 * A] - pattern[4 * a], 1.0) < pattern[4 * a + 1]
+        level = np.where(up, pattern[4 * a + 3], pattern[4 * a + 2])
+        out[:, a] = lo[a] + level * (hi[a] - lo[a])
+    return out
+
+
+@pytest.mark.parametrize("name", ["bounder", "walker", "cart", "fish", "crawler", "fourlink"])
+def test_a_clock_plays_its_pattern_from_the_first_step(name):
+    spec = creature.load(name)
+    space = Space(spec)
+    rng = np.random.default_rng(56)
+    played = 0
+    for _ in range(6):
+        pattern = decode(rng.uniform(0, 1, 2 * len(spec.actuators) + 1), len(spec.actuators))
+        pattern[-1] = rng.uniform(0.15, 0.9)  # periods whose halves the delays can hold (0.01-1 s)
+        pattern[1:-1:4] = rng.uniform(0.15, 0.85, len(spec.actuators))
+        c = clock(space, pattern)
+        assert space.valid(c.theta)
+        if c.slip:
+            continue  # the followers could not all keep their phase: a slip, said, not hidden
+        played += 1
+        steps = int(round(3 * pattern[-1] / spec.dt))
+        got, want = targets(space, c, steps, rng), wanted(spec, pattern, steps)
+        # the same two levels (where the widened range fits the actuator's bounds) ...
+        assert np.allclose(np.unique(np.round(got, 9)), np.unique(np.round(want, 9)))
+        # ... switched on the same steps, but for a step of rounding and the node's one-step lag
+        # at each edge, from the very first step (every node starts off, as the SAN starts)
+        edges = int(np.count_nonzero(np.diff(want, axis=0))) + len(spec.actuators)
+        assert np.count_nonzero(~np.isclose(got, want)) <= 2 * edges
+    assert played >= 3
+
+
+def test_a_range_too_wide_to_widen_gets_a_twin_and_switches_end_to_end():
+    spec = creature.load("cart")  # one actuator, -140..140 deg: doubled it would pass 180
+    space = Space(spec)
+    pattern = decode(np.array([0.3, 0.4, 0.5]), 1)
+    c = clock(space, pattern)
+    H = space.san.n_hidden
+    S = space.san.n_sensors
+    drive = c.weights[H, S:S + H]
+    assert np.count_nonzero(drive) == 2  # its clock node and the twin
+    got = targets(space, c, 2000, np.random.default_rng(0))[:, 0]
+    assert np.isclose(got.min(), spec.actuators[0].min) and np.isclose(got.max(), spec.actuators[0].max)
+
+
+def test_a_clock_needs_a_node_per_actuator_and_a_bias():
+    walker = creature.load("walker")
+    few = dataclasses.replace(walker, san=dataclasses.replace(walker.san, hidden=4))  # 4 nodes, 5 actuators
+    with pytest.raises(ValueError, match="hidden nodes"):
+        clock(Space(few), decode(np.full(11, 0.5), 5))
+    bounder = creature.load("bounder")
+    touch_only = dataclasses.replace(bounder, sensors=bounder.sensors[:2])
+    with pytest.raises(ValueError, match="bias"):
+        clock(Space(touch_only), decode(np.full(9, 0.5), 4))
+
+
+def test_the_rhythm_search_drives_toward_a_known_best_period(tmp_path):
+    spec = creature.load("cart")
+    space = Space(spec)
+    ton = [i for i, p in enumerate(space.params) if p.kind == "t_on"]
+    toff = [i for i, p in enumerate(space.params) if p.kind == "t_off"]
+
+    def score(c) -> float:
+        if c.idx < 6:  # the warm-up's random SANs: any score below the clocks'
+            return -10.0
+        period = c.theta[ton[0]] + c.theta[toff[0]]  # the root's cycle
+        return -abs(period - 0.6)
+
+    with Library(str(tmp_path / "a.db")) as lib:
+        run_id = lib.create_run("search", "cart", "text", {}, seed=0, total=1, sanlab_version=__version__).run_id
+        s = RhythmSearch(Problem(run_id, space.san, 40 * 12 + 6, seed=2, space=space, generation=12))
+        assert s.warmup == 81  # a sixth of the budget
+        told = []
+        while not s.done:
+            cands = s.ask(64)
+            x = [score(c) for c in cands]
+            told += x
+            b = np.asarray(x)
+            no = np.zeros(len(b), bool)
+            t = s.tell(cands, ScoreBatch(b, b, b, no, no, b[:, None], b[:, None]))
+            lib.commit(t.evaluations, t.trace, t.finished)
+        clocks = told[81:]
+        assert max(clocks[:12]) < max(clocks) and max(clocks) > -0.01  # within 10 ms of the best period
+        stored = lib.top(run_id, None)
+        warm = [e for e in stored if e.idx < 81]
+        assert all("k1" not in e.params for e in warm)  # stored as a random search stores its SANs
+        assert all("k1" in e.params and "model" in e.params for e in stored if e.idx >= 81)
+
+
+def test_a_rhythm_gait_replays_and_audits_at_its_stored_score(tmp_path):
+    from sanlab.audit import audit
+    from sanlab.gait import Gait
+    from sanlab.search.runner import run_search
+
+    text, source = creature.read_source("twolink")
+    with Library(str(tmp_path / "a.db")) as lib:
+        run_id = run_search(lib, text, source, controllers=44, seed=1, batch=32, strategy="rhythm", ensemble=2,
+                            seconds=2.0)
+        best = next(e for e in lib.top(run_id, None) if e.idx >= 7)  # a clock, not a warm-up SAN
+        g = Gait.from_library(lib, best.gait_id)
+        space = Space(g.spec)
+        ev = Evaluator(g.spec, seconds=g.seconds, ensemble=g.ensemble, space=space, batch=1)
+        again = ev(g.weights[None], space.nominal(g.params)[None], [search_key(1, best.idx)])
+        assert float(again.score[0]) == best.score  # bit for bit: delays, ranges and all
+        a = audit(lib, best.gait_id, members=4, max_members=4)
+        assert a.nominal_cm_s == pytest.approx(best.speed_cm_s, abs=1e-9)  # re-scored as stored
