@@ -191,11 +191,14 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     whether an earlier call had stored some of it). ``reporter``: told the search's progress
     (``run_search``'s)."""
     from sanlab.search import run_search
+    from sanlab.search.pattern import POPSIZE
+
+    batch = POPSIZE if strategy == "rhythm" else SEARCH_BATCH  # the rhythm search's batch is its generation
 
     def wanted(run: Run) -> bool:
         s = run.settings
         return (isinstance(s, SearchSettings) and s.imported_from is None and s.controllers == controllers
-                and s.seconds == seconds and s.batch in (SEARCH_BATCH, min(SEARCH_BATCH, controllers))
+                and s.seconds == seconds and s.batch in (batch, min(batch, controllers))
                 and s.ensemble == ens and s.strategy == strategy
                 and run.dtype == "float64")
 
@@ -204,7 +207,7 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
         return run.run_id, True
     if run is not None:
         return run_search(lib, text, where, resume=run.run_id, backend=backend, reporter=reporter), True
-    return run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed, batch=SEARCH_BATCH,
+    return run_search(lib, text, where, controllers=controllers, seconds=seconds, seed=seed, batch=batch,
                       ensemble=ens, backend=backend, strategy=strategy, reporter=reporter), False
 
 
@@ -552,7 +555,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ValueError for a ``top`` :func:`chains` refuses or a malformed ledger; KeyboardInterrupt
     leaves every stored evaluation in the library and every finished row in the ledger.
     ``command``: the command line that made the report, named at its top. ``strategy``: phase
-    1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM). ``ceiling``
+    1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM; ``rhythm``:
+    of the rhythm search, ``sanlab.search.rhythm``). ``ceiling``
     > 0: each row also measures its creature's pattern ceiling with that many patterns
     (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed.
     ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the

@@ -89,6 +89,25 @@ def test_reproduce_resumes_from_the_library(tmp_path):
         assert sum(r.kind == "search" for r in lib.runs()) == 2
 
 
+@pytest.mark.slow  # about 10 s on 2 busy cores
+def test_reproduce_with_the_rhythm_search_searches_in_its_generations_and_resumes(tmp_path):
+    from sanlab.reproduce import reproduce
+    from sanlab.search.pattern import POPSIZE
+
+    def call(lib: Library) -> list[str]:
+        return _rows(reproduce(lib, ["twolink"], seed=2, controllers=40, trials=8, ensemble=1, log=lambda s: None,
+                               top=1, audit=False, strategy="rhythm"))["twolink"]
+
+    with Library(str(tmp_path / "r.db")) as lib:
+        first = call(lib)
+        [search] = [r for r in lib.runs() if r.kind == "search"]
+        assert search.params["strategy"] == "rhythm" and search.params["batch"] == POPSIZE
+        clocks = [e for e in lib.top(search.run_id, None) if e.idx >= 6]  # after the warm-up's 6 random SANs
+        assert len(clocks) == 34 and all("k1" in e.params for e in clocks)
+        runs = {r.run_id: r.status for r in lib.runs()}
+        assert call(lib)[:13] == first[:13] and {r.run_id: r.status for r in lib.runs()} == runs  # reused
+
+
 def test_summary_over_seeds_takes_median_min_and_max_of_the_robust_speeds():
     """A seed without a robust gait counts 0 in the median; the verdicts and Table 1 hits are tallied."""
     from sanlab.reproduce import Row, summary
