@@ -6,6 +6,7 @@
 // momenta, velocities, sensor values) over the same tiles.
 #include <cstring>
 #include <cstdlib>
+#include <type_traits>
 #include <vector>
 // No SLP vectorisation of the scalar code: GCC 12 recognises step.h's rotations (c x - s y,
 // s x + c y) as complex multiplications and emits a fused vfmaddsub despite -ffp-contract=off,
@@ -98,7 +99,11 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
   const size_t na = oi ? (size_t)obs_values(oi) : 0, npar = Ctl::n_param(m), nst = Ctl::n_state(m);
   const size_t sizes[] = {(size_t)m.ndof, (size_t)m.ndof, (size_t)(2 * m.ncontact), 1, 1};
   const Record rec{every > 0 ? every : 1, n_frames, 2 * m.ndof + m.nsensor + m.nact + (int64_t)nst};
-  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.ndof, [&](Tile<V> &tile, V *s, int64_t b) {
+  // a SAN on float tiles sums its inputs lane by lane from its weights as floats (san.h: san_lanes)
+  constexpr bool lane_san = std::is_same<Ctl, SanControl<vf>>::value;
+  const size_t nw = lane_san ? (size_t)m.ninput * m.nnode : 0;
+  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.ndof + nw, [&](Tile<V> &tile, V *s,
+                                                                                          int64_t b) {
     V *at = s;
     for (int k = 0; k < 5; ++k) { load(at, state[k], b, sizes[k]); at += sizes[k]; }
     V *p = at, *c = p + npar, *a = c + nst, *v = a + na;
@@ -106,7 +111,12 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
     load(c, cst, b, nst);
     if (na && !init) load(a, acc, b, na);
     double *fr = frames ? frames + (size_t)b * n_frames * rec.values * Lanes<V>::W : nullptr;
-    run_tile(m, tile, ctl.at(b), s, p, c, steps, o, a, v, rec, fr);
+    auto ctl_b = ctl.at(b);
+    if constexpr (lane_san) {
+      san_weights(m, ctl_b.weights, ctl_b.NP, v + m.ndof);
+      ctl_b.wv = v + m.ndof;
+    }
+    run_tile(m, tile, ctl_b, s, p, c, steps, o, a, v, rec, fr);
     at = s;
     for (int k = 0; k < 5; ++k) { store(state[k], at, b, sizes[k]); at += sizes[k]; }
     store(cst, c, b, nst);

@@ -57,15 +57,20 @@ static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *table
 // One rollout template serves them all, so every kind steps, observes and records alike.
 // (their kinds: layout.h, K_SAN ... K_PATTERN)
 
-// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
+// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile;
+// wv: the float tiles' weights side by side (san.h: san_weights), where kernel.cpp made them
 template <class V> struct SanControl {
   const short *weights;
   int NP;
   size_t per_tile;
+  const V *wv = nullptr;
   static size_t n_param(const Model &m) { return 2 * (size_t)m.nnode; }
   static size_t n_state(const Model &m) { return 2 * (size_t)m.nnode; }
   SanControl at(int64_t b) const { return {weights + (size_t)b * per_tile, NP, per_tile}; }
   void act(const Model &m, Tile<V> &t, const V *par, V *st, V) const {
+#ifndef __CUDACC_RTC__
+    if (wv) return san_lanes(m, t, wv, par, par + m.nnode, st, st + m.nnode);
+#endif
     san(m, t, weights, NP, par, par + m.nnode, st, st + m.nnode);
   }
 };

@@ -75,6 +75,33 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
   }
   san_update(m, t, k1, k2, istate, out);
 }
+
+// The float tiles' form: the tile's creatures side by side, one select and add per input and node
+// for all 16 of them, where the form above pays each creature's inputs one by one (measured: the
+// bounder's float32 SAN took as long as its float64 one). wv [I][N]: the weight from input i to
+// node n of each lane's creature, as floats (san_weights, once per call); the sums are of small
+// integers, exact in any order, so the same bits as the integer sums.
+template <class V> static inline void san_weights(const Model &m, const short *weights, int NP, V *wv) {
+  using Ls = Lanes<V>;
+  const int N = m.nnode, I = m.ninput;
+  for (int l = 0; l < Ls::W; ++l)
+    for (int i = 0; i < I; ++i)
+      for (int n = 0; n < N; ++n) Ls::set(wv[i * N + n], l, (real<V>)weights[((size_t)l * I + i) * NP + n]);
+}
+
+template <class V> static inline void san_lanes(const Model &m, Tile<V> &t, const V *wv, const V *k1, const V *k2,
+                                                V *istate, V *out) {
+  using Ls = Lanes<V>;
+  const int N = m.nnode, S = m.nsensor, I = m.ninput;
+  for (int n = 0; n < N; ++n) t.total[n] = V{};
+  for (int i = 0; i < I; ++i) {
+    auto on = (i < S ? t.bits[i] : out[i - S]) != 0.0f;
+    if (!Ls::any(on)) continue;
+    const V *w = wv + (size_t)i * N;
+    for (int n = 0; n < N; ++n) t.total[n] = t.total[n] + Ls::sel(on, w[n], V{});
+  }
+  san_update(m, t, k1, k2, istate, out);
+}
 #endif
 
 }  // namespace sanlab
