@@ -145,7 +145,21 @@ template <> struct Lanes<vf> {
   static vf abs(vf a) { return a < 0.0f ? -a : a; }
   static vf min(vf a, vf b) { return a < b ? a : b; }
   static vf max(vf a, vf b) { return a > b ? a : b; }
+  // a test of the whole mask where the machine has one (the lane loop stays scalar, as floor's)
   static bool any(vmf m) {
+#if defined(__AVX512F__)
+    if constexpr (sizeof(vmf) == 64) return _mm512_test_epi32_mask((__m512i)m, (__m512i)m) != 0;
+#endif
+#if defined(__AVX__)
+    if constexpr (sizeof(vmf) % 32 == 0) {
+      for (size_t k = 0; k < sizeof(vmf); k += 32) {
+        __m256i h;
+        std::memcpy(&h, (const char *)&m + k, 32);
+        if (!_mm256_testz_si256(h, h)) return true;
+      }
+      return false;
+    }
+#endif
     int r = 0;
     for (int l = 0; l < W; ++l) r |= m[l];
     return r != 0;
