@@ -17,7 +17,7 @@ def compile_creature(spec: Creature, dtype: Any = "float64", articulated: bool |
     """The compiled model of ``spec``: structure and NumPy arrays of its numbers.
 
     dtype: "float64" (default) or "float32": the arrays' type and the arithmetic every rollout
-    of the model runs in (float32: the kernel's float32 form, about 1.7 x float64's throughput;
+    of the model runs in (float32: the kernel's float32 form, 2 to 3 x float64's throughput;
     chaotic runs part from float64's, so scores agree by distribution, not bit for bit). Raises
     ValueError for another dtype. articulated: the step's linear algebra, the O(n)
     articulated-body recursion (True) or the dense L D L^T (False), the same step to round-off;
