@@ -102,8 +102,8 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
   // a SAN on float tiles sums its inputs lane by lane from its weights as floats (san.h: san_lanes)
   constexpr bool lane_san = std::is_same<Ctl, SanControl<vf>>::value;
   const size_t nw = lane_san ? (size_t)m.ninput * m.nnode : 0;
-  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.ndof + nw, [&](Tile<V> &tile, V *s,
-                                                                                          int64_t b) {
+  const size_t extra = state_values(m) + npar + nst + na + m.ndof + nw;
+  over_tiles<V>(m, tables, per_row, T, extra, [&](Tile<V> &tile, V *s, int64_t b) {
     V *at = s;
     for (int k = 0; k < 5; ++k) { load(at, state[k], b, sizes[k]); at += sizes[k]; }
     V *p = at, *c = p + npar, *a = c + nst, *v = a + na;
@@ -239,7 +239,8 @@ int64_t sanlab_tile_values(const int32_t *dims) {
 void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
                     const int32_t *per_row, double *const *state, const double *par, double *cst,
                     const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init, double *acc,
-                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps, int32_t f32) {
+                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps,
+                    int32_t f32) {
   auto run = [&](auto lane) {
     rollout_kind<decltype(lane)>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd,
                                  frames, every, n_frames, T, steps);
