@@ -21,18 +21,18 @@ def best(calls: list, repeats: int) -> list[float]:
     return out
 
 
-def _start(spec, B: int, seed: int, rows=None):
+def _start(spec, B: int, seed: int, rows=None, dtype: str = "float64"):
     """The kernel's inputs for controllers 0..B-1 of seed ``seed``, with nothing compiled for the
     creature: its tables from the file (``model.assemble``, NumPy arrays), seated and anchored by
     the kernel, the SANs' weights and rates in NumPy (``San.random_weights``, as a search draws
     them): (model, san, params, packed tables, start state, per-row tables). rows: a function of
     the packed tables giving ``kernel.run_san``'s per-row tables (a mixed batch), or None (one
-    shared table)."""
+    shared table). dtype: the arithmetic, "float64" or "float32" (the model's dtype)."""
     from sanlab.san import San, SanParams
     from sanlab.sim import kernel
     from sanlab.sim.model import assemble
 
-    m = assemble(spec, "float64")
+    m = assemble(spec, dtype)
     san = San.for_creature(spec)
     N = san.n_nodes
     weights = np.stack([san.random_weights(seed, i) for i in range(B)]).astype(np.float64)
@@ -55,13 +55,13 @@ def new_creature(spec, B: int = 8, steps: int = 1000) -> float:
     return time.perf_counter() - t0
 
 
-def prepared(spec, B: int, steps: int, seed: int, rows=None):
+def prepared(spec, B: int, steps: int, seed: int, rows=None, dtype: str = "float64"):
     """A rollout of B random SANs (controllers 0..B-1 of seed ``seed``) for ``steps`` steps on the
     kernel as a callable with its inputs made (calling it times the rollout alone; it returns the
-    final coordinates q [B, D]). rows: see :func:`_start`."""
+    final coordinates q [B, D]). rows, dtype: see :func:`_start`."""
     from sanlab.sim import kernel
 
-    _, _, sp, pk, (q, p, anchor, istate, out), per_row = _start(spec, B, seed, rows)
+    _, _, sp, pk, (q, p, anchor, istate, out), per_row = _start(spec, B, seed, rows, dtype)
     w = np.asarray(sp.weights, np.float64)
     k1, k2 = np.asarray(sp.k1, np.float64), np.asarray(sp.k2, np.float64)
     return lambda: kernel.run_san(pk, w, k1, k2, q, p, anchor, istate, out, steps, rows=per_row)["q"]

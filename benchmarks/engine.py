@@ -2,7 +2,7 @@
 
 The simulator's kernel (``sanlab.sim.kernel``, C++ in sanlab/sim/_kernel, built once per
 install) steps random closed-loop SANs (dt = 1 ms; the SAN evaluated every step inside the
-kernel, float64). Every figure is printed beside a reference timed in the same run, as a ratio:
+kernel, float64, and in float32 where said). Every figure is printed beside a reference timed in the same run, as a ratio:
 these machines vary 2x from run to run, so a figure alone says little. The references: MuJoCo's
 C step and C rollout loop (``mujoco.rollout`` on the same creature converted to MJCF, open-loop
 servo targets: no network in its loop; benchmarks/mujoco_route.py), MuJoCo stepping with the
@@ -21,7 +21,9 @@ Printed, in order:
   9-link chain, first and second run;
 - latency: µs per bounder step at batch 1 and 32, and batch 1 against MuJoCo's C step on one
   thread;
-- throughput: the bounder at ``--batch`` (2048) against MuJoCo's C rollout loop at the same batch
+- throughput: the bounder at ``--batch`` (2048) in float64 and in float32 (a model compiled with
+  ``dtype="float32"``: the kernel's float32 form, 16 lanes a tile where float64 has 8; the two
+  timed in turn, the ratio float32 / float64), against MuJoCo's C rollout loop at the same batch
   (one thread per core) and the MuJoCo + NumPy route;
 - growth: ns per creature-step of N-link chains (``--growth 2,4,8,16,32``) on the kernel with
   their random SANs and with the physics alone (activations held), and on MuJoCo's C loop at the
@@ -118,7 +120,8 @@ def build() -> float:
         return NAN
     from sanlab.sim import kernel
 
-    print(f"build: the kernel's one-time compile {s:.1f} s (setup.py build_ext; {kernel.lanes()} float64 lanes a tile)")
+    print(f"build: the kernel's one-time compile {s:.1f} s (setup.py build_ext; {kernel.lanes()} float64 or "
+          f"{kernel.lanes('float32')} float32 lanes a tile)")
     return s
 
 
@@ -191,13 +194,17 @@ def throughput(spec, batch: int, steps: int, repeats: int, mujoco_seconds: float
     from mujoco_route import mujoco_c_loop_steps_per_s, mujoco_steps_per_s
 
     r: dict = {}
-    (t,) = bk.best([bk.prepared(spec, batch, steps, 0)], repeats)
+    t, t32 = bk.best([bk.prepared(spec, batch, steps, 0), bk.prepared(spec, batch, steps, 0, dtype="float32")], repeats)
     r["rate"] = k = batch * steps / t
+    r["rate_f32"] = k32 = batch * steps / t32
     print(f"throughput: bounder, batch {batch} x {steps} steps, best of {repeats}:")
     print(f"  kernel (float64): {k / 1e6:.2f} M creature-steps/s ({1e9 / k:.0f} ns per creature-step)")
+    print(f"  kernel (float32): {k32 / 1e6:.2f} M creature-steps/s ({1e9 / k32:.0f} ns per creature-step; "
+          f"{k32 / k:.2f} x float64)")
     mjc = mujoco_c_loop_steps_per_s(spec, batch=batch, steps=100, repeats=repeats)
     r["rate_mujoco_c"] = mjc
-    print(f"  MuJoCo's C rollout loop: {mjc / 1e6:.3f} M/s, open loop, one thread per core (kernel {k / mjc:.1f} x)")
+    print(f"  MuJoCo's C rollout loop: {mjc / 1e6:.3f} M/s, open loop, one thread per core (kernel {k / mjc:.1f} x, "
+          f"float32 {k32 / mjc:.1f} x)")
     if mujoco_seconds > 0:
         try:
             mjn, info = mujoco_steps_per_s(seconds_budget=mujoco_seconds, details=True)
@@ -315,6 +322,9 @@ def goals(r: dict) -> None:
     line("batch 2048 no slower than the XLA engine", "removed: docs/engine-history.md", None)
     line("batch 2048 >= 40 x MuJoCo's C rollout loop", f"{g('rate') / g('rate_mujoco_c'):.1f} x",
          g("rate") >= 40 * g("rate_mujoco_c"))
+    line("float32 >= 1.7 x float64 at batch 2048", f"{g('rate_f32') / g('rate'):.2f} x", g("rate_f32") >= 1.7 * g("rate"))
+    line("  ... and float32 >= 40 x MuJoCo's C rollout loop", f"{g('rate_f32') / g('rate_mujoco_c'):.1f} x",
+         g("rate_f32") >= 40 * g("rate_mujoco_c"))
     if "growth_ratio" in r:
         lo, hi = r["growth_lo"], r["growth_hi"]
         line(f"physics alone: cost({hi})/cost({lo}) <= {hi // lo} (linear)", f"{g('growth_physics_ratio'):.1f}",
@@ -370,7 +380,8 @@ def main() -> None:
         search_first_s=g("search_first_s"),
         search_first_vs_second=g("search_first_s") / g("search_second_s"), check_simulate_s=g("check_first_s"),
         b32_us=g("b32_us"), b1_vs_mujoco=g("b1_mujoco_us") / g("b1_us"),
-        steps_per_s=g("rate"), vs_mujoco_c_loop=g("rate") / g("rate_mujoco_c"),
+        steps_per_s=g("rate"), vs_mujoco_c_loop=g("rate") / g("rate_mujoco_c"), f32_steps_per_s=g("rate_f32"),
+        f32_vs_f64=g("rate_f32") / g("rate"), f32_vs_mujoco_c_loop=g("rate_f32") / g("rate_mujoco_c"),
         vs_mujoco=g("rate") / g("rate_mujoco_numpy"), growth_ratio=g("growth_ratio"),
         growth_physics_ratio=g("growth_physics_ratio"), growth_mujoco_ratio=g("growth_mujoco_ratio"),
         growth_vs_mujoco_min=g("growth_min_vs_mujoco"), mixed_ratio=g("mixed_ratio"), replay_warm_s=replay_s,

@@ -3,5 +3,5 @@
 After van de Panne & Fiume, "Sensor-Actuator Networks", SIGGRAPH 1993.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 

@@ -35,7 +35,10 @@ smoothly with the share of starts in each mode, and its interval narrows as 1/sq
 It is also flagged *not reproduced* when the gait, re-scored exactly as it was stored (its own
 ensemble, draws and step), is more than ``threshold`` from the stored speed: a score stored by
 another engine, or edited in an imported file, is not vouched for however well it survives the
-nudges.
+nudges. So is a gait scored in float32 by a sanlab older than 0.2.0 (``Run.old_float32``),
+whatever its re-scored speed: that float32 was another arithmetic (the XLA engine's, then float64
+on float32-rounded numbers), and this sanlab's float32 computes in float32 (issue 58), so its
+stored score cannot be re-scored as it was made.
 
 Every nudged evaluation runs the same kernel (``sanlab.evaluate.Evaluator``), only with another
 ``dt``: there is no second physics.
@@ -71,9 +74,11 @@ MAX_MEMBERS_SAID = 100_000  # beyond this, "how many members would decide it" is
 
 ROBUST, DEPENDENT, UNDECIDED, NOT_REPRODUCED = "robust", "resolution-dependent", "undecided", "not reproduced"
 
-# (name, factor on dt, dtype). The kernel computes in float64 whatever the run's dtype (issue 46),
-# so precision is no longer a nudge of its own: the XLA engine's float32 runs were audited
-# against float64 too, and their stored audits keep that nudge's name and numbers.
+# (name, factor on dt, dtype). Every nudge runs in float64, the audit's reference: a float32
+# gait's nudge changes its arithmetic too, which moves a speed distribution far less than the band
+# (issue 58: on all ten creatures float32's median score lies inside float64's 95 % interval), so
+# precision is not a nudge of its own; the XLA engine's float32 runs were audited against float64
+# too, and their stored audits keep that nudge's name and numbers.
 NUDGES: tuple[tuple[str, float, str], ...] = (
     ("dt/2", 0.5, "float64"),
     ("dt/4", 0.25, "float64"),
@@ -192,6 +197,7 @@ class Audit:
     members: int  # the gait's ensemble members
     audit_members: int
     level: float
+    old_float32: bool = False  # scored by an older sanlab's float32, another arithmetic (module docstring)
 
     @property
     def changes(self) -> dict[str, float]:
@@ -227,8 +233,9 @@ class Audit:
 
     @property
     def reproduced(self) -> bool:
-        """The stored speed is what this sanlab re-scores, within the threshold."""
-        return self.stored_change <= self.threshold
+        """The stored speed is what this sanlab re-scores, within the threshold, in the arithmetic
+        it was scored in (not an older sanlab's float32)."""
+        return self.stored_change <= self.threshold and not self.old_float32
 
     @property
     def flagged(self) -> bool:
@@ -240,6 +247,9 @@ class Audit:
         """One line, e.g. "robust: worst change 3 % (dt/4)"."""
         if not self.shifts:
             return "not audited"
+        if self.old_float32:
+            return (f"NOT REPRODUCED: stored {self.stored_cm_s:.1f} cm/s by an older sanlab's float32, which did not "
+                    f"compute in float32; re-scored {self.nominal_cm_s:.1f} in float32 arithmetic")
         if not self.reproduced:
             return f"NOT REPRODUCED: stored {self.stored_cm_s:.1f} cm/s, re-scored {self.nominal_cm_s:.1f}"
         name = max(self.changes, key=lambda k: self.changes[k])
@@ -404,7 +414,8 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
 
     nominal = float(scored(1.0, dtype0, g.ensemble, key).speed_cm_s[0])  # exactly as it was scored
     if log:
-        log(f"{g.gait_id}: {nominal:.1f} cm/s re-scored as stored (stored {g.speed_cm_s:.1f})")
+        older = ", by an older sanlab's float32, another arithmetic" if run.old_float32 else ""
+        log(f"{g.gait_id}: {nominal:.1f} cm/s re-scored as stored (stored {g.speed_cm_s:.1f}{older})")
     [x] = decide(evaluate, 1, members, max_members, threshold, level, log)
     if log:
         log(f"{g.gait_id}: {x.reference:.1f} cm/s mean over the audit's {x.members} members")
@@ -412,7 +423,7 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
             log(f"{g.gait_id}: {x.speeds[name]:.1f} cm/s at {name} (change {100 * sh.change:+.0f} %, "
                 f"interval {100 * sh.lo:+.0f} .. {100 * sh.hi:+.0f} %: {sh.verdict})")
     return Audit(g.gait_id, g.speed_cm_s, nominal, x.reference, x.speeds, x.shifts, x.fell, threshold,
-                 g.spec.dt, g.ensemble.members, x.members, level)
+                 g.spec.dt, g.ensemble.members, x.members, level, old_float32=run.old_float32)
 
 
 def audit_and_store(lib: Library, gait_id: str, **kw) -> Audit:

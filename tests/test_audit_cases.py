@@ -7,6 +7,12 @@ dt/4 there; the first walker and bounder), the tuned bounder of issue 28 (seed 5
 in float64), a chaotic random three-link gait, and a two-link gait tuned under members at dt and
 dt/2 whose starts all fall into one limit cycle. Each test
 imports one and audits it from scratch: nothing here is a stored result.
+
+They were scored in float32 by sanlab 0.1.0, whose float32 was another arithmetic (issue 58), so
+their audits say "not reproduced" whatever else they find; the limit cycle, whose test asks for a
+robust verdict, was re-recorded by sanlab 0.2.0 (its score, speed and members re-scored in float32
+arithmetic: 14.3584 cm/s where 0.1.0 stored 14.3584; its tuning record's "before" and
+"chain_best" are 0.1.0's).
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sanlab.audit import DEPENDENT, ROBUST, audit, shift
+from sanlab.audit import DEPENDENT, NOT_REPRODUCED, ROBUST, audit, shift
 from sanlab.library import Library
 
 GAITS = Path(__file__).parent / "data" / "gaits"
@@ -85,3 +91,18 @@ def test_the_bounder_chain_of_issue_28_is_resolution_dependent(lib):
     assert a.stored_cm_s == pytest.approx(157.4, abs=0.05)
     assert a.resolution_dependent, a.summary()
     assert any(sh.verdict == DEPENDENT and max(abs(sh.lo), abs(sh.hi)) > 0.1 for sh in a.shifts.values()), a.summary()
+
+
+def test_a_gait_scored_by_an_older_sanlabs_float32_is_flagged_not_reproduced(lib):
+    """Issue 58: until sanlab 0.2.0 a float32 run did not compute in float32, so such a gait's
+    stored score cannot be re-scored as it was made: its audit says so, however close the
+    re-scored speed (the chaotic three-link's is within the threshold of its stored speed)."""
+    a = audit(lib, _imported(lib, "threelink-chaotic"), max_members=32)
+    assert a.old_float32 and a.verdict == NOT_REPRODUCED and a.flagged, a.summary()
+    assert "older sanlab's float32" in a.summary() and not a.to_json()["reproduced"]
+    d = json.loads((GAITS / "threelink-chaotic.json").read_text())
+    for version, dtype, old in (("0.1.0", "float32", True), ("0.1.0", None, True), ("0.1.0", "float64", False),
+                                ("0.2.0", "float32", False), ("0.10.1", "float32", False), ("dev", "float32", True)):
+        gid = lib.import_gait({**d, "sanlab_version": version, "dtype": dtype})
+        run = lib.get_run(lib.gait(gid).gait_id.split("#")[0])
+        assert run.old_float32 == old, (version, dtype)

@@ -103,7 +103,7 @@ class SanlabEnv(gym.Env):
     (default the file's evaluation time). observation: "bits" or "state". action: "target" or
     "activation". frame_skip: simulator steps per environment step. terminate_on_fall: end the
     episode when the fall test says so. reset_noise_scale: the start's perturbation (0: exact).
-    dtype: "float32" (as searches run) or "float64". overrides: {``sanlab.sim.Params`` field:
+    dtype: the simulation's arithmetic, "float32" or "float64" (sim.compile_creature). overrides: {``sanlab.sim.Params`` field:
     array}, e.g. a tuned gait's ``params.model``. render_mode: None or "rgb_array"; width: its
     picture's width (px), an integer in [64, 4096] (checked even when nothing is rendered).
 

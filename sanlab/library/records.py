@@ -99,6 +99,19 @@ class TuneSettings:
 
 RunSettings = SearchSettings | TuneSettings
 
+# The first sanlab whose float32 runs compute in float32 (issue 58). Before it a float32 run was
+# another arithmetic: the XLA engine's float32 (until issue 46), then float64 arithmetic on the
+# creature's numbers rounded to float32; its scores are not what this sanlab's float32 gives.
+FLOAT32_ARITHMETIC_SINCE = (0, 2, 0)
+
+
+def _version(text: str | None) -> tuple[int, ...] | None:
+    """"0.2.0" -> (0, 2, 0); None for a version that does not read as dotted numbers."""
+    try:
+        return tuple(int(x) for x in str(text).split("+")[0].split("."))
+    except ValueError:
+        return None
+
 
 def settings_from_json(d: dict[str, Any]) -> RunSettings:
     """The settings record of a run's ``params`` (a tuning run's have a ``method``)."""
@@ -125,6 +138,14 @@ class Run:
     total: int  # evaluations planned
     count: int  # evaluations stored
     trials: int = 0  # tuning trials stored (a tune run's progress; 0 for other kinds)
+
+    @property
+    def old_float32(self) -> bool:
+        """Scored in float32 (or with no dtype, as the XLA engine's runs were) by a sanlab older
+        than :data:`FLOAT32_ARITHMETIC_SINCE`, whose float32 did not compute in float32: this
+        sanlab cannot re-score it as it was scored (``sanlab.audit`` says so)."""
+        v = _version(self.sanlab_version)
+        return (self.dtype or "float32") == "float32" and (v is None or v < FLOAT32_ARITHMETIC_SINCE)
 
     @property
     def progress(self) -> tuple[int, int | None, str]:

@@ -16,8 +16,10 @@ from sanlab.sim.model import Model, assemble
 def compile_creature(spec: Creature, dtype: Any = "float64", articulated: bool | None = None) -> Model:
     """The compiled model of ``spec``: structure and NumPy arrays of its numbers.
 
-    dtype: the arrays' type, "float64" (default) or "float32" (the numbers rounded to float32;
-    the kernel computes in float64 either way). articulated: the step's linear algebra, the O(n)
+    dtype: "float64" (default) or "float32": the arrays' type and the arithmetic every rollout
+    of the model runs in (float32: the kernel's float32 form, 2 to 3 x float64's throughput;
+    chaotic runs part from float64's, so scores agree by distribution, not bit for bit). Raises
+    ValueError for another dtype. articulated: the step's linear algebra, the O(n)
     articulated-body recursion (True) or the dense L D L^T (False), the same step to round-off;
     None (default): the kernel's choice, articulated wherever it applies (trees of rigid links).
     Raises ValueError for True on a creature with point masses or linear springs or actuators.

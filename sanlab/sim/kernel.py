@@ -27,6 +27,11 @@ checking what it is given before the kernel reads it (:func:`check`, step counts
 
 Every entry point but :func:`start` also runs in the GPU's form (``scalar=True``: plain double,
 one row per thread), bit for bit as the SIMD tiles.
+
+Every entry point steps in the arithmetic of its tables' ``Packed.dtype`` (the model's dtype):
+float64, or float32 (the same template over float lanes: 16 per tile where float64 has 8; its
+scalar form plain float). Arrays in and out are float64 either way; a float32 run reads them
+rounded to float32 and returns its float32 values exactly.
 """
 
 from __future__ import annotations
@@ -36,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from sanlab.sim import layout
-from sanlab.sim.native import ENTRY_POINTS, _call, _dims, _pointers, _tables, _tile, _untile, lanes, source_hash
+from sanlab.sim.native import ENTRY_POINTS, _call, _dims, _pointers, _tables, _tile, _untile, is_f32, lanes, source_hash
 from sanlab.sim.observe import ACC, EVENTS, METRIC_KINDS, Observe
 from sanlab.sim.tables import (
     F_MASS,
@@ -69,7 +74,7 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     """Start states at rest for coordinates q [B, D]: (q [B, D] with every free tree lifted just
     clear of the ground where ``seat`` ([B] or one bool; vertical plane), the friction anchors
     [B, C, 2] at the contact points). The momenta of a state at rest are zero."""
-    W = lanes()
+    W = _lanes_of(pk, False)
     q = _rows_of("q", q, pk.ndof)
     B = q.shape[0]
     tables, per_row, _keep = _tables(pk, B, rows, W)
@@ -77,7 +82,7 @@ def start(pk: Packed, q, seat: Any = True, rows: dict | None = None) -> tuple[np
     on = np.broadcast_to(np.asarray(seat, bool) & vertical, (B,)).astype(np.float64)
     qt, st = _tile(q, W), _tile(on, W)
     anchor = np.zeros((qt.shape[0], pk.ci.shape[0], 2, W))
-    _call("sanlab_start", dims=_dims(pk, 0).ctypes.data, tables=tables, per_row=per_row.ctypes.data, q=qt.ctypes.data,
+    _call("sanlab_start", f32=is_f32(pk.dtype), dims=_dims(pk, 0).ctypes.data, tables=tables, per_row=per_row.ctypes.data, q=qt.ctypes.data,
           seat_rows=st.ctypes.data, anchor=anchor.ctypes.data, T=qt.shape[0])
     return _untile(qt, B), _untile(anchor, B)
 
@@ -104,7 +109,7 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
     weights that are not integers in [-2, 2], state arrays (q, p, anchor, istate, out, k1, k2, acc,
     t0) of the wrong shape, or a negative ``steps`` or ``every``."""
 
-    W = 1 if scalar else lanes()
+    W = _lanes_of(pk, scalar)
     B = np.shape(q)[0]
     N = np.shape(istate)[1]
     T = -(-B // W)
@@ -184,6 +189,14 @@ def run_open(pk: Packed, kind: str, params, q, p, anchor, steps: int, t0: Any = 
     return res
 
 
+def _lanes_of(pk: Packed, scalar: bool) -> int:
+    """Rows per tile for ``pk``'s arithmetic (1: the scalar form), or a ValueError naming the
+    tables' dtype when the kernel has no arithmetic for it."""
+    if getattr(pk, "dtype", None) not in ("float64", "float32"):
+        raise ValueError(f"tables.dtype: expected float64 or float32, got {getattr(pk, 'dtype', None)!r}")
+    return 1 if scalar else lanes(pk.dtype)
+
+
 COUNT_MAX = 2**63 - 1  # the kernel's counts are int64: a larger one would wrap
 
 
@@ -213,7 +226,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     """The kernel's rollout under controller ``kind`` (:data:`KINDS`) with N SAN nodes (0 for the
     others): parameters par [B, n_param] and state cst [B, n_state] per row, a SAN's weights w16
     (see :func:`run_san`). Returns q, p, anchor, t, dmax, qd, cstate [, acc] [, frames_*]."""
-    W = 1 if scalar else lanes()
+    W = _lanes_of(pk, scalar)
     B = np.shape(q)[0] if np.ndim(q) else 0
     if B < 1:
         raise ValueError(f"q: expected at least one row [B, {pk.ndof}], got shape {np.shape(q)}")
@@ -245,7 +258,7 @@ def _rollout(pk: Packed, kind: int, N: int, par: np.ndarray, cst: np.ndarray, w1
     n_frames = int(steps) // every if every > 0 else 0  # as sim.rollout: whole frames only
     ns = cst.shape[1]
     frames = np.zeros((T, n_frames, 2 * D + S + A + ns, W)) if every > 0 else None
-    _call("sanlab_rollout", kind=kind, scalar=int(scalar), dims=dims.ctypes.data, tables=tables,
+    _call("sanlab_rollout", kind=kind, scalar=int(scalar), f32=is_f32(pk.dtype), dims=dims.ctypes.data, tables=tables,
           per_row=per_row.ctypes.data, state=_pointers(st), par=par_t.ctypes.data, cst=cst_t.ctypes.data,
           weights=addr(w16), NP=NP, oi=addr(oi), of=addr(of), init=int(acc is None), acc=addr(acc_t),
           qd=qd.ctypes.data, frames=addr(frames), every=int(every), n_frames=n_frames, T=T, steps=int(steps))
@@ -269,12 +282,12 @@ INSPECT = layout.INSPECT  # the inspectors, in kernel.cpp's order
 
 def _inspect(pk: Packed, kind: str, x: np.ndarray, n_out: int, rows: dict | None, scalar: bool) -> np.ndarray:
     """The kernel's inspector ``kind`` over rows x [B, n_in] -> [B, n_out]."""
-    W = 1 if scalar else lanes()
+    W = _lanes_of(pk, scalar)
     B = x.shape[0]
     tables, per_row, _keep = _tables(pk, B, rows, W)
     xt = _tile(x, W)
     out = np.zeros((xt.shape[0], n_out, W))
-    _call("sanlab_inspect", kind=INSPECT.index(kind), scalar=int(scalar), dims=_dims(pk, 0).ctypes.data, tables=tables,
+    _call("sanlab_inspect", kind=INSPECT.index(kind), scalar=int(scalar), f32=is_f32(pk.dtype), dims=_dims(pk, 0).ctypes.data, tables=tables,
           per_row=per_row.ctypes.data, **{"in": xt.ctypes.data}, out=out.ctypes.data, T=xt.shape[0])
     return _untile(out, B)
 

@@ -234,21 +234,22 @@ ACC = ("p0x", "p0y", "y0", "hop", "pursuit", "fell", "deepest", "px", "py", "ste
 EVENTS = 64
 
 # the C entry points, argument by argument: (name, C type); kernel.py's ctypes signatures are
-# made from these and tests/sim/test_layout.py compares them with kernel.cpp's
+# made from these and tests/sim/test_layout.py compares them with kernel.cpp's. f32: the
+# arithmetic, float64 (0) or float32 (1), the arrays float64 either way
 ROLLOUT_ARGS = (
     ("kind", "int32_t"), ("scalar", "int32_t"), ("dims", "const int32_t *"), ("tables", "const void *const *"),
     ("per_row", "const int32_t *"), ("state", "double *const *"), ("par", "const double *"), ("cst", "double *"),
     ("weights", "const int16_t *"), ("NP", "int32_t"), ("oi", "const int32_t *"), ("of", "const double *"),
     ("init", "int32_t"), ("acc", "double *"), ("qd", "double *"), ("frames", "double *"), ("every", "int64_t"),
-    ("n_frames", "int64_t"), ("T", "int64_t"), ("steps", "int64_t"),
+    ("n_frames", "int64_t"), ("T", "int64_t"), ("steps", "int64_t"), ("f32", "int32_t"),
 )
 INSPECT_ARGS = (
     ("kind", "int32_t"), ("scalar", "int32_t"), ("dims", "const int32_t *"), ("tables", "const void *const *"),
-    ("per_row", "const int32_t *"), ("in", "const double *"), ("out", "double *"), ("T", "int64_t"),
+    ("per_row", "const int32_t *"), ("in", "const double *"), ("out", "double *"), ("T", "int64_t"), ("f32", "int32_t"),
 )
 START_ARGS = (
     ("dims", "const int32_t *"), ("tables", "const void *const *"), ("per_row", "const int32_t *"), ("q", "double *"),
-    ("seat_rows", "const double *"), ("anchor", "double *"), ("T", "int64_t"),
+    ("seat_rows", "const double *"), ("anchor", "double *"), ("T", "int64_t"), ("f32", "int32_t"),
 )
 
 

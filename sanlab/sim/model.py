@@ -231,13 +231,19 @@ def assemble(spec: Creature, dtype: Any = "float64", articulated: bool | None = 
     """Build the static structure and parameter arrays (NumPy) of ``spec``, bodies where the file
     puts them (:func:`sanlab.sim.compiler.compile_creature` then seats them on the ground).
 
-    dtype: "float64" (default) or "float32" (the numbers rounded; the kernel computes in float64
-    either way). articulated: the step's linear algebra, O(n) articulated-body (True) or dense
-    (False); None (default) leaves it to the kernel (articulated wherever it applies). Raises
-    ValueError for True on a creature the articulated route does not support (see
+    dtype: "float64" (default) or "float32": the numbers rounded to it, and the arithmetic the
+    kernel steps the model in (float32: the kernel's float32 instantiation, float32 throughout).
+    articulated: the step's linear algebra, O(n) articulated-body (True) or dense (False); None
+    (default) leaves it to the kernel (articulated wherever it applies). Raises ValueError for
+    another dtype, or for True on a creature the articulated route does not support (see
     :func:`articulated_supported`).
     """
-    dt_np = np.dtype(dtype)
+    try:
+        dt_np = np.dtype(dtype)
+    except TypeError:
+        dt_np = None
+    if dt_np is None or dt_np.name not in ("float32", "float64"):
+        raise ValueError(f"dtype: expected float32 or float64, got {dtype!r}")
     names = {l.name: i for i, l in enumerate(spec.links)}
     links, trees, q0 = _trees(spec, names)
     ndof = len(q0)

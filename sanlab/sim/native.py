@@ -52,6 +52,7 @@ def use(lib):
         fn.restype = None
         fn.argtypes = [_CTYPES.get(c, ctypes.c_void_p) for _, c in args]
     lib.sanlab_kernel_lanes.restype = ctypes.c_int
+    lib.sanlab_kernel_lanes.argtypes = [ctypes.c_int32]
     _LIB = lib
     return lib
 
@@ -89,9 +90,22 @@ def source_hash(folder) -> str:
     return h.hexdigest()[:16]
 
 
-def lanes() -> int:
-    """Creatures per tile (the SIMD width the kernel was built for)."""
-    return int(_library().sanlab_kernel_lanes())
+def lanes(dtype: Any = "float64") -> int:
+    """Creatures per tile in ``dtype``'s arithmetic ("float64" or "float32"): the SIMD width the
+    kernel was built for, in that type (8 float64 or 16 float32 lanes in the same 64 bytes).
+    Raises ValueError for another dtype."""
+    return int(_library().sanlab_kernel_lanes(is_f32(dtype)))
+
+
+def is_f32(dtype: Any) -> int:
+    """1 for float32 arithmetic, 0 for float64; ValueError naming ``dtype`` for anything else."""
+    try:
+        name = np.dtype(dtype).name
+    except TypeError:
+        name = None
+    if name not in ("float32", "float64"):
+        raise ValueError(f"dtype: expected float32 or float64, got {dtype!r}")
+    return int(name == "float32")
 
 
 def _tile(x: np.ndarray, W: int) -> np.ndarray:

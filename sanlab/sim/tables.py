@@ -32,7 +32,9 @@ class Packed(NamedTuple):
     ``lf cf sf af pf ef wf rough follow``), and each link's chain: ``ri``, ``rl`` [L, R] and
     ``rn`` [L], the dofs a point on it depends on (the tree's translation, then each joint from
     the root, in increasing order), what each is (-1 / -2 the tree's x / y, else the link whose
-    joint it is), and how many. Units SI."""
+    joint it is), and how many. Units SI. ``dtype``: the arithmetic the kernel steps these tables
+    in, "float64" or "float32" (the model's dtype; the tables stay float64, holding a float32
+    model's numbers exactly)."""
 
     li: Any
     ri: Any
@@ -56,11 +58,12 @@ class Packed(NamedTuple):
     follow: Any
     q0: Any  # [D] the start pose
     ndof: int
+    dtype: str = "float64"
 
 
 def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
-    """The tables of ``model`` (a ``sim.Model`` of any dtype: the kernel runs in float64) for a
-    SAN with ``hidden`` hidden nodes.
+    """The tables of ``model`` (a ``sim.Model``) for a SAN with ``hidden`` hidden nodes, to be
+    stepped in the model's dtype: float64 arithmetic, or float32 (``Packed.dtype``).
 
     articulated: the step's linear algebra, the O(n) articulated-body recursion (True) or the
     dense L D L^T (False), the same step to round-off. None (default): the model's own choice
@@ -129,7 +132,8 @@ def pack(model, hidden: int, articulated: bool | None = None) -> Packed:
                                   follow_loop=int(st.follow_loop), articulated=int(art))
     x = numbers(model.structure, p)
     return Packed(li, ri, rl, rn, ti, ci, si, ai, pi, ei, wi, x["lf"], x["cf"], x["sf"], x["af"], x["pf"], x["ef"],
-                  x["wf"], x["rough"], f(p.follow).reshape(-1, 2), f(p.q0), st.ndof)
+                  x["wf"], x["rough"], f(p.follow).reshape(-1, 2), f(p.q0), st.ndof,
+                  np.dtype(getattr(model, "dtype", "float64")).name)
 
 
 def numbers(structure, params, batch: tuple[int, ...] = ()) -> dict[str, np.ndarray]:
@@ -188,6 +192,7 @@ def check(pk: Packed) -> None:
         need(bool(np.all((x >= lo) & (x < hi))), name, f"indices in [{lo}, {hi}), got {x[(x < lo) | (x >= hi)][:1]}")
 
     need(L >= 1 and D >= 0, "li", "at least one link")
+    need(getattr(pk, "dtype", None) in ("float64", "float32"), "dtype", f"float64 or float32, got {pk.dtype!r}")
     R = np.shape(pk.ri)[1] if np.ndim(pk.ri) == 2 else -1
     K, F = np.shape(pk.rough)[0], np.shape(pk.follow)[0]
     rows = {"links": L, "trees": T, "contacts": C, "sensors": S, "actuators": A, "springs": P, "edges": E, "rough": K,

@@ -6,7 +6,7 @@ the kernel is built again with ``-fsanitize=address`` and driven, in a process w
 runtime does not load under the sanitizer), through ``run_san`` and ``run_open`` (every controller
 kind; SIMD tiles and the scalar form, observers, frames, per-row tables, a continued run), every
 inspector (``poses``, ``energy``, ``momenta``, ``velocity``, ``sense``, ``follow_point``,
-``centre_of_mass``, both forms) and ``start``; any out-of-bounds access ends that process with the
+``centre_of_mass``, both forms) and ``start``, in float64 and in float32 arithmetic; any out-of-bounds access ends that process with the
 sanitizer's report.
 """
 
@@ -31,27 +31,29 @@ import numpy as np
 from sanlab.sim import kernel as K, native
 assert native.use(ctypes.CDLL(sys.argv[1])) is native._library()  # every call goes to the sanitizer's build
 for c in pickle.load(open(sys.argv[2], "rb")):
-    B, N = c["B"], c["N"]
-    z = np.zeros((B, N))
-    for scalar in (False, True):
-        r = K.run_san(c["pk"], c["w"], c["k1"], c["k2"], c["q"], c["p"], c["a"], z, z, 120, observe=c["ob"],
-                      every=7, rows=c["rows"], scalar=scalar)
-        K.run_san(c["pk"], c["w"], c["k1"], c["k2"], r["q"], r["p"], r["anchor"], r["istate"], r["out"], 30,
-                  acc=r["acc"], observe=c["ob"], scalar=scalar)
-        for kind, par in c["open"].items():
-            r = K.run_open(c["pk"], kind, par, c["q"], c["p"], c["a"], 90, observe=c["ob"], every=11, rows=c["rows"],
+    for pk in (c["pk"], c["pk"]._replace(dtype="float32")):  # both arithmetics
+        c = {**c, "pk": pk}
+        B, N = c["B"], c["N"]
+        z = np.zeros((B, N))
+        for scalar in (False, True):
+            r = K.run_san(c["pk"], c["w"], c["k1"], c["k2"], c["q"], c["p"], c["a"], z, z, 120, observe=c["ob"],
+                          every=7, rows=c["rows"], scalar=scalar)
+            K.run_san(c["pk"], c["w"], c["k1"], c["k2"], r["q"], r["p"], r["anchor"], r["istate"], r["out"], 30,
+                      acc=r["acc"], observe=c["ob"], scalar=scalar)
+            for kind, par in c["open"].items():
+                r = K.run_open(c["pk"], kind, par, c["q"], c["p"], c["a"], 90, observe=c["ob"], every=11, rows=c["rows"],
+                               scalar=scalar)
+                K.run_open(c["pk"], kind, par, r["q"], r["p"], r["anchor"], 20, t0=r["t"], acc=r["acc"], observe=c["ob"],
                            scalar=scalar)
-            K.run_open(c["pk"], kind, par, r["q"], r["p"], r["anchor"], 20, t0=r["t"], acc=r["acc"], observe=c["ob"],
-                       scalar=scalar)
-        t = np.linspace(0.0, 5.0, B)
-        K.poses(c["pk"], c["q"], rows=c["rows"], scalar=scalar)
-        K.energy(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
-        K.momenta(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
-        K.velocity(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
-        K.sense(c["pk"], c["q"], t, rows=c["rows"], scalar=scalar)
-        K.follow_point(c["pk"], t, rows=c["rows"], scalar=scalar)
-        K.centre_of_mass(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
-    K.start(c["pk"], c["q"], seat=True)
+            t = np.linspace(0.0, 5.0, B)
+            K.poses(c["pk"], c["q"], rows=c["rows"], scalar=scalar)
+            K.energy(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+            K.momenta(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+            K.velocity(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+            K.sense(c["pk"], c["q"], t, rows=c["rows"], scalar=scalar)
+            K.follow_point(c["pk"], t, rows=c["rows"], scalar=scalar)
+            K.centre_of_mass(c["pk"], c["q"], c["p"], rows=c["rows"], scalar=scalar)
+        K.start(c["pk"], c["q"], seat=True)
 print("clean")
 """
 

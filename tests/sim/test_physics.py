@@ -52,7 +52,7 @@ def on_ice(spec: Creature) -> Creature:
 def test_no_controller_moves_the_centre_of_mass_on_frictionless_ground(dtype):
     # Frictionless flat ground pushes only vertically, so no horizontal external force acts and
     # the centre of mass cannot move along x, whatever the legs do. 64 random SANs for 6 s on the
-    # bounder; right value |dx| < 1 mm. Measured: 1e-5 mm (float32), 3e-14 mm (float64); the old
+    # bounder; right value |dx| < 1 mm. Measured: 2e-3 mm (float32 arithmetic), 5e-12 mm (float64); the old
     # velocity-form step drifted up to about 3 cm.
     spec = on_ice(creature.load("bounder"))
     m = sim.compile_creature(spec, dtype)

@@ -207,9 +207,10 @@ def test_closed_loop_hook_runs_sensors_controller_and_physics_each_step():
     assert np.degrees(float(held.state.q[0, 0])) == pytest.approx(60.0, abs=0.1)
 
 
-def test_float32_numbers_agree_with_float64_ones_and_the_arithmetic_is_float64():
-    # the kernel computes in float64 whatever the model's arrays hold: "float32" rounds the
-    # creature's numbers, which moves a smooth run by about float32's precision, no more
+def test_a_float32_run_agrees_with_a_float64_one_to_float32s_precision():
+    # "float32" rounds the creature's numbers and steps them in float32 arithmetic (issue 58;
+    # tests/sim/test_float32.py), which moves a smooth run by about float32's precision, no more;
+    # the arrays handed back are float64 either way
     spec = double_pendulum(dt=1e-3)
     r32 = run(spec, no_act(), dtype="float32", seconds=1.0)
     r64 = run(spec, no_act(), dtype="float64", seconds=1.0)

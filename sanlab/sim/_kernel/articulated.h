@@ -57,7 +57,7 @@ template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
     I[0] = t.link(i).inertia + (mcx * cx + mcy * cy);
     I[1] = -mcy; I[2] = mcx; I[3] = mass; I[4] = V{}; I[5] = mass;
     if (l.parent >= 0) {
-      t.s[i][0] = V{} + 1.0;
+      t.s[i][0] = V{} + 1.0f;
       t.s[i][1] = t.X[i][1] - ry;
       t.s[i][2] = -(t.X[i][0] - rx);
     }
@@ -109,7 +109,7 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
     V *s = t.s[i], Ui[3];
     sym_vec(t.IA[i], s, Ui);
     V D = dot3(s, Ui) + (with_terms ? t.arm[d] : V{});
-    V inv = 1.0 / D, ui = b[d] - dot3(s, t.pA[i]);
+    V inv = 1.0f / D, ui = b[d] - dot3(s, t.pA[i]);
     for (int k = 0; k < 3; ++k) t.U[i][k] = Ui[k];
     t.invD[i] = inv;
     t.uu[i] = ui;
@@ -137,7 +137,7 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
     }
     V Lf[3][3], dinv[3];
     for (int k = 2; k >= 0; --k) {
-      dinv[k] = 1.0 / K[k][k];
+      dinv[k] = 1.0f / K[k][k];
       for (int i = 0; i < k; ++i) Lf[k][i] = K[i][k] * dinv[k];
       for (int i = k - 1; i >= 0; --i)
         for (int j = k - 1; j >= i; --j) K[j][i] = K[i][j] = K[i][j] - Lf[k][i] * K[j][k];

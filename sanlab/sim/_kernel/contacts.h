@@ -22,20 +22,20 @@ template <class V> static inline void contact_geometry(const Model &m, Tile<V> &
     t.cp[c][0] = px;
     t.cp[c][1] = py;
     if (m.world().plane == PLANE_HORIZONTAL) {  // seen from above: every contact always rests on the floor
-      t.depth[c] = V{} + 1.0;
+      t.depth[c] = V{} + 1.0f;
       continue;
     }
     if (kind == TERRAIN_FLAT) {
       t.gn[c][0] = V{};
-      t.gn[c][1] = V{} + 1.0;
-      t.gn[c][2] = V{} + 1.0;
+      t.gn[c][1] = V{} + 1.0f;
+      t.gn[c][2] = V{} + 1.0f;
       t.gn[c][3] = V{};
-      t.depth[c] = (0.0 - py) * 1.0;
+      t.depth[c] = (0.0f - py) * 1.0f;
       continue;
     }
     V h, dh;
     terrain(m, t, px, h, dh);
-    V inv = 1.0 / Ls::sqrt(1.0 + dh * dh);
+    V inv = 1.0f / Ls::sqrt(1.0f + dh * dh);
     t.gn[c][0] = -dh * inv;
     t.gn[c][1] = inv;
     t.gn[c][2] = inv;
@@ -55,7 +55,7 @@ template <class V> static inline void stick_slip(V stretch, V v, V limit, V gk, 
   V s = Ls::min(Ls::max(stretch, -limit / gk), limit / gk);
   V trial = -gk * s - c * v;
   V slide = limit / Ls::max(Ls::abs(v), V{} + slip);
-  auto stick = (limit > 0.0) & (Ls::abs(trial) <= limit);
+  auto stick = (limit > 0.0f) & (Ls::abs(trial) <= limit);
   coef = Ls::sel(stick, h * c + (h * h) * gk, h * slide);
   f = Ls::sel(stick, trial - (h * gk) * v, -slide * v);
   held = Ls::sel(stick, s, V{});
@@ -78,7 +78,7 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
     V vx = t.cv[c][0], vy = t.cv[c][1];
     V vn = vx * nx + vy * ny, vt = vx * tx + vy * ty;
     V fn = gk * dep - gc * vn;
-    auto on = (dep > 0.0) & (fn > 0.0);
+    auto on = (dep > 0.0f) & (fn > 0.0f);
     V N = Ls::sel(on, fn, V{});
     V stretch = (t.cp[c][0] - anchor[c][0]) * tx + (t.cp[c][1] - anchor[c][1]) * ty;
     V mu = V{} + t.link(i).mu_forward;
@@ -86,7 +86,7 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
       int frm = l.axis_from, to = l.axis_to;
       V axx = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
       V axy = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
-      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0, mu, V{} + t.link(i).mu_backward);
+      mu = Ls::sel((axx * tx + axy * ty) * (gk * stretch + vt) > 0.0f, mu, V{} + t.link(i).mu_backward);
     }
     V limit = mu * N;
     V coef, f, held;
@@ -95,7 +95,7 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
       row_element(m, t, i, t.cp[c][0], t.cp[c][1], nx, ny, Ls::sel(on, V{} + cn, V{}),
                   Ls::sel(on, fn - (h * gk) * vn, V{}));
     }
-    if (Ls::any(limit > 0.0)) {
+    if (Ls::any(limit > 0.0f)) {
       row_element(m, t, i, t.cp[c][0], t.cp[c][1], tx, ty, coef, f);
     }
     anchor[c][0] = t.cp[c][0] - held * tx;
@@ -120,11 +120,11 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
       int frm = l.axis_from, to = l.axis_to;
       V ax = frm >= 0 ? t.X[to][0] - t.X[frm][0] : t.cs[i][0];
       V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[i][1];
-      V inv = 1.0 / Ls::sqrt(ax * ax + ay * ay + 1e-12);
+      V inv = 1.0f / Ls::sqrt(ax * ax + ay * ay + real<V>(1e-12));
       V e1x = ax * inv, e1y = ay * inv, e2x = -e1y, e2y = e1x;
       V va = vx * e1x + vy * e1y, vl = vx * e2x + vy * e2y;
       V s1 = dx * e1x + dy * e1y, s2 = dx * e2x + dy * e2y;
-      V mu = Ls::sel(gk * s1 + va > 0.0, V{} + f.mu_forward, V{} + f.mu_backward);
+      V mu = Ls::sel(gk * s1 + va > 0.0f, V{} + f.mu_forward, V{} + f.mu_backward);
       V c1, f1, h1, c2, f2, h2;
       stick_slip(s1, va, mu * N, gk, slip, h, c1, f1, h1);
       stick_slip(s2, vl, V{} + f.mu_lateral * N, gk, slip, h, c2, f2, h2);
@@ -135,15 +135,15 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
     } else {
       V limit = f.mu_forward * N, cc = limit / slip;
       V r = Ls::sqrt(dx * dx + dy * dy);
-      V scale = Ls::min(V{} + 1.0, (limit / gk) / Ls::max(r, V{} + 1e-30));
+      V scale = Ls::min(V{} + 1.0f, (limit / gk) / Ls::max(r, V{} + real<V>(1e-30)));
       V sx = dx * scale, sy = dy * scale;
       V tx = -gk * sx - cc * vx, ty = -gk * sy - cc * vy;
-      auto stick = (V{} + limit > 0.0) & (tx * tx + ty * ty <= limit * limit);
+      auto stick = (V{} + limit > 0.0f) & (tx * tx + ty * ty <= limit * limit);
       V speed = Ls::sqrt(vx * vx + vy * vy);
       V slide = limit / Ls::max(speed, V{} + slip);
       V ks = Ls::sel(stick, V{} + gk, V{}), damp = Ls::sel(stick, V{} + cc, slide);
       V coef = h * damp + (h * h) * ks;
-      V e0[2] = {V{} + 1.0, V{}}, e1[2] = {V{}, V{} + 1.0};
+      V e0[2] = {V{} + 1.0f, V{}}, e1[2] = {V{}, V{} + 1.0f};
       V trial[2] = {tx, ty}, vel[2] = {vx, vy};
       for (int a = 0; a < 2; ++a) {
         V *e = a == 0 ? e0 : e1;

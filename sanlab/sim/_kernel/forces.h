@@ -128,7 +128,7 @@ template <class V> static inline void gravity(const Model &m, Tile<V> &t) {
       }
       for (int i = 0; i < L; ++i) {
         if (m.link(i).tree != tr || m.link(i).parent < 0) continue;
-        row_element(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, V{}, V{} - (t.link(i).mass * grav), false);
+        row_element(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0f, V{}, V{} - (t.link(i).mass * grav), false);
       }
     }
     turn(m, t, t.x, -1, 1);
@@ -165,8 +165,8 @@ template <class V> static inline void joint_stops(const Model &m, Tile<V> &t) {
     V phi = t.th[i] - t.th[l.parent];
     V below = Ls::max(k * (lo - phi) - c * t.u[d], V{});
     V above = Ls::min(k * (hi - phi) - c * t.u[d], V{});
-    auto on = ((phi < lo) & (below > 0.0)) | ((phi > hi) & (above < 0.0));
-    V onv = Ls::sel(on, V{} + 1.0, V{});
+    auto on = ((phi < lo) & (below > 0.0f)) | ((phi > hi) & (above < 0.0f));
+    V onv = Ls::sel(on, V{} + 1.0f, V{});
     V torque = Ls::sel(phi < lo, below, Ls::sel(phi > hi, above, V{}));
     joint(t, D, d, h, torque, onv * k, onv * c, t.u[d]);
   }
@@ -221,10 +221,10 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     V vn = vax * nx + vay * ny;
     bool point = m.link(i).point;
     V w = point ? V{} : t.w[i];
-    V c1 = k * L, c2 = k * L * L / 2.0, c3 = k * L * L * L / 3.0;
+    V c1 = k * L, c2 = k * L * L / 2.0f, c3 = k * L * L * L / 3.0f;
     V vt = vax * tx + vay * ty, ct = kt * L;
     if (m.world().articulated) {  // the normal row on the body, and its rotation row (1, 0, 0)
-      V an[3], aw[3] = {V{} + 1.0, V{}, V{}};
+      V an[3], aw[3] = {V{} + 1.0f, V{}, V{}};
       body_row(m, t, i, ax, ay, nx, ny, an);
       V *E = t.E[i];
       sym_outer(E, h * c1, an);
@@ -238,7 +238,7 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     }
     int n = point_row(m, t, i, ax, ay, nx, ny, t.g);
     V *gw = t.row;  // the link's rotation row on the same dofs
-    for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.nchain + a] >= 0) ? 1.0 : 0.0);
+    for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.nchain + a] >= 0) ? 1.0f : 0.0f);
     outer(t.A, D, h * c1, idx, t.g, n);
     outer2(t.A, D, h * c2, idx, t.g, gw, n);
     outer(t.A, D, h * c3, idx, gw, n);

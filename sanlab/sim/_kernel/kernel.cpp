@@ -6,6 +6,7 @@
 // momenta, velocities, sensor values) over the same tiles.
 #include <cstring>
 #include <cstdlib>
+#include <type_traits>
 #include <vector>
 // No SLP vectorisation of the scalar code: GCC 12 recognises step.h's rotations (c x - s y,
 // s x + c y) as complex multiplications and emits a fused vfmaddsub despite -ffp-contract=off,
@@ -64,12 +65,27 @@ static void over_tiles(const Model &m, const void *const *tables, const int32_t 
   }
 }
 
-// copies n values of V between a caller's [T, n, W] array (tile b) and a scratch
+// copies n values of V between a caller's float64 [T, n, W] array (tile b) and a scratch: a float
+// tile rounds what it reads to float and widens what it writes (exactly)
 template <class V> static inline void load(V *dst, const double *src, int64_t b, size_t n) {
-  std::memcpy(dst, src + (size_t)b * n * Lanes<V>::W, n * sizeof(V));
+  using Ls = Lanes<V>;
+  src += (size_t)b * n * Ls::W;
+  if constexpr (sizeof(real<V>) == sizeof(double)) {
+    std::memcpy(dst, src, n * sizeof(V));
+  } else {
+    for (size_t v = 0; v < n; ++v)
+      for (int l = 0; l < Ls::W; ++l) Ls::set(dst[v], l, (real<V>)src[v * Ls::W + l]);
+  }
 }
 template <class V> static inline void store(double *dst, const V *src, int64_t b, size_t n) {
-  std::memcpy(dst + (size_t)b * n * Lanes<V>::W, src, n * sizeof(V));
+  using Ls = Lanes<V>;
+  dst += (size_t)b * n * Ls::W;
+  if constexpr (sizeof(real<V>) == sizeof(double)) {
+    std::memcpy(dst, src, n * sizeof(V));
+  } else {
+    for (size_t v = 0; v < n; ++v)
+      for (int l = 0; l < Ls::W; ++l) dst[v * Ls::W + l] = (double)Ls::lane(src[v], l);
+  }
 }
 
 template <class V, class Ctl>
@@ -83,15 +99,24 @@ static void rollout(const Ctl &ctl, const int32_t *dims, const void *const *tabl
   const size_t na = oi ? (size_t)obs_values(oi) : 0, npar = Ctl::n_param(m), nst = Ctl::n_state(m);
   const size_t sizes[] = {(size_t)m.ndof, (size_t)m.ndof, (size_t)(2 * m.ncontact), 1, 1};
   const Record rec{every > 0 ? every : 1, n_frames, 2 * m.ndof + m.nsensor + m.nact + (int64_t)nst};
-  over_tiles<V>(m, tables, per_row, T, state_values(m) + npar + nst + na + m.ndof, [&](Tile<V> &tile, V *s, int64_t b) {
+  // a SAN on float tiles sums its inputs lane by lane from its weights as floats (san.h: san_lanes)
+  constexpr bool lane_san = std::is_same<Ctl, SanControl<vf>>::value;
+  const size_t nw = lane_san ? (size_t)m.ninput * m.nnode : 0;
+  const size_t extra = state_values(m) + npar + nst + na + m.ndof + nw;
+  over_tiles<V>(m, tables, per_row, T, extra, [&](Tile<V> &tile, V *s, int64_t b) {
     V *at = s;
     for (int k = 0; k < 5; ++k) { load(at, state[k], b, sizes[k]); at += sizes[k]; }
     V *p = at, *c = p + npar, *a = c + nst, *v = a + na;
     load(p, par, b, npar);
     load(c, cst, b, nst);
     if (na && !init) load(a, acc, b, na);
-    V *fr = frames ? (V *)frames + (size_t)b * n_frames * rec.values : nullptr;
-    run_tile(m, tile, ctl.at(b), s, p, c, steps, o, a, v, rec, fr);
+    double *fr = frames ? frames + (size_t)b * n_frames * rec.values * Lanes<V>::W : nullptr;
+    auto ctl_b = ctl.at(b);
+    if constexpr (lane_san) {
+      san_weights(m, ctl_b.weights, ctl_b.NP, v + m.ndof);
+      ctl_b.wv = v + m.ndof;
+    }
+    run_tile(m, tile, ctl_b, s, p, c, steps, o, a, v, rec, fr);
     at = s;
     for (int k = 0; k < 5; ++k) { store(state[k], at, b, sizes[k]); at += sizes[k]; }
     store(cst, c, b, nst);
@@ -181,7 +206,8 @@ extern "C" {
 
 const char *sanlab_kernel_source() { return SANLAB_KERNEL_SOURCE; }
 
-int sanlab_kernel_lanes() { return Lanes<vd>::W; }
+// creatures per tile: float64's (f32 = 0) or float32's (1)
+int sanlab_kernel_lanes(int32_t f32) { return f32 ? Lanes<vf>::W : Lanes<vd>::W; }
 
 // The float64 values of one creature's scratch in the scalar form (tables.h: tile_layout): what a
 // GPU thread needs besides its state (sanlab/sim/gpu.py); dims as sanlab_rollout's
@@ -196,6 +222,8 @@ int64_t sanlab_tile_values(const int32_t *dims) {
 // Runs `steps` steps of T tiles of W creatures under one kind of controller (kernel.py: run_san,
 // run_open); scalar = 1: one creature per thread in plain double (W = 1), the form a GPU thread
 // runs, here for the tests that it steps every creature bit for bit as the vector form does.
+// f32 = 1: the arithmetic in float32 (Lanes<vf>, W = sanlab_kernel_lanes(1); scalar: plain float),
+// the caller's arrays float64 still: read rounded to float, written back widened.
 // kind: layout.h's K_SAN ... K_PATTERN (see the controllers above for their parameters).
 // dims: the counts of layout.DIMS, in its order (DIM_LINKS ...; nodes 0 and inputs = sensors but for a SAN);
 // tables: the creature's tables in the order of layout.ORDER; per_row: for each float table but
@@ -211,20 +239,26 @@ int64_t sanlab_tile_values(const int32_t *dims) {
 void sanlab_rollout(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
                     const int32_t *per_row, double *const *state, const double *par, double *cst,
                     const int16_t *weights, int32_t NP, const int32_t *oi, const double *of, int32_t init, double *acc,
-                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps) {
-  if (scalar)
-    rollout_kind<double>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd, frames,
-                         every, n_frames, T, steps);
-  else
-    rollout_kind<vd>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd, frames, every,
-                     n_frames, T, steps);
+                    double *qd, double *frames, int64_t every, int64_t n_frames, int64_t T, int64_t steps,
+                    int32_t f32) {
+  auto run = [&](auto lane) {
+    rollout_kind<decltype(lane)>(kind, dims, tables, per_row, state, par, cst, weights, NP, oi, of, init, acc, qd,
+                                 frames, every, n_frames, T, steps);
+  };
+  if (f32) {
+    if (scalar) run(0.0f);
+    else run(vf{});
+  } else {
+    if (scalar) run(0.0);
+    else run(vd{});
+  }
 }
 
 // Inspects T tiles of W configurations (kernel.py: poses, energy, momenta, velocity, sense,
 // follow_point, centre_of_mass): in [T, n_in, W] -> out [T, n_out, W] (inspect_sizes); scalar = 1:
-// one configuration per thread in plain double (W = 1), as rollout's.
+// one configuration per thread in plain double (W = 1), as rollout's; f32 = 1: in float32, as rollout's.
 void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const void *const *tables,
-                    const int32_t *per_row, const double *in, double *out, int64_t T) {
+                    const int32_t *per_row, const double *in, double *out, int64_t T, int32_t f32) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
   size_t n_in, n_out;
@@ -237,29 +271,40 @@ void sanlab_inspect(int32_t kind, int32_t scalar, const int32_t *dims, const voi
       store(out, x + n_in, b, n_out);
     });
   };
-  if (scalar) run(0.0);
-  else run(vd{});
+  if (f32) {
+    if (scalar) run(0.0f);
+    else run(vf{});
+  } else {
+    if (scalar) run(0.0);
+    else run(vd{});
+  }
 }
 
 // Start states at rest: q [T, D, W] seated on the ground in
 // place on the lanes where seat [T, W] is nonzero (step.h: seat), and the friction
-// anchors anchor [T, C, 2, W] at the contact points of the resulting pose.
-void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *q, const double *seat_rows,
-                  double *anchor, int64_t T) {
+// anchors anchor [T, C, 2, W] at the contact points of the resulting pose; f32 = 1: in float32
+// (W = sanlab_kernel_lanes(1)), as rollout's.
+void sanlab_start(const int32_t *dims, const void *const *tables, const int32_t *per_row, double *q,
+                  const double *seat_rows, double *anchor, int64_t T, int32_t f32) {
   Tables tb(dims, tables);
   const Model &m = tb.m;
-  over_tiles<vd>(m, tables, per_row, T, 2 * m.ndof + 1 + 2 * m.ncontact, [&](Tile<vd> &tile, vd *qt, int64_t b) {
-    vd *seated = qt + m.ndof, *on = seated + m.ndof, *cp = on + 1;
-    load(qt, q, b, m.ndof);
-    std::memcpy(seated, qt, m.ndof * sizeof(vd));
-    load(on, seat_rows, b, 1);
-    seat(m, tile, seated);
-    for (int d = 0; d < m.ndof; ++d) qt[d] = *on != 0.0 ? seated[d] : qt[d];
-    positions(m, qt, tile);
-    store(q, qt, b, m.ndof);
-    for (int c = 0; c < m.ncontact; ++c)
-      for (int a = 0; a < 2; ++a) cp[2 * c + a] = tile.cp[c][a];
-    store(anchor, cp, b, 2 * m.ncontact);
-  });
+  auto run = [&](auto lane) {
+    using V = decltype(lane);
+    over_tiles<V>(m, tables, per_row, T, 2 * m.ndof + 1 + 2 * m.ncontact, [&](Tile<V> &tile, V *qt, int64_t b) {
+      V *seated = qt + m.ndof, *on = seated + m.ndof, *cp = on + 1;
+      load(qt, q, b, m.ndof);
+      std::memcpy(seated, qt, m.ndof * sizeof(V));
+      load(on, seat_rows, b, 1);
+      seat(m, tile, seated);
+      for (int d = 0; d < m.ndof; ++d) qt[d] = *on != 0.0f ? seated[d] : qt[d];
+      positions(m, qt, tile);
+      store(q, qt, b, m.ndof);
+      for (int c = 0; c < m.ncontact; ++c)
+        for (int a = 0; a < 2; ++a) cp[2 * c + a] = tile.cp[c][a];
+      store(anchor, cp, b, 2 * m.ncontact);
+    });
+  };
+  if (f32) run(vf{});
+  else run(vd{});
 }
 }

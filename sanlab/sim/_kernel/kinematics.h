@@ -74,7 +74,7 @@ template <class V> static inline void link_frames(const Model &m, const V *q, Ti
       t.mc[i][0] = mx;
       t.mc[i][1] = my;
     }
-    V inv = 1.0 / t.msum[r];
+    V inv = 1.0f / t.msum[r];
     int dx = m.link(r).dof_x, dy = m.link(r).dof_y;
     V sx = q[dx] - t.mc[r][0] * inv, sy = q[dy] - t.mc[r][1] * inv;
     for (int k = 0; k < L; ++k) {

@@ -40,7 +40,7 @@ template <class V> static inline void centre_of_mass(const Model &m, const Tile<
     }
     total = total + mass;
   }
-  V inv = 1.0 / total;
+  V inv = 1.0f / total;
   cx = mx * inv;
   cy = my * inv;
   if (vx) {
@@ -63,7 +63,7 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
     V vx, vy;
     point_vel(t, i, t.com[i][0], t.com[i][1], vx, vy);
     // (0.5 m) |v|^2 and ((0.5 I) w) w, associated as the stored gaits were scored
-    kin = kin + (0.5 * f.mass) * (vx * vx + vy * vy) + ((0.5 * f.inertia) * t.w[i]) * t.w[i];
+    kin = kin + (0.5f * f.mass) * (vx * vx + vy * vy) + ((0.5f * f.inertia) * t.w[i]) * t.w[i];
     if (vertical) grav = grav + (f.mass * t.world().gravity) * t.com[i][1];
   }
   for (int i = 0; i < m.nlink; ++i) {
@@ -71,7 +71,7 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
     if (!l.spring) continue;
     const LinkNumbers<V> &f = t.link(i);
     V d = (t.th[i] - t.th[l.parent]) - f.jspring_rest;
-    elastic = elastic + (0.5 * f.jspring_k) * (d * d);
+    elastic = elastic + (0.5f * f.jspring_k) * (d * d);
   }
   for (int n = 0; n < m.nspring; ++n) {
     const SpringNumbers<V> &f = t.spring(n);
@@ -80,7 +80,7 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
     point_at(t, m.spring(n).link_b, f.point_b_x, f.point_b_y, pbx, pby);
     V dx = pbx - pax, dy = pby - pay;
     V d = Lanes<V>::sqrt(dx * dx + dy * dy) - f.rest;
-    elastic = elastic + (0.5 * f.ks) * (d * d);
+    elastic = elastic + (0.5f * f.ks) * (d * d);
   }
 }
 
@@ -112,7 +112,7 @@ template <class V> static inline void observe_init(const Model &m, const Tile<V>
   centre_of_mass(m, t, cx, cy, (V *)nullptr, (V *)nullptr);
   acc[A_P0X] = acc[A_PX] = cx;
   acc[A_P0Y] = acc[A_PY] = acc[A_Y0] = cy;
-  acc[A_WORD] = acc[A_CANDIDATE] = V{} - 1.0;
+  acc[A_WORD] = acc[A_CANDIDATE] = V{} - 1.0f;
 }
 
 // one step's update, from a prepared tile at time `time` (paper §5.1's metric: sanlab.metrics;
@@ -120,6 +120,7 @@ template <class V> static inline void observe_init(const Model &m, const Tile<V>
 template <class V> static inline void observe(const Model &m, const Tile<V> &t, const int32_t *oi, const double *of,
                                               V time, V *acc) {
   using Ls = Lanes<V>;
+  using R = real<V>;
   const bool vertical = m.world().plane == PLANE_VERTICAL;
   const int32_t *fell = oi + O_LISTS, *joints = fell + oi[O_N_FELL], *touch = joints + oi[O_N_JOINTS];
   const V dt = t.world().dt;
@@ -128,13 +129,13 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   for (int k = 0; k < oi[O_N_FELL]; ++k) {
     int i = fell[k];
     V a = wrap_angle(t.th[i]);
-    f = Ls::sel(Ls::abs(a) > of[OF_FELL_ANGLE], V{} + 1.0, f);
+    f = Ls::sel(Ls::abs(a) > R(of[OF_FELL_ANGLE]), V{} + 1.0f, f);
     if (oi[O_FELL_LINK] && vertical)
-      f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < of[OF_FELL_LINK_HEIGHT], V{} + 1.0, f);
+      f = Ls::sel(t.com[i][1] - ground_height(m, t, t.com[i][0]) < R(of[OF_FELL_LINK_HEIGHT]), V{} + 1.0f, f);
   }
   V px, py, vx, vy;
   centre_of_mass(m, t, px, py, &vx, &vy);
-  if (oi[O_FELL_COM] && vertical) f = Ls::sel(py - ground_height(m, t, px) < of[OF_FELL_COM_HEIGHT], V{} + 1.0, f);
+  if (oi[O_FELL_COM] && vertical) f = Ls::sel(py - ground_height(m, t, px) < R(of[OF_FELL_COM_HEIGHT]), V{} + 1.0f, f);
   acc[A_FELL] = f;
   if (oi[O_KIND] == M_HOPPING) {
     V up = Ls::max(py - acc[A_Y0], V{});
@@ -143,14 +144,14 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
     V fx, fy;
     follow_point(m, t, time, fx, fy);
     V dx = fx - px, dy = fy - py;
-    V inv = 1.0 / Ls::max(Ls::sqrt(dx * dx + dy * dy), V{} + 1e-9);
+    V inv = 1.0f / Ls::max(Ls::sqrt(dx * dx + dy * dy), V{} + R(1e-9));
     acc[A_PURSUIT] = acc[A_PURSUIT] + (vx * dx + vy * dy) * inv * dt;
   } else if (oi[O_KIND] == M_TRACKING) {
     V fx, fy;
     follow_point(m, t, time, fx, fy);
     V dx = fx - px, dy = fy - py;
     V gap = Ls::sqrt(dx * dx + dy * dy);
-    acc[A_GAP0] = Ls::sel(acc[A_STEPS] > 0.0, acc[A_GAP0], gap);
+    acc[A_GAP0] = Ls::sel(acc[A_STEPS] > 0.0f, acc[A_GAP0], gap);
     acc[A_GAP] = acc[A_GAP] + gap;
   }
   if (oi[O_DEPTH] && m.ncontact) {
@@ -162,41 +163,41 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
   V y{}, air{};
   if (vertical) {
     y = py - ground_height(m, t, px);
-    auto any = V{} < 0.0;  // all false
-    for (int c = 0; c < m.ncontact; ++c) any = any | (t.depth[c] > 0.0);
-    air = Ls::sel(any, V{}, V{} + 1.0);
+    auto any = V{} < 0.0f;  // all false
+    for (int c = 0; c < m.ncontact; ++c) any = any | (t.depth[c] > 0.0f);
+    air = Ls::sel(any, V{}, V{} + 1.0f);
   }
   const int root = oi[O_ROOT];
   if (root >= 0) {
     V th = t.th[root], d = th - acc[A_ANGLE];
     d = wrap_angle(d);
-    acc[A_TURN] = acc[A_TURN] + Ls::sel(acc[A_STEPS] > 0.0, d, V{});
+    acc[A_TURN] = acc[A_TURN] + Ls::sel(acc[A_STEPS] > 0.0f, d, V{});
     acc[A_ANGLE] = th;
   }
   if (oi[O_N_JOINTS]) {
     V js{};
     for (int k = 0; k < oi[O_N_JOINTS]; ++k) js = js + Ls::abs(t.qd[joints[k]]);
-    acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / (double)oi[O_N_JOINTS];
+    acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / R(oi[O_N_JOINTS]);
   }
   V *duty = acc + A_FIXED, *words = duty + oi[O_N_TOUCH], *times = words + EVENTS;
   for (int k = 0; k < oi[O_N_TOUCH]; ++k) duty[k] = duty[k] + t.bits[touch[k]];
   if (oi[O_SENSORS]) {
     V w{};
-    for (int s = 0; s < oi[O_SENSORS]; ++s) w = w + Ls::sel(t.bits[s] > 0.5, V{} + (double)(1 << s), V{});
+    for (int s = 0; s < oi[O_SENSORS]; ++s) w = w + Ls::sel(t.bits[s] > 0.5f, V{} + R(1 << s), V{});
     V since = Ls::sel(w == acc[A_CANDIDATE], acc[A_SINCE], time);
     acc[A_SINCE] = since;
     acc[A_CANDIDATE] = w;
-    auto fresh = (w != acc[A_WORD]) & (time - since + dt >= DEBOUNCE_S);
+    auto fresh = (w != acc[A_WORD]) & (time - since + dt >= R(DEBOUNCE_S));
     for (int l = 0; l < Ls::W; ++l) {
       if (!Ls::on(fresh, l)) continue;
       int slot = (int)Ls::lane(acc[A_CHANGES], l) % EVENTS;
       Ls::set(words[slot], l, Ls::lane(w, l));
       Ls::set(times[slot], l, Ls::lane(since, l));
     }
-    acc[A_CHANGES] = acc[A_CHANGES] + Ls::sel(fresh, V{} + 1.0, V{});
+    acc[A_CHANGES] = acc[A_CHANGES] + Ls::sel(fresh, V{} + 1.0f, V{});
     acc[A_WORD] = Ls::sel(fresh, w, acc[A_WORD]);
   }
-  acc[A_STEPS] = acc[A_STEPS] + 1.0;
+  acc[A_STEPS] = acc[A_STEPS] + 1.0f;
   acc[A_HEIGHT] = acc[A_HEIGHT] + y;
   acc[A_HEIGHT2] = acc[A_HEIGHT2] + y * y;
   acc[A_AIRBORNE] = acc[A_AIRBORNE] + air;

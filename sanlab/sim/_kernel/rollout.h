@@ -43,7 +43,8 @@ static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *table
     const double *src = (const double *)tables[11 + k];
     const size_t n = counts[k];
     for (size_t v = 0; v < n; ++v)
-      for (int l = 0; l < W; ++l) Ls::set(dst[k][v], l, per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v]);
+      for (int l = 0; l < W; ++l)
+        Ls::set(dst[k][v], l, real<V>(per_row[k] ? src[((size_t)b * W + l) * n + v] : src[v]));
   }
 }
 
@@ -56,15 +57,20 @@ static void fill_numbers(const Model &m, Tile<V> &tile, const void *const *table
 // One rollout template serves them all, so every kind steps, observes and records alike.
 // (their kinds: layout.h, K_SAN ... K_PATTERN)
 
-// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile
+// the SAN (san.h): k1, k2 [N] (1/s); state istate, out [N]; weights [W][I][NP] int16 per tile;
+// wv: the float tiles' weights side by side (san.h: san_weights), where kernel.cpp made them
 template <class V> struct SanControl {
   const short *weights;
   int NP;
   size_t per_tile;
+  const V *wv = nullptr;
   static size_t n_param(const Model &m) { return 2 * (size_t)m.nnode; }
   static size_t n_state(const Model &m) { return 2 * (size_t)m.nnode; }
   SanControl at(int64_t b) const { return {weights + (size_t)b * per_tile, NP, per_tile}; }
   void act(const Model &m, Tile<V> &t, const V *par, V *st, V) const {
+#ifndef __CUDACC_RTC__
+    if (wv) return san_lanes(m, t, wv, par, par + m.nnode, st, st + m.nnode);
+#endif
     san(m, t, weights, NP, par, par + m.nnode, st, st + m.nnode);
   }
 };
@@ -86,11 +92,11 @@ template <class V> struct SineControl {
   static size_t n_state(const Model &) { return 0; }
   SineControl at(int64_t) const { return *this; }
   void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
-    const V w = (2 * M_PI) * par[m.nact] * time;  // ((2 pi) f) t, the order the stored gaits ran in
+    const V w = real<V>(2 * M_PI) * par[m.nact] * time;  // ((2 pi) f) t, the order the stored gaits ran in
     for (int a = 0; a < m.nact; ++a) {
       V s, c;
       sincos(w + par[a], s, c);
-      t.act[a] = 0.5 + 0.5 * s;
+      t.act[a] = 0.5f + 0.5f * s;
     }
   }
 };
@@ -124,7 +130,7 @@ template <class V> struct ReflexControl {
     for (int a = 0; a < m.nact; ++a) {
       V x{};
       for (int s = 0; s < m.nsensor; ++s) x = x + par[a * m.nsensor + s] * t.bits[s];
-      t.act[a] = Ls::min(Ls::max(x + par[m.nact * m.nsensor + a], V{}), V{} + 1.0);
+      t.act[a] = Ls::min(Ls::max(x + par[m.nact * m.nsensor + a], V{}), V{} + 1.0f);
     }
   }
 };
@@ -142,10 +148,12 @@ struct Record {
 inline size_t state_values(const Model &m) { return 2 * (size_t)m.ndof + 2 * (size_t)m.ncontact + 2; }
 
 // `steps` steps of a tile (step.h: step), recording the frames asked for; then the final state's
-// velocity and, for the metric, its centre of mass
+// velocity and, for the metric, its centre of mass. frames: the tile's [n, values, W] float64
+// (the caller's: a float tile's values widened exactly)
 template <class V, class Ctl>
 static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *state, const V *par, V *cst, int64_t steps,
-                     const Observers &o, V *acc, V *qd_out, const Record &rec, V *frames) {
+                     const Observers &o, V *acc, V *qd_out, const Record &rec, double *frames) {
+  using Ls = Lanes<V>;
   V *q = state, *p = q + m.ndof, (*anchor)[2] = (V(*)[2])(p + m.ndof), *time = (V *)(anchor + m.ncontact);
   StepState<V> s{q, p, anchor, time, time + 1};
   const int ns = (int)Ctl::n_state(m), at_u = 2 * m.ndof + m.nsensor, at_state = at_u + m.nact;
@@ -155,14 +163,11 @@ static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *state, const
   }
   for (int64_t n = 0; n < steps; ++n) {
     const bool keep = frames && n % rec.every == 0 && n / rec.every < rec.n;
-    V *f = keep ? frames + (n / rec.every) * rec.values : nullptr;
-    // the caller's frame buffer need not be aligned for V: stored value by value, unaligned (on a
-    // GPU V is double and the buffer is the device's own, aligned)
-#ifdef __CUDACC_RTC__
-    auto put = [&](int at, const V &v) { f[at] = v; };
-#else
-    auto put = [&](int at, const V &v) { std::memcpy((void *)(f + at), &v, sizeof(V)); };
-#endif
+    double *f = keep ? frames + (n / rec.every) * rec.values * Ls::W : nullptr;
+    // lane by lane: the caller's buffer need not be aligned for V, and is float64 for either V
+    auto put = [&](int at, const V &v) {
+      for (int l = 0; l < Ls::W; ++l) f[at * Ls::W + l] = (double)Ls::lane(v, l);
+    };
     auto seen = [&] {  // the state before this step, and the controller's state before its update
       if (!keep) return;
       for (int d = 0; d < m.ndof; ++d) { put(d, q[d]); put(m.ndof + d, t.qd[d]); }

@@ -14,12 +14,12 @@ template <class V> static inline void san_update(const Model &m, Tile<V> &t, con
   const int N = m.nnode, H = m.world().hidden;
   const V dt = t.world().dt;
   for (int n = 0; n < N; ++n) {
-    V rate = Ls::sel(t.total[n] > 0.0, k1[n], k2[n]);
-    V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0);
+    V rate = Ls::sel(t.total[n] > 0.0f, k1[n], k2[n]);
+    V s = Ls::min(Ls::max(istate[n] + rate * dt, V{}), V{} + 1.0f);
     istate[n] = s;
     V o = out[n];
-    out[n] = Ls::sel((o == 1.0) & (s == 0.0), V{}, Ls::sel((o == 0.0) & (s == 1.0), V{} + 1.0, o));
-    if (n >= H) t.act[n - H] = (Ls::min(Ls::max(t.total[n], V{} - 2.0), V{} + 2.0) + 2.0) * 0.25;
+    out[n] = Ls::sel((o == 1.0f) & (s == 0.0f), V{}, Ls::sel((o == 0.0f) & (s == 1.0f), V{} + 1.0f, o));
+    if (n >= H) t.act[n - H] = (Ls::min(Ls::max(t.total[n], V{} - 2.0f), V{} + 2.0f) + 2.0f) * 0.25f;
   }
 }
 
@@ -28,18 +28,27 @@ template <class V> static inline void san_update(const Model &m, Tile<V> &t, con
 // per input (NP = N rounded up to a multiple of NS). The scalar form, one creature per thread (the
 // GPU's, and the CPU's reference): node by node, in int. Exact, as the tiles' int16 vectors are
 // (|a sum| <= 2 I, far inside int16), so both forms give the same bits.
-static inline void san(const Model &m, Tile<double> &t, const short *weights, int NP, const double *k1,
-                       const double *k2, double *istate, double *out) {
+template <class R>
+static inline void san_scalar(const Model &m, Tile<R> &t, const short *weights, int NP, const R *k1, const R *k2,
+                              R *istate, R *out) {
   const int N = m.nnode, S = m.nsensor, I = m.ninput;
   for (int n = 0; n < N; ++n) {
     int acc = 0;
     for (int i = 0; i < I; ++i) {
-      double x = i < S ? t.bits[i] : out[i - S];
-      if (x != 0.0) acc += weights[i * NP + n];
+      R x = i < S ? t.bits[i] : out[i - S];
+      if (x != 0.0f) acc += weights[i * NP + n];
     }
-    t.total[n] = (double)acc;
+    t.total[n] = (R)acc;
   }
   san_update(m, t, k1, k2, istate, out);
+}
+static inline void san(const Model &m, Tile<double> &t, const short *weights, int NP, const double *k1,
+                       const double *k2, double *istate, double *out) {
+  san_scalar(m, t, weights, NP, k1, k2, istate, out);
+}
+static inline void san(const Model &m, Tile<float> &t, const short *weights, int NP, const float *k1,
+                       const float *k2, float *istate, float *out) {
+  san_scalar(m, t, weights, NP, k1, k2, istate, out);
 }
 
 #ifndef __CUDACC_RTC__
@@ -58,11 +67,38 @@ template <class V> static inline void san(const Model &m, Tile<V> &t, const shor
     for (int c = 0; c < chunks; ++c) acc[c] = vs{};
     const vs_u *rows = (const vs_u *)(weights + (size_t)l * I * NP);
     for (int i = 0; i < I; ++i) {
-      double x = i < S ? Ls::lane(t.bits[i], l) : Ls::lane(out[i - S], l);
-      short on = x != 0.0 ? (short)-1 : (short)0;
+      real<V> x = i < S ? Ls::lane(t.bits[i], l) : Ls::lane(out[i - S], l);
+      short on = x != 0.0f ? (short)-1 : (short)0;
       for (int c = 0; c < chunks; ++c) acc[c] += rows[i * chunks + c] & on;
     }
-    for (int n = 0; n < N; ++n) Ls::set(t.total[n], l, (double)acc[n / NS][n % NS]);
+    for (int n = 0; n < N; ++n) Ls::set(t.total[n], l, (real<V>)acc[n / NS][n % NS]);
+  }
+  san_update(m, t, k1, k2, istate, out);
+}
+
+// The float tiles' form: the tile's creatures side by side, one select and add per input and node
+// for all 16 of them, where the form above pays each creature's inputs one by one (measured: the
+// bounder's float32 SAN took as long as its float64 one). wv [I][N]: the weight from input i to
+// node n of each lane's creature, as floats (san_weights, once per call); the sums are of small
+// integers, exact in any order, so the same bits as the integer sums.
+template <class V> static inline void san_weights(const Model &m, const short *weights, int NP, V *wv) {
+  using Ls = Lanes<V>;
+  const int N = m.nnode, I = m.ninput;
+  for (int l = 0; l < Ls::W; ++l)
+    for (int i = 0; i < I; ++i)
+      for (int n = 0; n < N; ++n) Ls::set(wv[i * N + n], l, (real<V>)weights[((size_t)l * I + i) * NP + n]);
+}
+
+template <class V> static inline void san_lanes(const Model &m, Tile<V> &t, const V *wv, const V *k1, const V *k2,
+                                                V *istate, V *out) {
+  using Ls = Lanes<V>;
+  const int N = m.nnode, S = m.nsensor, I = m.ninput;
+  for (int n = 0; n < N; ++n) t.total[n] = V{};
+  for (int i = 0; i < I; ++i) {
+    auto on = (i < S ? t.bits[i] : out[i - S]) != 0.0f;
+    if (!Ls::any(on)) continue;
+    const V *w = wv + (size_t)i * N;
+    for (int n = 0; n < N; ++n) t.total[n] = t.total[n] + Ls::sel(on, w[n], V{});
   }
   san_update(m, t, k1, k2, istate, out);
 }

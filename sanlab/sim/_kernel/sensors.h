@@ -9,18 +9,20 @@ namespace sanlab {
 // (paper §3.2: the follow point)
 template <class V> static inline void follow_point(const Model &m, const Tile<V> &t, V time, V &x, V &y) {
   using Ls = Lanes<V>;
+  using R = real<V>;
+  using Rs = Lanes<R>;
   const int n = m.nfollow;
   V u = t.world().follow_speed * time / t.world().follow_ds;
   for (int l = 0; l < Ls::W; ++l) {
-    double ul = Ls::lane(u, l);
-    if (m.world().follow_loop) ul = ul - (n - 1) * Lanes<double>::floor(ul / (n - 1));
-    ul = ul < 0.0 ? 0.0 : (ul > n - 1 ? n - 1 : ul);
-    int i0 = ul >= 0.0 ? (int)Lanes<double>::floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
+    R ul = Ls::lane(u, l);
+    if (m.world().follow_loop) ul = ul - R(n - 1) * Rs::floor(ul / R(n - 1));
+    ul = ul < 0.0f ? R(0) : (ul > R(n - 1) ? R(n - 1) : ul);
+    int i0 = ul >= 0.0f ? (int)Rs::floor(ul) : 0;  // NaN (a NaN time): no int of it, NaN out
     if (i0 > n - 2) i0 = n - 2;
-    double f = ul - i0;
-    const double *a = m.follow + 2 * i0, *b = a + 2;
-    Ls::set(x, l, a[0] + f * (b[0] - a[0]));
-    Ls::set(y, l, a[1] + f * (b[1] - a[1]));
+    R f = ul - R(i0);
+    const double *a = m.follow + 2 * i0, *b = a + 2;  // the path's table, float64: read as R
+    Ls::set(x, l, R(a[0]) + f * (R(b[0]) - R(a[0])));
+    Ls::set(y, l, R(a[1]) + f * (R(b[1]) - R(a[1])));
   }
 }
 
@@ -35,7 +37,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
     const SensorNumbers<V> &sf = t.sensor(s);
     int kind = si.kind;
     if (kind == S_TOUCH) {
-      t.bits[s] = m.world().plane == PLANE_HORIZONTAL ? V{} + 1.0 : Ls::sel(t.depth[si.on] > 0.0, V{} + 1.0, V{});
+      t.bits[s] = m.world().plane == PLANE_HORIZONTAL ? V{} + 1.0f : Ls::sel(t.depth[si.on] > 0.0f, V{} + 1.0f, V{});
       continue;
     }
     V a;
@@ -51,7 +53,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
       V ay = frm >= 0 ? t.X[to][1] - t.X[frm][1] : t.cs[li][1];
       V dx = fx - ex, dy = fy - ey;
       V num = ax * dy - ay * dx, den = ax * dx + ay * dy;
-      for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, Lanes<double>::atan2(Ls::lane(num, l), Ls::lane(den, l)));
+      for (int l = 0; l < Ls::W; ++l) Ls::set(a, l, Lanes<real<V>>::atan2(Ls::lane(num, l), Ls::lane(den, l)));
     } else {
       V pax, pay, pbx, pby;
       point_at(t, si.on, sf.point_x, sf.point_y, pax, pay);
@@ -59,7 +61,7 @@ template <class V> static inline void sense(const Model &m, Tile<V> &t, V time) 
       V dx = pbx - pax, dy = pby - pay;
       a = Ls::sqrt(dx * dx + dy * dy);
     }
-    t.bits[s] = Ls::sel((a >= sf.min) & (a <= sf.max), V{} + 1.0, V{});
+    t.bits[s] = Ls::sel((a >= sf.min) & (a <= sf.max), V{} + 1.0f, V{});
   }
 }
 

@@ -68,11 +68,11 @@ template <class V> static inline void mass_matrix(const Model &m, Tile<V> &t) {
     if (m.link(i).welded) continue;
     const int32_t *idx = m.ri + i * m.nchain;
     V mass = V{} + t.link(i).mass, I = V{} + t.link(i).inertia;
-    int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{} + 1.0, V{}, t.g);
+    int n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{} + 1.0f, V{}, t.g);
     outer(t.M, D, mass, idx, t.g, n);
-    n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0, t.g);
+    n = point_row(m, t, i, t.com[i][0], t.com[i][1], V{}, V{} + 1.0f, t.g);
     outer(t.M, D, mass, idx, t.g, n);
-    for (int a = 0; a < n; ++a) t.g[a] = V{} + (m.rl[i * m.nchain + a] >= 0 ? 1.0 : 0.0);
+    for (int a = 0; a < n; ++a) t.g[a] = V{} + (m.rl[i * m.nchain + a] >= 0 ? 1.0f : 0.0f);
     outer(t.M, D, I, idx, t.g, n);
   }
 }
@@ -85,7 +85,7 @@ template <class V> static inline void solve(Tile<V> &t, const V *A, const V *b, 
   for (int a = 0; a < D; ++a)
     for (int c = 0; c <= a; ++c) F[a * D + c] = A[a * D + c];
   for (int k = D - 1; k >= 0; --k) {
-    V inv = 1.0 / F[k * D + k];
+    V inv = 1.0f / F[k * D + k];
     Lf[k * D + k] = inv;
     for (int i = 0; i < k; ++i) Lf[k * D + i] = F[k * D + i] * inv;
     for (int i = k - 1; i >= 0; --i) {

@@ -10,6 +10,7 @@ namespace sanlab {
 // |x - c| < hw, else 0; rough sum_k a_k sin(w_k x + phase_k)
 template <class V> static inline void terrain(const Model &m, const Tile<V> &t, V x, V &h, V &dh) {
   using Ls = Lanes<V>;
+  using R = real<V>;
   const int kind = m.world().terrain;
   if (kind == TERRAIN_FLAT) {
     h = V{};
@@ -19,11 +20,11 @@ template <class V> static inline void terrain(const Model &m, const Tile<V> &t, 
     dh = V{} + t.world().slope;
   } else if (kind == TERRAIN_HILL) {
     V H = t.world().hill_height, hw = t.world().hill_half_width, cx = t.world().hill_centre;
-    V u = (x - cx) * (M_PI / hw), su, cu;
+    V u = (x - cx) * (R(M_PI) / hw), su, cu;
     sincos(u, su, cu);
     auto inside = Ls::abs(x - cx) < hw;
-    h = Ls::sel(inside, 0.5 * H * (1.0 + cu), V{});
-    dh = Ls::sel(inside, -0.5 * H * (M_PI / hw) * su, V{});
+    h = Ls::sel(inside, 0.5f * H * (1.0f + cu), V{});
+    dh = Ls::sel(inside, -0.5f * H * (R(M_PI) / hw) * su, V{});
   } else {
     h = V{};
     dh = V{};
