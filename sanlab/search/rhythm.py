@@ -13,29 +13,34 @@ tuned, audited, exported and shown as any.
 
 The clock (:func:`clock`), in steps of the creature's dt (P steps a period):
 
-- a *bias*: the first angle, tilt or eye sensor, its range opened to the whole circle (a length
-  sensor's to [0, 1000 m]; on a horizontal plane a touch sensor is always on), is always on;
-- a *root* node (actuator 0's): +1 from the bias, -2 from itself, T_off its on-steps and T_on
-  its off-steps, a free-running oscillator of period P;
-- every other actuator's node a *follower*: triggered by the rising edge of a node (+1 from it)
-  or its falling edge (-1 from it, +1 from the bias), -2 from itself; it switches on T_on after
-  the edge and off T_off later, so it keeps its phase to the root cycle after cycle (no drift).
-  Each follower takes the trigger that keeps its phase and duty exactly when one does (its pulse
-  must end before the next edge and not fire twice within one window); the steps it misses by
-  otherwise are the clock's *slip*;
-- each actuator node sums 2 from its clock node and c in {-2, -1, 0} from the bias, so its
-  activation switches between (c + 2) / 4 and (c + 4) / 4, and the actuator's range is set so
-  that those are the ends of its range; where that range would not fit the actuator's bounds
-  (±180°) and a hidden node is spare, a *twin* of the clock node (same inputs and delays, so the
-  same output) adds 2 more, and the activation switches between 0 and 1.
+- a *bias*: the first angle, tilt, eye or length sensor, its range opened to the whole circle (a
+  length sensor's to [0, 1000 m]), is always on (on a horizontal plane, where a touch sensor is
+  always on, that one serves when there is no other);
+- a *root* node: +1 from the bias, -2 from itself, a free-running oscillator of period P that
+  switches off as the pattern's time 0 passes (its on-steps chosen, among half and eighths of
+  the period, to let the followers keep their phases best); where no hidden node is spare,
+  actuator 0's node is the root and the SAN starts where that one switches off;
+- every actuator's node a *follower*: triggered by the rising edge of a node (+1 from it) or its
+  falling edge (-1 from it, +1 from the bias), -2 from itself; it switches on T_on after the
+  edge and off T_off later, so it keeps its phase to the root cycle after cycle (no drift).
+  Each follower takes the trigger that keeps its phase and duty exactly when one does: its pulse
+  must end before the next edge, not fire twice within one window, and come in the first cycle
+  too (every node starts off, §4, and a node not yet on reads as one that has just switched
+  off); the steps it misses by otherwise are the clock's *slip*;
+- an actuator that the pattern starts at its upper level follows a node carrying its lower
+  phases, inverted (-2 from it): every node starts off, and so does that node's wave, so the
+  SAN plays the pattern from its first step;
+- each actuator node sums ±2 from its clock node and a constant from the bias, so its
+  activation switches between two of 0, 1/4, ..., 1, half the range apart, and the actuator's
+  range is set so that those are the ends of its range; where that range would not fit the
+  actuator's bounds (±180°) and a hidden node is spare, a *twin* of the clock node (same inputs
+  and delays, so the same output) adds 2 more, and the activation switches between 0 and 1.
 
-It needs A <= H hidden nodes and a sensor to serve as the bias. Every node starts off (§4), so
-the SAN starts its rhythm where the root has just switched off; the search, which scores the SAN
-and not the square wave, finds phases that start well (the walker's best pattern falls when
-started at 6 of 8 other points of its cycle). The SAN senses nothing but its bias: its sensors
-enter once ``sanlab tune`` or a weight search moves them. Where a closed loop matters (the cart,
-the fourlink), random SANs still win: ``benchmarks/search_strength.py`` and
-docs/search-strength.md compare them.
+It needs A <= H hidden nodes and a sensor to serve as the bias (ValueError otherwise). Where a
+gait starts matters (the walker's best pattern, started at 6 of 8 other points of its cycle,
+falls), and the search scores the SAN, not the square wave. The SAN senses nothing but its
+bias: a loop through its sensors is what catcma and random search find (the cart, the
+fourlink); ``benchmarks/search_strength.py`` and docs/search-strength.md compare them.
 """
 
 from __future__ import annotations
