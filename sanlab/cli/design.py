@@ -57,7 +57,9 @@ def design(
     generation: Annotated[int, typer.Option(min=1, help="Bodies per round of the strategy.")] = 4,
     strategy: Annotated[str, typer.Option(help="cma-es (pyribs' CMA-ES over the free numbers; needs pip install 'sanlab[qd]') or random.")] = "cma-es",
     controllers: Annotated[int, typer.Option(min=1, help="Each body's phase 1: random SANs, or --search's evaluations.")] = 200,
-    search: Annotated[str, typer.Option(help="Each body's phase 1: random (§5.2), catcma (random SANs, then CatCMAwM from the best) or rhythm (random SANs, then SANs built as clocks, CMA-ES over their rhythm).")] = "random",
+    search: Annotated[str, typer.Option(help=(
+        "Each body's phase 1: random (§5.2), catcma (random SANs, then CatCMAwM from the best) or rhythm "
+        "(random SANs, then SANs built as clocks, CMA-ES over their rhythm)."))] = "random",
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials of each chain of each body's phase 2.")] = 100,
     top: Annotated[int, typer.Option(min=1, help="Chains per body: its best phase-1 SANs tuned.")] = 2,
     seconds: Annotated[float | None, typer.Option(min=0.01, help="Evaluation time (s); default: the file's.")] = None,

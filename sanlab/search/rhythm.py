@@ -15,7 +15,9 @@ The clock (:func:`clock`), in steps of the creature's dt (P steps a period):
 
 - a *bias*: the first angle, tilt, eye or length sensor, its range opened to the whole circle (a
   length sensor's to [0, 1000 m]), is always on (on a horizontal plane, where a touch sensor is
-  always on, that one serves when there is no other);
+  always on, that one serves when there is no other); a creature with touch sensors only gives
+  its last hidden node to a *latch* (+1 from every touch sensor, +2 from itself), which a foot on
+  the ground at rest switches on 10 ms after the start, for ever;
 - a *root* node: +1 from the bias, -2 from itself, a free-running oscillator of period P that
   switches off as the pattern's time 0 passes (its on-steps chosen, among half and eighths of
   the period, to let the followers keep their phases best); where no hidden node is spare,
@@ -36,7 +38,11 @@ The clock (:func:`clock`), in steps of the creature's dt (P steps a period):
   actuator's bounds (±180°) and a hidden node is spare, a *twin* of the clock node (same inputs
   and delays, so the same output) adds 2 more, and the activation switches between 0 and 1.
 
-It needs A <= H hidden nodes and a sensor to serve as the bias (ValueError otherwise). Where a
+With fewer hidden nodes than actuators, the first H actuators get a node each and every other
+one follows the node, or the node inverted, whose wave is nearest its own (the steps they differ
+by count as slip; two nodes and their inverses make a wave travelling along four segments, as a
+caterpillar's). It needs a hidden node (two with a latch) and a sensor to start it (ValueError
+otherwise). Where a
 gait starts matters (the walker's best pattern, started at 6 of 8 other points of its cycle,
 falls), and the search scores the SAN, not the square wave. The SAN senses nothing but its
 bias: a loop through its sensors is what catcma and random search find (the cart, the
@@ -86,13 +92,18 @@ def bias_sensor(space: Space) -> int | None:
 def clock(space: Space, pattern: np.ndarray) -> Clock:
     """The SAN that plays ``pattern`` ([4 A + 1]: per actuator phase, duty, low, high, then the
     period, s; ``sim.PatternController``) on ``space``'s creature (module docstring). ValueError
-    when the creature has fewer hidden nodes than actuators or no sensor to serve as the bias."""
+    when the creature has no sensor to start it or no hidden node for it (besides a latch's)."""
     spec, san = space.spec, space.san
     S, H, A = san.n_sensors, san.n_hidden, san.n_actuators
+    NA = H  # the first actuator node's row (H: the clock's nodes, one fewer with a latch)
     bias = bias_sensor(space)
-    if A > H or bias is None:
-        raise ValueError(f"{spec.name}: a clock needs at least as many hidden nodes as actuators ({H} < {A})"
-                         if A > H else f"{spec.name}: a clock needs an angle, tilt, eye or length sensor as its bias")
+    touch = [i for i, x in enumerate(spec.sensors) if x.kind == "touch"]
+    latch = bias is None and bool(touch)  # no range sensor: a node that a touch at rest latches on
+    if H < 1 + latch or (bias is None and not touch):
+        raise ValueError(f"{spec.name}: a clock needs a sensor to start it (an angle, tilt, eye, length or touch sensor)"
+                         if bias is None and not touch else
+                         f"{spec.name}: a clock needs a hidden node" + (" besides the one a touch sensor latches on"
+                                                                         if latch else ""))
     pattern = np.asarray(pattern, float)
     index = {name: i for i, name in enumerate(space.names)}
     theta = space.nominal()
@@ -102,13 +113,21 @@ def clock(space: Space, pattern: np.ndarray) -> Clock:
         p = space.params[i]
         theta[i] = min(max(value, p.lo), p.hi)
 
-    sensor = spec.sensors[bias]
-    if sensor.kind in ("angle", "tilt", "eye"):
-        put(f"{sensor.name}.min", -math.pi)
-        put(f"{sensor.name}.max", math.pi)
-    elif sensor.kind == "length":
-        put(f"{sensor.name}.max", LENGTH_OPEN)
-        put(f"{sensor.name}.min", 0.0)
+    W = np.zeros((san.n_nodes, san.n_inputs), np.int8)
+    if bias is not None:
+        on_input = bias  # the input that is always on
+        sensor = spec.sensors[bias]
+        if sensor.kind in ("angle", "tilt", "eye"):
+            put(f"{sensor.name}.min", -math.pi)
+            put(f"{sensor.name}.max", math.pi)
+        elif sensor.kind == "length":
+            put(f"{sensor.name}.max", LENGTH_OPEN)
+            put(f"{sensor.name}.min", 0.0)
+    else:  # the last hidden node: +1 from every touch sensor, +2 from itself, on for ever once on
+        H -= 1
+        W[H, touch] = 1
+        W[H, S + H] = 2
+        on_input = S + H
     dt = spec.dt
     P = max(4, int(round(pattern[4 * A] / dt)))
     lo_steps = math.ceil(0.01 / dt + 0.25)  # the shortest and longest delays the space allows (0.01-1 s)
@@ -118,7 +137,9 @@ def clock(space: Space, pattern: np.ndarray) -> Clock:
     # an actuator the pattern starts at its upper level is driven by a node carrying its lower
     # phases, inverted: every node starts off (§4), and so does that one's wave
     starts_high = ((-rise) % P) < on
+    wanted = [_wave(r, o, P) for r, o in zip(rise, on)]
     rise, on = np.where(starts_high, (rise + on) % P, rise), np.where(starts_high, P - on, on)
+    own = min(A, H)  # actuators with a node of their own: the first H; the others share one
 
     def fit(n) -> int:
         return min(max(int(n), lo_steps), hi_steps)
@@ -131,16 +152,25 @@ def clock(space: Space, pattern: np.ndarray) -> Clock:
         trees = [_tree(np.append(rise, P - o), np.append(on, o), P, A, fit) for o in _root_lengths(P)]
         tree = min(trees, key=lambda t: t[3])
     else:
-        tree = _tree(rise, on, P, 0, fit)
+        tree = _tree(rise[:own], on[:own], P, 0, fit)
     node, trigger, delays, slip = tree
-    W = np.zeros((san.n_nodes, san.n_inputs), np.int8)
+    # an actuator without a node of its own follows the node, or the node inverted, whose wave
+    # is nearest its own (the steps they differ by count as slip): two nodes and their inverses
+    # make a wave travelling along four segments
+    drive = {a: (node[a], -1 if starts_high[a] else 1) for a in range(own)}
+    waves = {node[w]: _wave(rise[w], on[w], P) for w in node} if own < A else {}  # (no root of its own then)
+    for a in range(own, A):
+        miss, k, sign = min((int(np.count_nonzero(wanted[a] != (x if sign == 1 else ~x))), k, sign)
+                            for k, x in waves.items() for sign in (1, -1))
+        drive[a] = (k, sign)
+        slip += miss
     for k, (h, edge) in trigger.items():
         if h < 0:
-            W[k, bias] = 1
+            W[k, on_input] = 1
         else:
             W[k, S + h] = edge
             if edge == -1:
-                W[k, bias] = 1
+                W[k, on_input] = 1
         W[k, S + k] = -2
     # the actuators: levels from the clock node, the bias offset and, where needed, a twin
     ends = []
@@ -160,26 +190,32 @@ def clock(space: Space, pattern: np.ndarray) -> Clock:
     spare = list(range(len(node), H))
     for a in sorted(range(A), key=lambda a: -ends[a][0]):
         act = spec.actuators[a]
-        h = node[a]
-        sign = -1 if starts_high[a] else 1
-        W[H + a, S + h] = 2 * sign
+        h, sign = drive[a]
+        W[NA + a, S + h] = 2 * sign
         over, c, amin, amax = ends[a]
-        if over > 1e-12 and spare:
+        if over > 1e-12 and spare and a < own:
             t = spare.pop(0)
             W[t] = W[h]
             W[t, S + h], W[t, S + t] = 0, -2
             delays[t] = delays[h]
-            W[H + a, S + t] = 2 * sign
+            W[NA + a, S + t] = 2 * sign
             c, amin, amax = -2, act.min + pattern[4 * a + 2] * (act.max - act.min), act.min + pattern[4 * a + 3] * (act.max - act.min)
-        swing = 2 * int(np.count_nonzero(W[H + a, S:S + H]))  # 2 from the node, 2 more from a twin
-        W[H + a, bias] = c if sign == 1 else c + swing  # inverted: the same two levels
+        swing = 2 * int(np.count_nonzero(W[NA + a, S:S + NA]))  # 2 from the node, 2 more from a twin
+        W[NA + a, on_input] = c if sign == 1 else c + swing  # inverted: the same two levels
         put(f"{act.name}.max", amax)
         put(f"{act.name}.min", amin)
+    if bias is None:
+        delays[H] = (lo_steps, hi_steps)  # the latch: on as soon as a touch has lasted 10 ms
     for h, (n_r, n_f) in delays.items():
         # a quarter step short of whole steps: the node switches on the same step at dt and dt/2
         put(f"H{h + 1}.T_on", (n_r - 0.25) * dt)
         put(f"H{h + 1}.T_off", (n_f - 0.25) * dt)
     return Clock(W, theta, float(slip))
+
+
+def _wave(rise: int, on: int, P: int) -> np.ndarray:
+    """A wave's cycle [P] (bool): on for ``on`` steps from step ``rise``."""
+    return ((np.arange(P) - rise) % P) < on
 
 
 def _root_lengths(P: int) -> list[int]:

@@ -31,7 +31,10 @@ def targets(space: Space, c, steps: int, rng) -> np.ndarray:
     rows = []
     for _ in range(steps):
         bits = rng.integers(0, 2, san.n_sensors).astype(float)
-        bits[bias] = 1.0
+        if bias is not None:
+            bits[bias] = 1.0
+        else:  # a touch-only creature: its feet on the ground at rest latch the clock's bias on
+            bits[[i for i, x in enumerate(spec.sensors) if x.kind == "touch"]] = 1.0
         istate, out, u = san.step(params, istate, out, bits, spec.dt)
         rows.append(over["act_min"] + u * (over["act_max"] - over["act_min"]))
     return np.array(rows)
@@ -89,14 +92,43 @@ def test_a_range_too_wide_to_widen_gets_a_twin_and_switches_end_to_end():
     assert np.isclose(got.min(), spec.actuators[0].min) and np.isclose(got.max(), spec.actuators[0].max)
 
 
-def test_a_clock_needs_a_node_per_actuator_and_a_bias():
+def test_with_fewer_nodes_than_actuators_the_others_follow_a_node_or_its_inverse():
+    from pathlib import Path
+
+    spec = creature.load_file(Path(__file__).parent.parent / "data" / "caterpillar.toml")
+    assert (spec.n_hidden, len(spec.actuators)) == (2, 4)  # one node for the clock beside the latch
+    space = Space(spec)
+    # two segments in phase and two against them, half on: all from one node and its inverse
+    pattern = decode(np.array([0.1, 0.5, 0.1, 0.5, 0.6, 0.5, 0.6, 0.5, 0.6]), 4)
+    c = clock(space, pattern)
+    assert c.slip <= 8  # a step of rounding at each edge
+    H, S = space.san.n_hidden, space.san.n_sensors
+    assert sorted(c.weights[H:, S].tolist()) == [-2, -2, 2, 2]  # every actuator from node 1, two inverted
+    steps = int(round(3 * pattern[-1] / spec.dt))
+    got, want = targets(space, c, steps, np.random.default_rng(1)), wanted(spec, pattern, steps)
+    # its only sensors are touch sensors: a hidden node latched on by them is the bias, 10 ms (its
+    # shortest delay) after the start; with no node to spare for a root of its own, node 1 is the
+    # root and the rhythm starts where that one switches off: the pattern's, some steps late
+    assert bias_sensor(space) is None and c.weights[H - 1, S + H - 1] == 2
+    P = int(round(pattern[-1] / spec.dt))
+    lag = min(range(1, P), key=lambda k: np.count_nonzero(~np.isclose(got[k:], want[:-k])))
+    edges = int(np.count_nonzero(np.diff(want, axis=0))) + 4
+    assert np.count_nonzero(~np.isclose(got[lag:], want[:-lag])) <= 2 * edges
+    # a rhythm the shared nodes cannot play says so in its slip
+    assert clock(space, decode(np.array([0.1, 0.5, 0.2, 0.3, 0.6, 0.7, 0.9, 0.2, 0.6]), 4)).slip > 50
+
+
+def test_a_clock_needs_a_hidden_node_and_a_bias():
     walker = creature.load("walker")
-    few = dataclasses.replace(walker, san=dataclasses.replace(walker.san, hidden=4))  # 4 nodes, 5 actuators
-    with pytest.raises(ValueError, match="hidden nodes"):
-        clock(Space(few), decode(np.full(11, 0.5), 5))
+    none = dataclasses.replace(walker, san=dataclasses.replace(walker.san, hidden=0))
+    with pytest.raises(ValueError, match="hidden node"):
+        clock(Space(none), decode(np.full(11, 0.5), 5))
     bounder = creature.load("bounder")
-    touch_only = dataclasses.replace(bounder, sensors=bounder.sensors[:2])
-    with pytest.raises(ValueError, match="bias"):
+    blind = dataclasses.replace(bounder, sensors=())
+    with pytest.raises(ValueError, match="a sensor to start it"):
+        clock(Space(blind), decode(np.full(9, 0.5), 4))
+    touch_only = dataclasses.replace(bounder, sensors=bounder.sensors[:2], san=dataclasses.replace(bounder.san, hidden=1))
+    with pytest.raises(ValueError, match="besides the one a touch sensor latches on"):
         clock(Space(touch_only), decode(np.full(9, 0.5), 4))
 
 
