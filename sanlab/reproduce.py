@@ -238,7 +238,7 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
     return [r.tuned_gait for r in res], False
 
 
-def _audit(lib: Library, gait_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
+def _audit(lib: Library, gait_id: str, run: bool = True, log=None, backend=None) -> tuple[dict | None, bool]:
     """The gait's audit, the stored one if there is one (else a new one when ``run``, telling
     ``log`` its steps): (its record as a dict or None, whether it was stored before)."""
     from sanlab.audit import THRESHOLD, audit_and_store
@@ -248,11 +248,11 @@ def _audit(lib: Library, gait_id: str, run: bool = True, log=None) -> tuple[dict
         return {**rec.result, "flagged": rec.flagged, "worst": rec.worst}, True
     if not run:
         return None, False
-    a = audit_and_store(lib, gait_id, log=log)
+    a = audit_and_store(lib, gait_id, log=log, backend=backend)
     return {**a.to_json(), "flagged": a.flagged, "worst": a.worst}, False
 
 
-def _select(lib: Library, run_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
+def _select(lib: Library, run_id: str, run: bool = True, log=None, backend=None) -> tuple[dict | None, bool]:
     """The tuning run's audited selection (``sanlab.audit.select_robust``), the stored one if
     there is one (else a new one when ``run``): ({"gait", "speed", "trial", "worst",
     "candidates"} or None, whether it was stored before). "gait" is None when no rung of the
@@ -264,7 +264,7 @@ def _select(lib: Library, run_id: str, run: bool = True, log=None) -> tuple[dict
     before = (lib.selection(run_id) or {}).get("settings") == settings
     if not before and not run:
         return None, False
-    sel = select_robust(lib, run_id, log=log)
+    sel = select_robust(lib, run_id, log=log, backend=backend)
     c = sel.chosen
     return {"gait": sel.gait_id, "speed": None if c is None else c.nominal_cm_s, "trial": None if c is None else c.trial,
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
@@ -279,8 +279,8 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     earlier call stored it (an interrupted search or tuning continues). Returns {"speed": the
     best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
     "search": the phase-1 run, "phase1_cm_s": phase 1's best speed, "chains": each chain's
-    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search and the tuning
-    evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
+    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search, the tuning
+    and the selections evaluate (default: this machine). ``prune_below``: a phase-1 best speed
     (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
     Raises as ``run_search`` and ``tune``."""
     run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy)
@@ -291,7 +291,7 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     tuned_ids, _ = _tune(lib, text, [e.gait_id for e in best], seed, trials, ens, backend)
     chains = []
     for tid in tuned_ids:
-        sel, _ = _select(lib, tid.split("#")[0])
+        sel, _ = _select(lib, tid.split("#")[0], backend=backend)
         assert sel is not None  # _select with run=True always makes one
         chains.append({"tuned": tid, "tuned_cm_s": lib.gait(tid).speed_cm_s, "robust": sel["gait"],
                        "robust_cm_s": float(sel["speed"] or 0.0)})
@@ -530,7 +530,7 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
               top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
-              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None) -> str:
+              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None, backend=None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -558,7 +558,12 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the
     creature, the seed and the step ("walker (seed 0): search"), ``p`` the driver's
     :class:`sanlab.search.driver.Progress` during the search and the tuning and a line of text
-    during the audits (``sanlab.cli`` draws it as ``tune`` does)."""
+    during the audits (``sanlab.cli`` draws it as ``tune`` does), and ``progress("rows", "3 of 10
+    done")`` as each row is finished. ``backend`` (``sanlab.evaluate.backends``; default: this
+    machine): where every evaluation of a row runs (search, tuning, audits, selections and
+    ceiling; the tracking and robustness replays, a few rollouts, run here); the rows are the same
+    on any backend. The grain is the evaluation batch: rows are made one after another by this
+    one driver, the only writer of ``lib`` and of the ledger."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -568,6 +573,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     keys: dict[str, list[dict]] = {name: [] for name in creatures}
     texts: dict[str, tuple[str, str]] = {}
     t_all = time.perf_counter()
+    done = 0
     for sd in seeds:
         for name in creatures:
             texts[name] = read_source(name)
@@ -576,16 +582,20 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             row = book.get(key) if book is not None else None
             if row is not None and ceiling and row.ceiling is None and book is not None:
                 # a row made without its ceiling: the ceiling alone is measured, the row kept (a later line wins)
-                row.ceiling = _ceiling(lib, name, sd, ceiling)
+                row.ceiling = _ceiling(lib, name, sd, ceiling, backend)
                 book.add(key, row)
             if row is None:
-                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling)
+                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling,
+                                backend)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
                 if book is not None:
                     book.add(key, row)
             rows.append(row)
+            done += 1
+            if progress is not None:
+                progress("rows", f"{done} of {len(seeds) * len(creatures)} done")
             log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
                 f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
     files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
@@ -593,28 +603,32 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
-              top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0) -> Row:
+              top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0,
+              backend=None) -> Row:
     """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
     (``progress``: as :func:`reproduce`'s; with ``ceiling`` its pattern ceiling too, measured
-    with that many patterns)."""
+    with that many patterns), every evaluation on ``backend``."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
     text, where = read_source(name)
 
     def told(step: str, say: Progress | None = progress):
+        if backend is not None and hasattr(backend, "label"):  # a worker's error names the row and the step
+            backend.label = f"{name} (seed {seed}): {step}"
         return None if say is None else (lambda p: say(f"{name} (seed {seed}): {step}", p))
 
-    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, strategy=strategy,
+    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy,
                                reporter=told("search"))
     best = lib.top(run_id, top)
-    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens,
+    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens, backend,
                                     reporter=told("tune"))
     stored = searched or tuned_before
     chains = []
     for k, tid in enumerate(tuned_ids):
-        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}"))
-        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}"))
+        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}"), backend=backend)
+        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}"),
+                                   backend=backend)
         stored = stored or audited or selected
         chains.append((lib.gait(tid), report, robust))
     # the row stands on the chain with the best robust speed (the chain best where none has one);
@@ -636,20 +650,21 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     from sanlab.evaluate.evaluator import describe_devices
 
     if ceiling:
-        row.ceiling = _ceiling(lib, name, seed, ceiling)
-    row.device = describe_devices()
+        told("ceiling")
+        row.ceiling = _ceiling(lib, name, seed, ceiling, backend)
+    row.device = describe_devices() if backend is None else backend.describe()
     row.wall = time.perf_counter() - t0
     return row
 
 
-def _ceiling(lib, name: str, seed: int, evaluations: int) -> dict | None:
+def _ceiling(lib, name: str, seed: int, evaluations: int, backend=None) -> dict | None:
     """The creature's pattern ceiling (``sanlab.search.ceiling.measure``: ``evaluations`` patterns
     on ``seed``, the best audited until one is robust; taken from ``lib`` where it holds that
     search) as a row stores it."""
     from sanlab.search.ceiling import measure
 
     text, where = read_source(name)
-    _, c = measure(lib, text, where, evaluations=evaluations, seed=seed)
+    _, c = measure(lib, text, where, evaluations=evaluations, seed=seed, backend=backend)
     return None if c is None else c.to_json()
 
 

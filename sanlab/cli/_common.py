@@ -371,13 +371,17 @@ def refuse_with_resume(ctx: typer.Context, command: str, names: tuple[str, ...])
 
 
 def library_call(fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)``, or exit 2 with the LibraryError's one line."""
+    """``fn(*args)``, or exit 2 with the LibraryError's one line (1 with a remote worker's error,
+    ``sanlab.evaluate.ray_backend.WorkerError``)."""
+    from sanlab.evaluate.ray_backend import WorkerError
     from sanlab.library import LibraryError
 
     try:
         return fn(*args)
     except LibraryError as e:
         raise fail(str(e)) from None
+    except WorkerError as e:
+        raise fail(str(e), 1) from None
 
 
 def direction(dx_m: Any) -> str | None:
@@ -600,7 +604,8 @@ class ProgressLines:
         self._last_done = 0
         self._mark: tuple[float, int] | None = None  # (time, done) of the first report with work done
 
-    def update(self, done: int, total: int, rate: float, best: float) -> None:
+    def update(self, done: int, total: int, rate: float, best: float, workers: int | None = None) -> None:
+        """``workers``: the workers alive on a cluster, said in the line (None: not said)."""
         now = self._clock()
         if self._mark is None or done <= self._mark[1]:
             self._mark = (now, done)  # the rate is measured after the first batch, which compiles
@@ -612,6 +617,7 @@ class ProgressLines:
         left = self.left(done, total, now)
         tail = f", about {duration(left)} left" if left is not None and done < total else ""
         said = f"{self.rate.format(rate)}, " if self.rate else ""
+        said += "" if workers is None else f"{workers} workers alive, "
         warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {said}"
              f"{self.best.format(best)}, {duration(now - self._t0)} elapsed{tail}")
 

@@ -1,11 +1,10 @@
-"""``--backend ray`` on a local Ray cluster started here (2 CPUs, a small object store) and
+"""``--backend ray`` on a local Ray cluster started here (the ``cluster`` fixture of conftest) and
 stopped at the end: bit-identical results to the local backend, a worker killed mid-run loses
 nothing, the command line on the cluster, and a missing Ray said in one line."""
 
 from __future__ import annotations
 
 import json
-import logging
 import os
 import signal
 import subprocess
@@ -20,15 +19,6 @@ from sanlab.search import run_search
 from tests.helpers import SANLAB
 
 N, SECONDS, BATCH = 48, 0.5, 8  # six batches of the cart, an ensemble of two
-
-
-@pytest.fixture(scope="module")
-def cluster():
-    ray = pytest.importorskip("ray")
-    ray.init(num_cpus=2, object_store_memory=80 * 1024 * 1024, include_dashboard=False, log_to_driver=False,
-             logging_level=logging.WARNING)
-    yield ray
-    ray.shutdown()
 
 
 def search(db, backend=None, reporter=None):

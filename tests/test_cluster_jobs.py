@@ -1,0 +1,130 @@
+"""The long jobs on ``--backend ray`` (issue 59): Table 1 (``reproduce``), ``audit``, ``audit
+--select`` and ``ceiling`` on a local Ray cluster (the ``cluster`` fixture) give the rows, verdicts
+and ledger of a local run to the last digit; a worker that raises ends in one line naming the
+piece. The faults (a node killed, the driver killed) are in ``test_cluster_faults.py``."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from dataclasses import asdict
+
+import numpy as np
+import pytest
+
+from sanlab.evaluate import Evaluator, Request, make_backend
+from sanlab.library import Library
+from sanlab.reproduce import Ledger, reproduce
+from tests.helpers import SANLAB
+
+# a two-seed table of the two-link chain with two chains each, audited, and its pattern ceiling
+TABLE: dict = dict(seeds=[0, 1], controllers=16, trials=8, ensemble=2, top=2, ceiling=32)
+RUN_ID = re.compile(r"\b[0-9a-f]{8}\b")  # a library's run ids are random: rows compare without them
+
+
+def same(x):
+    """A ledger row (or part of one) without what differs between two equal runs: the random run
+    ids, the wall time, where it ran."""
+    if isinstance(x, dict):
+        return {k: same(v) for k, v in x.items() if k not in ("wall", "device", "resumed", "ledger")}
+    if isinstance(x, (list, tuple)):
+        return [same(v) for v in x]
+    return RUN_ID.sub("RUN", x) if isinstance(x, str) else x
+
+
+def table(tmp, backend=None):
+    """(the library, the ledger's rows made by a small Table 1 on ``backend``)."""
+    tmp.mkdir(exist_ok=True)
+    with Library(str(tmp / "g.db")) as lib:
+        reproduce(lib, ["twolink"], log=lambda s: None, ledger=tmp / "rows.jsonl", backend=backend, **TABLE)
+    return tmp / "g.db", [(e.key, same(asdict(e.row))) for e in Ledger(tmp / "rows.jsonl").entries]
+
+
+@pytest.fixture(scope="module")
+def local(tmp_path_factory):
+    return table(tmp_path_factory.mktemp("local"))
+
+
+def test_a_local_backend_audits_as_no_backend(tmp_path):
+    """``audit`` takes a backend; the local one scores each look's evaluations in turn, exactly as
+    before there were backends (the rest of the suite audits with none)."""
+    from sanlab.audit import audit
+    from sanlab.creature import read_source
+    from sanlab.search import run_search
+
+    text, where = read_source("twolink")
+    with Library(str(tmp_path / "g.db")) as lib:
+        run_id = run_search(lib, text, where, controllers=8, seconds=1.0, seed=3, batch=8, ensemble=2)
+        gait = lib.top(run_id, 1)[0].gait_id
+        a, b = audit(lib, gait, members=8), audit(lib, gait, members=8, backend=make_backend("local"))
+    assert a.to_json() == b.to_json() and set(a.shifts) == {"dt/2", "dt/4"}
+
+
+@pytest.mark.slow  # a Ray cluster and a small Table 1 twice: about 10 s
+def test_table_1_on_ray_has_the_local_rows_and_ledger(cluster, local, tmp_path):
+    _, on_ray = table(tmp_path, make_backend("ray", workers=2))
+    _, here = local
+    assert len(here) == 2 and all(r["audit"] and r["robust"] and r["ceiling"] for _, r in here)
+    assert on_ray == here  # every key, speed, audit, selection and ceiling, to the last digit
+    assert all(e.row.device.startswith("ray") for e in Ledger(tmp_path / "rows.jsonl").entries)
+
+
+@pytest.mark.slow
+def test_audit_and_select_on_ray_give_the_local_verdicts(cluster, local, tmp_path):
+    from sanlab.audit import audit, select_robust
+
+    db, _ = local
+    for name in ("l.db", "r.db"):
+        shutil.copy(db, tmp_path / name)
+    made = {}
+    for name, backend in (("l.db", None), ("r.db", make_backend("ray", workers=2))):
+        with Library(str(tmp_path / name)) as lib:
+            tuned = sorted(r.run_id for r in lib.runs() if r.kind == "tune")
+            searched = [r.run_id for r in lib.runs() if r.kind == "search" and getattr(r.settings, "strategy", "") == "random"]
+            # a phase-1 gait audited on more members than Table 1's, and a selection of other settings
+            a = [audit(lib, lib.top(searched[0], 1)[0].gait_id, members=32, backend=backend).to_json()]
+            s = [[c.to_json() for c in select_robust(lib, t, top=6, members=16, backend=backend).candidates]
+                 for t in tuned]
+            made[name] = (same(a), same(s))
+    assert made["r.db"] == made["l.db"] and made["l.db"][1][0]
+
+
+@pytest.mark.slow
+def test_reproduce_and_audit_on_an_existing_cluster_from_the_command_line(cluster, tmp_path):
+    common = ["reproduce", "--creatures", "twolink", "--controllers", "8", "--trials", "4", "--top", "1",
+              "--ensemble", "2"]
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto", "--workers", "2"])):
+        subprocess.run(SANLAB + common + extra + ["--db", str(tmp_path / f"{tag}.db"), "--out", str(tmp_path / f"{tag}.md"),
+                                                  "--ledger", str(tmp_path / f"{tag}.jsonl")],
+                       capture_output=True, text=True, check=True)
+    rows = {t: [same(asdict(e.row)) for e in Ledger(tmp_path / f"{t}.jsonl").entries] for t in "lr"}
+    assert rows["r"] == rows["l"] and len(rows["l"]) == 1
+    audits = {}
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto"])):
+        with Library(str(tmp_path / f"{tag}.db")) as lib:
+            run = next(r.run_id for r in lib.runs() if r.kind == "search")
+        out = subprocess.run(SANLAB + ["audit", run, "--top", "2", "--members", "16", "--json", "--db",
+                                       str(tmp_path / f"{tag}.db"), *extra], capture_output=True, text=True, check=True)
+        audits[tag] = same(json.loads(out.stdout))
+    assert audits["r"] == audits["l"] and len(audits["l"]) == 2
+
+
+@pytest.mark.slow
+def test_a_worker_that_raises_ends_in_one_line_naming_the_piece(cluster):
+    from sanlab.creature import load
+    from sanlab.evaluate.ray_backend import WorkerError
+
+    backend = make_backend("ray", workers=2)
+    backend.start(Evaluator(load("twolink"), seconds=0.2))  # no parameter space: a vector cannot be scored
+    backend.label = "twolink (seed 3): tune"  # type: ignore[attr-defined]
+    san = Evaluator(load("twolink")).san
+    backend.submit(Request(np.stack([san.random_weights(0, i) for i in range(2)]), np.zeros((2, 3))))
+    with pytest.raises(WorkerError) as e:
+        backend.next()
+    backend.close()
+    said = str(e.value)
+    assert "\n" not in said and "Traceback" not in said
+    assert said == ("twolink (seed 3): tune: a batch of 2: ValueError: parameter vectors need an evaluator "
+                    "with a space")
