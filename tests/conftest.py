@@ -55,7 +55,7 @@ def cluster():
     """A local Ray cluster in this process for the module's tests (2 CPUs, a small object store),
     stopped after them; the test is skipped where Ray is not installed."""
     ray = pytest.importorskip("ray")
-    ray.init(num_cpus=2, object_store_memory=80 * 1024 * 1024, include_dashboard=False, log_to_driver=False,
+    ray.init(address="local", num_cpus=2, object_store_memory=80 * 1024 * 1024, include_dashboard=False, log_to_driver=False,
              logging_level=logging.WARNING)
     yield ray
     ray.shutdown()

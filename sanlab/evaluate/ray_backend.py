@@ -115,7 +115,8 @@ class RayBackend:
         :meth:`map`, and once per process."""
         ray = self._ray
         if not ray.is_initialized():
-            ray.init(address=self.address, include_dashboard=False, log_to_driver=False,
+            # no address: a cluster of this process's own, never one that happens to run here
+            ray.init(address=self.address or "local", include_dashboard=False, log_to_driver=False,
                      logging_level=logging.WARNING)
             self._started_ray = self.address is None
         if self._task is None:
