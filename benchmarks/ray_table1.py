@@ -43,7 +43,7 @@ def same(x):
     return RUN_ID.sub("RUN", x) if isinstance(x, str) else x
 
 
-def table(tmp: str, args, backend=None) -> tuple[float, dict, list]:
+def table(tmp: str, args, backend=None, pieces: int = 1) -> tuple[float, dict, list]:
     """(wall seconds, seconds per step kind, the ledger's rows) of one small Table 1."""
     from sanlab.library import Library
     from sanlab.reproduce import Ledger, parse_seeds, reproduce
@@ -58,7 +58,7 @@ def table(tmp: str, args, backend=None) -> tuple[float, dict, list]:
     with Library(os.path.join(tmp, "g.db")) as lib:
         reproduce(lib, args.creatures.split(","), seeds=parse_seeds(args.seeds), controllers=args.controllers,
                   trials=args.trials, top=args.top, ensemble=8, log=lambda s: None, progress=progress,
-                  ledger=os.path.join(tmp, "rows.jsonl"), backend=backend)
+                  ledger=os.path.join(tmp, "rows.jsonl"), backend=backend, pieces=pieces)
     wall = time.perf_counter() - t0
     rows = sorted((str(e.key), same(asdict(e.row))) for e in Ledger(os.path.join(tmp, "rows.jsonl")).entries)
     return wall, {k: max(v) - min(v) for k, v in steps.items() if k != "rows"}, rows
@@ -149,6 +149,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=64)
     ap.add_argument("--top", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--pieces", type=int, default=None, help="rows side by side on Ray (default: all)")
     args = ap.parse_args()
 
     import ray
@@ -163,11 +164,14 @@ def main() -> None:
           + ", ".join(f"{k} {v:.1f} s" for k, v in lsteps.items()), flush=True)
     ray.init(address="local", num_cpus=args.workers, include_dashboard=False, log_to_driver=False, logging_level=logging.WARNING)
     try:
-        on_ray, rsteps, b = table(os.path.join(tmp, "r"), args, make_backend("ray", workers=args.workers))
+        from sanlab.reproduce import parse_seeds
+
+        pieces = args.pieces or len(args.creatures.split(",")) * len(parse_seeds(args.seeds))
+        on_ray, rsteps, b = table(os.path.join(tmp, "r"), args, make_backend("ray", workers=args.workers), pieces)
         tms = task_ms()
     finally:
         ray.shutdown()
-    print(f"ray ({args.workers} workers on this machine): {on_ray:.1f} s; steps: "
+    print(f"ray ({args.workers} workers on this machine, {pieces} rows side by side): {on_ray:.1f} s; steps: "
           + ", ".join(f"{k} {v:.1f} s" for k, v in rsteps.items()) + f"; identical rows: {a == b}")
     rate, commit = driver_rate(tmp)
     print(f"ratio ray/local speed: {local / on_ray:.3f}")

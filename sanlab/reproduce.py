@@ -36,9 +36,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import queue
 import re
+import threading
 import time
 from collections.abc import Callable
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -530,7 +533,8 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
               top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
-              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None, backend=None) -> str:
+              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None, backend=None,
+              pieces: int = 1) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -562,8 +566,14 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     done")`` as each row is finished. ``backend`` (``sanlab.evaluate.backends``; default: this
     machine): where every evaluation of a row runs (search, tuning, audits, selections and
     ceiling; the tracking and robustness replays, a few rollouts, run here); the rows are the same
-    on any backend. The grain is the evaluation batch: rows are made one after another by this
-    one driver, the only writer of ``lib`` and of the ledger."""
+    on any backend. ``pieces`` > 1: that many rows (creature x seed) are made side by side, each
+    by a thread of this process with its own connection to ``lib`` and its own copy of
+    ``backend`` (``twin()``), so that a cluster runs the table's independent rows at once rather
+    than one after another; a creature's ceilings are still measured in the order of its seeds
+    (a row's ceiling is the best of the creature's pattern searches stored before it), so the
+    rows are those of ``pieces=1``. This process stays the only writer of ``lib`` and of the
+    ledger. An error in one row stops the others (they stop where they are and resume as after
+    a kill)."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -573,41 +583,122 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     keys: dict[str, list[dict]] = {name: [] for name in creatures}
     texts: dict[str, tuple[str, str]] = {}
     t_all = time.perf_counter()
-    done = 0
-    for sd in seeds:
-        for name in creatures:
-            texts[name] = read_source(name)
-            key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy)
-            keys[name].append(key)
-            row = book.get(key) if book is not None else None
+    order = [(sd, name) for sd in seeds for name in creatures]
+    for sd, name in order:
+        texts[name] = read_source(name)
+        keys[name].append(row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy))
+    turns = _Turns(order)
+    written = threading.Lock()
+
+    def make(k: int, lib: Library, backend) -> Row:
+        """Row ``k`` of ``order``, from the ledger or made (and added to it)."""
+        sd, name = order[k]
+        key = keys[name][seeds.index(sd)]
+        row = book.get(key) if book is not None else None
+        try:
             if row is not None and ceiling and row.ceiling is None and book is not None:
                 # a row made without its ceiling: the ceiling alone is measured, the row kept (a later line wins)
-                row.ceiling = _ceiling(lib, name, sd, ceiling, backend)
-                book.add(key, row)
+                with turns.ceiling(k):
+                    row.ceiling = _ceiling(lib, name, sd, ceiling, backend)
+                with written:
+                    book.add(key, row)
             if row is None:
                 row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling,
-                                backend)
+                                backend, turns.ceiling(k))
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
                 if book is not None:
-                    book.add(key, row)
-            rows.append(row)
-            done += 1
-            if progress is not None:
-                progress("rows", f"{done} of {len(seeds) * len(creatures)} done")
-            log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
-                f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
+                    with written:
+                        book.add(key, row)
+        finally:
+            turns.done[k].set()  # measured, not needed, or failed: the creature's later rows go on
+        return row
+
+    made: dict[int, Row] = {}
+    for k, row in _side_by_side(make, len(order), lib, backend, pieces):
+        made[k] = row
+        sd, name = order[k]
+        if progress is not None:
+            progress("rows", f"{len(made)} of {len(order)} done")
+        log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
+            f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
+    rows = [made[k] for k in range(len(order))]
     files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
     return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files, strategy)
 
 
+class _Turns:
+    """The order a table's ceilings are measured in: row k's after the earlier rows of its creature
+    (``order``: (seed, creature) of each row), whichever thread makes them."""
+
+    def __init__(self, order: list[tuple[int, str]]):
+        self.order = order
+        self.done = [threading.Event() for _ in order]
+
+    @contextmanager
+    def ceiling(self, k: int):
+        name = self.order[k][1]
+        for j in range(k):
+            if self.order[j][1] == name:
+                self.done[j].wait()
+        try:
+            yield
+        finally:
+            self.done[k].set()
+
+
+def _side_by_side(make, n: int, lib: Library, backend, pieces: int):
+    """Yield (k, ``make(k, lib, backend)``) for k < n as each is made: in order here with
+    ``pieces`` <= 1, else on up to ``pieces`` daemon threads, each with its own library
+    connection and backend twin. The first error is raised here; the threads still running stop
+    with the process (what they stored resumes as after a kill)."""
+    if pieces <= 1 or n <= 1:
+        for k in range(n):
+            yield k, make(k, lib, backend)
+        return
+    connect = getattr(backend, "connect", None)
+    if callable(connect):
+        connect()  # here, in the main thread (Ray sets its signal handlers there), once for every twin
+    todo: queue.Queue[int] = queue.Queue()
+    for k in range(n):
+        todo.put(k)
+    out: queue.Queue[tuple[int, Row | None, BaseException | None]] = queue.Queue()
+    stop = threading.Event()
+
+    def work() -> None:
+        twin = getattr(backend, "twin", None)
+        mine = twin() if callable(twin) else backend
+        with Library(lib.path, timeout=lib.timeout) as own:
+            while not stop.is_set():
+                try:
+                    k = todo.get_nowait()
+                except queue.Empty:
+                    return
+                try:
+                    out.put((k, make(k, own, mine), None))
+                except BaseException as e:  # handed to the caller's thread, which raises it
+                    out.put((k, None, e))
+                    return
+
+    for _ in range(min(pieces, n)):
+        threading.Thread(target=work, daemon=True).start()
+    for _ in range(n):
+        k, row, error = out.get()
+        if error is not None:
+            stop.set()
+            raise error
+        assert row is not None
+        yield k, row
+
+
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
               top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0,
-              backend=None) -> Row:
+              backend=None, turn=None) -> Row:
     """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
     (``progress``: as :func:`reproduce`'s; with ``ceiling`` its pattern ceiling too, measured
-    with that many patterns), every evaluation on ``backend``."""
+    with that many patterns, in its ``turn``: a context held while it is measured), every
+    evaluation on ``backend``."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
@@ -649,9 +740,10 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
         row.tracking = tracking(lib, run_id, shown)
     from sanlab.evaluate.evaluator import describe_devices
 
-    if ceiling:
-        told("ceiling")
-        row.ceiling = _ceiling(lib, name, seed, ceiling, backend)
+    with turn if turn is not None and ceiling else nullcontext():
+        if ceiling:
+            told("ceiling")
+            row.ceiling = _ceiling(lib, name, seed, ceiling, backend)
     row.device = describe_devices() if backend is None else backend.describe()
     row.wall = time.perf_counter() - t0
     return row

@@ -34,12 +34,15 @@ def same(x):
     return RUN_ID.sub("RUN", x) if isinstance(x, str) else x
 
 
-def table(tmp, backend=None):
-    """(the library, the ledger's rows made by a small Table 1 on ``backend``)."""
+def table(tmp, backend=None, pieces: int = 1):
+    """(the library, the ledger's rows made by a small Table 1 on ``backend``, ``pieces`` rows side
+    by side), the rows in the order of their keys (rows made side by side end in any order)."""
     tmp.mkdir(exist_ok=True)
     with Library(str(tmp / "g.db")) as lib:
-        reproduce(lib, ["twolink"], log=lambda s: None, ledger=tmp / "rows.jsonl", backend=backend, **TABLE)
-    return tmp / "g.db", [(e.key, same(asdict(e.row))) for e in Ledger(tmp / "rows.jsonl").entries]
+        reproduce(lib, ["twolink"], log=lambda s: None, ledger=tmp / "rows.jsonl", backend=backend, pieces=pieces,
+                  **TABLE)
+    rows = [(e.key, same(asdict(e.row))) for e in Ledger(tmp / "rows.jsonl").entries]
+    return tmp / "g.db", sorted(rows, key=lambda r: json.dumps(r[0], sort_keys=True))
 
 
 @pytest.fixture(scope="module")
@@ -64,11 +67,17 @@ def test_a_local_backend_audits_as_no_backend(tmp_path):
 
 @pytest.mark.slow  # a Ray cluster and a small Table 1 twice: about 10 s
 def test_table_1_on_ray_has_the_local_rows_and_ledger(cluster, local, tmp_path):
-    _, on_ray = table(tmp_path, make_backend("ray", workers=2))
+    _, on_ray = table(tmp_path, make_backend("ray", workers=2), pieces=2)  # its two rows side by side
     _, here = local
     assert len(here) == 2 and all(r["audit"] and r["robust"] and r["ceiling"] for _, r in here)
     assert on_ray == here  # every key, speed, audit, selection and ceiling, to the last digit
     assert all(e.row.device.startswith("ray") for e in Ledger(tmp_path / "rows.jsonl").entries)
+
+
+@pytest.mark.slow  # the small table again, its two rows on two threads
+def test_rows_made_side_by_side_are_the_rows_made_in_turn(local, tmp_path):
+    _, side_by_side = table(tmp_path, pieces=2)
+    assert side_by_side == local[1]
 
 
 @pytest.mark.slow

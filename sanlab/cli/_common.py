@@ -11,6 +11,7 @@ import math
 import os
 import stat
 import tempfile
+import threading
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -548,6 +549,8 @@ class ProgressBar:
         )
         self._task: Any = None
         self._key: str | None = None
+        self._keyed: dict[str, Any] = {}
+        self._lock = threading.Lock()
 
     def waiting(self, description: str, total: int | None = None) -> None:
         """Show ``description`` before the first report: a first batch can take a minute (its
@@ -557,13 +560,18 @@ class ProgressBar:
 
     def update(self, description: str, completed: int, total: int, rate: float, best: float,
                key: str | None = None) -> None:
-        """Move the bar; a ``key`` other than the last one's starts a new bar under it (a job of
-        several steps, ``sanlab reproduce``: each its own count, pace and time left)."""
-        if key is not None and key != self._key:
-            self._key, self._task = key, None
-        if self._task is None:
-            self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
-        self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate, best=best)
+        """Move the bar; a ``key`` not seen before starts a new bar under the others, and a key
+        seen before moves its own bar (a job of several steps, some side by side, ``sanlab
+        reproduce``: each its own count, pace and time left)."""
+        with self._lock:  # rows made side by side report from their own threads
+            if key is not None and key != self._key:
+                self._key, self._task = key, self._keyed.get(key)
+            if self._task is None:
+                self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
+                if key is not None:
+                    self._keyed[key] = self._task
+            self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate,
+                                 best=best)
 
     def __enter__(self) -> ProgressBar:
         self.progress.__enter__()

@@ -59,13 +59,17 @@ def reproduce(
     backend: BackendOpt = "local",
     address: AddressOpt = None,
     workers: WorkersOpt = None,
+    pieces: Annotated[int | None, typer.Option(min=1, help=(
+        "Rows (creature x seed) made side by side (default: 1 with --backend local, every row with ray).")
+    )] = None,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report.
 
     Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped.
     With --ledger, finished rows are kept in a small file that travels without the library (a table made in pieces).
-    With --backend ray every evaluation runs on a Ray cluster's workers (docs/ray.md); the library and the ledger stay here, and the rows are the same."""
+    With --backend ray every evaluation runs on a Ray cluster's workers, the rows side by side (docs/ray.md);
+    the library and the ledger stay here, and the rows are the same."""
     from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run
 
@@ -125,7 +129,8 @@ def reproduce(
             report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                               log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
                                               ledger=book, command=_command_line(), progress=progress,
-                                              strategy=strategy, ceiling=ceiling, backend=engine))
+                                              strategy=strategy, ceiling=ceiling, backend=engine,
+                                              pieces=pieces or (len(names) * len(seed_list) if backend == "ray" else 1)))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None

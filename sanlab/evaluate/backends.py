@@ -83,6 +83,10 @@ class Local:
     def map(self, jobs: list[tuple[Evaluator, Request]]) -> list[ScoreBatch]:
         return [ev.evaluate(r) for ev, r in jobs]
 
+    def twin(self) -> Local:
+        """Another local backend, for another thread."""
+        return Local()
+
     def describe(self) -> str:
         return describe_devices()
 

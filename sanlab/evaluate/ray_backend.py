@@ -29,6 +29,7 @@ import hashlib
 import logging
 import os
 import pickle
+import threading
 import time
 from collections import OrderedDict
 from typing import Any
@@ -56,6 +57,7 @@ def _ray() -> Any:
     return ray
 
 
+_CONNECTING = threading.Lock()
 _EVALUATORS: OrderedDict[str, Evaluator] = OrderedDict()  # in a worker process: evaluators by token
 
 
@@ -105,6 +107,8 @@ class RayBackend:
         self._evaluator: tuple[Evaluator, str, list] | None = None
         self._started_ray = False
         self._alive: tuple[float, int] = (0.0, 0)
+        self._inflight = [0]  # tasks in flight, over this backend and its twins (they split by it)
+        self._lock = threading.Lock()
 
     @property
     def slots(self) -> int:
@@ -114,14 +118,23 @@ class RayBackend:
         """Join the cluster (or start one here) and size the pool; done by :meth:`start` and
         :meth:`map`, and once per process."""
         ray = self._ray
-        if not ray.is_initialized():
-            # no address: a cluster of this process's own, never one that happens to run here
-            ray.init(address=self.address or "local", include_dashboard=False, log_to_driver=False,
-                     logging_level=logging.WARNING)
-            self._started_ray = self.address is None
+        with _CONNECTING:  # twins on other threads: one ray.init
+            if not ray.is_initialized():
+                # no address: a cluster of this process's own, never one that happens to run here
+                ray.init(address=self.address or "local", include_dashboard=False, log_to_driver=False,
+                         logging_level=logging.WARNING)
+                self._started_ray = self.address is None
         if self._task is None:
             self._n = self.workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
             self._task = ray.remote(num_cpus=1, max_retries=RETRIES)(_evaluate)
+
+    def twin(self) -> RayBackend:
+        """A backend on the same cluster for another thread of this driver (a row of a table
+        made side by side): its own requests, the same connection, and one count of the tasks in
+        flight, so that a batch is split only while the whole cluster has room."""
+        other = RayBackend(self.address, self.workers)
+        other._inflight, other._lock = self._inflight, self._lock
+        return other
 
     def _put(self, evaluator: Evaluator) -> tuple[str, list]:
         """The evaluator's token (a hash of its pickle: the same evaluator built again, as every
@@ -140,8 +153,10 @@ class RayBackend:
     def _submit(self, evaluator: Evaluator, token: str, holder: list, request: Request) -> int:
         self._tickets += 1
         t = self._tickets
-        room = IN_FLIGHT_PER_WORKER * self._n - len(self._refs)
-        k = max(1, min(len(request) // MIN_CHUNK, room))
+        with self._lock:
+            room = IN_FLIGHT_PER_WORKER * self._n - self._inflight[0]
+            k = max(1, min(len(request) // MIN_CHUNK, room))
+            self._inflight[0] += k
         bounds = [round(i * len(request) / k) for i in range(k + 1)]
         self._parts[t] = [None] * k
         self._what[t] = _piece(evaluator, request, self.label)
@@ -161,6 +176,8 @@ class RayBackend:
         while True:
             ready, _ = self._ray.wait(list(self._refs), num_returns=1)
             t, c = self._refs.pop(ready[0])
+            with self._lock:
+                self._inflight[0] -= 1
             pid, scores, error = self._ray.get(ready[0])
             self._pids[pid] = None
             if scores is None:
@@ -212,6 +229,8 @@ class RayBackend:
                 self._ray.cancel(ref)
             except Exception:  # already finished, or its worker gone: nothing to cancel
                 pass
+        with self._lock:
+            self._inflight[0] -= len(self._refs)
         self._refs, self._parts, self._what = {}, {}, {}
 
     def close(self) -> None:
