@@ -40,7 +40,7 @@ import queue
 import re
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -571,7 +571,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ``backend`` (``twin()``), so that a cluster runs the table's independent rows at once rather
     than one after another; a creature's ceilings are still measured in the order of its seeds
     (a row's ceiling is the best of the creature's pattern searches stored before it), so the
-    rows are those of ``pieces=1``. This process stays the only writer of ``lib`` and of the
+    rows are those of ``pieces=1``. Each row's chains are then audited side by side too. This process stays the only writer of ``lib`` and of the
     ledger. An error in one row stops the others (they stop where they are and resume as after
     a kill)."""
     seeds = [seed] if seeds is None else list(seeds)
@@ -604,7 +604,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
                     book.add(key, row)
             if row is None:
                 row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling,
-                                backend, turns.ceiling(k))
+                                backend, turns.ceiling(k), pieces > 1)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
@@ -648,7 +648,7 @@ class _Turns:
             self.done[k].set()
 
 
-def _side_by_side(make, n: int, lib: Library, backend, pieces: int):
+def _side_by_side(make, n: int, lib: Library, backend, pieces: int) -> Iterator[tuple[int, Any]]:
     """Yield (k, ``make(k, lib, backend)``) for k < n as each is made: in order here with
     ``pieces`` <= 1, else on up to ``pieces`` daemon threads, each with its own library
     connection and backend twin. The first error is raised here; the threads still running stop
@@ -663,7 +663,7 @@ def _side_by_side(make, n: int, lib: Library, backend, pieces: int):
     todo: queue.Queue[int] = queue.Queue()
     for k in range(n):
         todo.put(k)
-    out: queue.Queue[tuple[int, Row | None, BaseException | None]] = queue.Queue()
+    out: queue.Queue[tuple[int, Any, BaseException | None]] = queue.Queue()
     stop = threading.Event()
 
     def work() -> None:
@@ -688,25 +688,25 @@ def _side_by_side(make, n: int, lib: Library, backend, pieces: int):
         if error is not None:
             stop.set()
             raise error
-        assert row is not None
         yield k, row
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
               top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0,
-              backend=None, turn=None) -> Row:
+              backend=None, turn=None, side: bool = False) -> Row:
     """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
     (``progress``: as :func:`reproduce`'s; with ``ceiling`` its pattern ceiling too, measured
     with that many patterns, in its ``turn``: a context held while it is measured), every
-    evaluation on ``backend``."""
+    evaluation on ``backend``; ``side``: the chains' audits and selections side by side, on
+    threads of their own)."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
     text, where = read_source(name)
 
-    def told(step: str, say: Progress | None = progress):
-        if backend is not None and hasattr(backend, "label"):  # a worker's error names the row and the step
-            backend.label = f"{name} (seed {seed}): {step}"
+    def told(step: str, say: Progress | None = progress, on=backend):
+        if on is not None and hasattr(on, "label"):  # a worker's error names the row and the step
+            on.label = f"{name} (seed {seed}): {step}"
         return None if say is None else (lambda p: say(f"{name} (seed {seed}): {step}", p))
 
     run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy,
@@ -715,13 +715,19 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
     tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens, backend,
                                     reporter=told("tune"))
     stored = searched or tuned_before
-    chains = []
-    for k, tid in enumerate(tuned_ids):
-        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}"), backend=backend)
-        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}"),
+
+    def chain(k: int, lib: Library, backend):
+        """Chain k's best, its audit and its selection (and whether they were stored before)."""
+        tid = tuned_ids[k]
+        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}", on=backend), backend=backend)
+        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}", on=backend),
                                    backend=backend)
-        stored = stored or audited or selected
-        chains.append((lib.gait(tid), report, robust))
+        return lib.gait(tid), report, robust, audited or selected
+
+    # the chains' audits are independent: side by side too when the rows are (the row's longest step)
+    made = dict(_side_by_side(chain, len(tuned_ids), lib, backend, len(tuned_ids) if side else 1))
+    chains = [made[k][:3] for k in range(len(tuned_ids))]
+    stored = stored or any(made[k][3] for k in made)
     # the row stands on the chain with the best robust speed (the chain best where none has one);
     # under tracking, on the one whose robust gait keeps closest to the point: its score, not a speed
     def rank(c):
