@@ -104,20 +104,31 @@ def test_audit_and_select_on_ray_give_the_local_verdicts(cluster, local, tmp_pat
 def test_reproduce_and_audit_on_an_existing_cluster_from_the_command_line(cluster, tmp_path):
     common = ["reproduce", "--creatures", "twolink", "--controllers", "8", "--trials", "4", "--top", "1",
               "--ensemble", "2"]
+    said = {}
     for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto", "--workers", "2"])):
-        subprocess.run(SANLAB + common + extra + ["--db", str(tmp_path / f"{tag}.db"), "--out", str(tmp_path / f"{tag}.md"),
-                                                  "--ledger", str(tmp_path / f"{tag}.jsonl")],
-                       capture_output=True, text=True, check=True)
+        said[tag] = subprocess.run(SANLAB + common + extra + ["--db", str(tmp_path / f"{tag}.db"), "--out",
+                                                              str(tmp_path / f"{tag}.md"), "--ledger",
+                                                              str(tmp_path / f"{tag}.jsonl")],
+                                   capture_output=True, text=True, check=True).stderr.splitlines()
+    # progress in the log (stderr is a pipe): the rows done, and on the cluster its workers alive
+    assert "reproduce: rows: 1 of 1 done" in said["r"] and "reproduce: rows: 1 of 1 done" in said["l"]
+    tuning = [line for line in said["r"] if line.startswith("reproduce: twolink (seed 0): tune: ")]
+    assert tuning and all(", 2 workers alive, " in line for line in tuning), said["r"]
+    assert not any("workers alive" in line for line in said["l"])
     rows = {t: [same(asdict(e.row)) for e in Ledger(tmp_path / f"{t}.jsonl").entries] for t in "lr"}
     assert rows["r"] == rows["l"] and len(rows["l"]) == 1
     audits = {}
     for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto"])):
         with Library(str(tmp_path / f"{tag}.db")) as lib:
             run = next(r.run_id for r in lib.runs() if r.kind == "search")
-        out = subprocess.run(SANLAB + ["audit", run, "--top", "2", "--members", "16", "--json", "--db",
-                                       str(tmp_path / f"{tag}.db"), *extra], capture_output=True, text=True, check=True)
-        audits[tag] = same(json.loads(out.stdout))
-    assert audits["r"] == audits["l"] and len(audits["l"]) == 2
+            tuned = next(r.run_id for r in lib.runs() if r.kind == "tune")
+        db = ["--json", "--db", str(tmp_path / f"{tag}.db"), *extra]
+        out = subprocess.run(SANLAB + ["audit", run, "--top", "2", "--members", "16", *db], capture_output=True,
+                             text=True, check=True)
+        sel = subprocess.run(SANLAB + ["audit", tuned, "--select", "--top", "4", "--members", "16", *db],
+                             capture_output=True, text=True, check=True)
+        audits[tag] = same([json.loads(out.stdout), json.loads(sel.stdout)])
+    assert audits["r"] == audits["l"] and len(audits["l"][0]) == 2 and audits["l"][1]["candidates"]
 
 
 @pytest.mark.slow

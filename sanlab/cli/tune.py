@@ -121,8 +121,8 @@ def tune(
     def report(p) -> None:
         nonlocal run_ids
         run_ids = p.run_ids  # known from the first report on, so Ctrl-C names these runs
-        bar.update("tune", p.trials, p.total, p.rate, p.best)
-        lines.update(p.trials, p.total, p.rate, p.best)
+        bar.update("tune" + ("" if p.workers is None else f" ({p.workers} workers)"), p.trials, p.total, p.rate, p.best)
+        lines.update(p.trials, p.total, p.rate, p.best, workers=p.workers)
         left = lines.left(p.trials, p.total)
         if not said[0] and left is not None:
             said[0] = True

@@ -178,7 +178,12 @@ class RayBackend:
             t, c = self._refs.pop(ready[0])
             with self._lock:
                 self._inflight[0] -= 1
-            pid, scores, error = self._ray.get(ready[0])
+            try:
+                pid, scores, error = self._ray.get(ready[0])
+            except self._ray.exceptions.RayError as e:  # lost more often than Ray runs a task again
+                said = (str(e).strip().splitlines() or [""])[0]
+                raise WorkerError(f"{self._what[t]}: lost with its worker {RETRIES + 1} times "
+                                  f"({type(e).__name__}: {said})") from None
             self._pids[pid] = None
             if scores is None:
                 raise WorkerError(f"{self._what[t]}: {error}")
