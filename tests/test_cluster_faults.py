@@ -1,7 +1,8 @@
 """Faults on a local multi-node Ray cluster (``ray.cluster_utils.Cluster``: a head and two worker
-nodes of one CPU each, issue 59): worker nodes killed in the middle of a small ``reproduce`` (both of them, one at a time) and of
-an ``audit`` (and its selection) ends with the rows and verdicts of an uninterrupted run, nothing
-lost and nothing stored twice; the driver killed outright and the command run again resumes."""
+nodes of one CPU each, issue 59): worker nodes killed in the middle of a small ``reproduce`` (both,
+one at a time) and of an ``audit`` (and its selection) end with the rows and verdicts of an
+uninterrupted run, nothing lost and nothing stored twice; the driver killed outright and the
+command run again resumes."""
 
 from __future__ import annotations
 
