@@ -970,7 +970,8 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         + " per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + (f"{describe_devices()}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else
+        + (f"{' and '.join(sorted({r.device for r in rows if r.device})) or describe_devices()}; total wall time "
+           f"{total / 60:.1f} min." if not any(r.ledger for r in rows) else
            f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in rows}))}: their wall times sum "
            f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",

@@ -115,6 +115,7 @@ def test_reproduce_and_audit_on_an_existing_cluster_from_the_command_line(cluste
     tuning = [line for line in said["r"] if line.startswith("reproduce: twolink (seed 0): tune: ")]
     assert tuning and all(", 2 workers alive, " in line for line in tuning), said["r"]
     assert not any("workers alive" in line for line in said["l"])
+    assert "ray (auto, 2 workers); total wall time" in (tmp_path / "r.md").read_text()  # where the table was made
     rows = {t: [same(asdict(e.row)) for e in Ledger(tmp_path / f"{t}.jsonl").entries] for t in "lr"}
     assert rows["r"] == rows["l"] and len(rows["l"]) == 1
     audits = {}
