@@ -149,3 +149,18 @@ def test_a_worker_that_raises_ends_in_one_line_naming_the_piece(cluster):
     assert "\n" not in said and "Traceback" not in said
     assert said == ("twolink (seed 3): tune: a batch of 2: ValueError: parameter vectors need an evaluator "
                     "with a space")
+
+
+def test_a_workers_error_ends_a_command_in_its_one_line(capsys):
+    import typer
+
+    from sanlab.cli._common import library_call
+    from sanlab.evaluate.ray_backend import WorkerError
+
+    def lost():
+        raise WorkerError("bounder (seed 3): tune: a batch of 32: ValueError: no")
+
+    with pytest.raises(typer.Exit) as e:
+        library_call(lost)
+    assert e.value.exit_code == 1
+    assert capsys.readouterr().err == "bounder (seed 3): tune: a batch of 32: ValueError: no\n"

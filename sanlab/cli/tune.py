@@ -136,6 +136,8 @@ def tune(
                 else:
                     typer.echo(line, err=True)
 
+    from sanlab.evaluate.ray_backend import WorkerError
+
     try:
         with bar:
             results = run_tune(lib, gaits, method=method, trials=trials, seed=seed, morphology=morphology,
@@ -149,6 +151,8 @@ def tune(
         raise fail(f"tune: {e}") from None
     except LibraryError as e:
         raise fail(str(e)) from None
+    except WorkerError as e:  # an evaluation raised on a Ray worker: its one line
+        raise fail(f"tune: {e}", 1) from None
     def stored_dx(gait_id: str):
         dx = (library_call(lib.gait, gait_id).extra or {}).get("dx_m")
         return dx if isinstance(dx, (int, float)) and not isinstance(dx, bool) else None
