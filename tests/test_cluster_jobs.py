@@ -164,3 +164,15 @@ def test_a_workers_error_ends_a_command_in_its_one_line(capsys):
         library_call(lost)
     assert e.value.exit_code == 1
     assert capsys.readouterr().err == "bounder (seed 3): tune: a batch of 32: ValueError: no\n"
+
+
+@pytest.mark.slow
+def test_ceiling_on_an_existing_cluster_from_the_command_line(cluster, tmp_path):
+    made = {}
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto", "--workers", "2"])):
+        out = subprocess.run(SANLAB + ["ceiling", "twolink", "-n", "64", "--seed", "2", "--json", "--db",
+                                       str(tmp_path / f"{tag}.db"), *extra], capture_output=True, text=True, check=True)
+        made[tag] = same({k: v for k, v in json.loads(out.stdout).items() if k != "seconds"})
+    assert made["r"] == made["l"] and made["l"]["ceiling"]["speed_cm_s"] > 0
+    with Library(str(tmp_path / "r.db")) as lib:
+        assert all((r.device or "").startswith("ray") for r in lib.runs())
