@@ -611,8 +611,11 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
                 if book is not None:
                     with written:
                         book.add(key, row)
+        except BaseException:
+            turns.fail(k)
+            raise
         finally:
-            turns.done[k].set()  # measured, not needed, or failed: the creature's later rows go on
+            turns.done[k].set()  # measured or not needed: the creature's later rows go on
         return row
 
     made: dict[int, Row] = {}
@@ -635,17 +638,30 @@ class _Turns:
     def __init__(self, order: list[tuple[int, str]]):
         self.order = order
         self.done = [threading.Event() for _ in order]
+        self.failed = [False] * len(order)
+        self.measured = [False] * len(order)
 
     @contextmanager
     def ceiling(self, k: int):
         name = self.order[k][1]
-        for j in range(k):
-            if self.order[j][1] == name:
-                self.done[j].wait()
         try:
+            for j in range(k):
+                if self.order[j][1] == name:
+                    self.done[j].wait()
+                    if self.failed[j]:  # measured now, this ceiling would see fewer searches than in turn
+                        raise RuntimeError(f"row {j} of {name} stopped before its ceiling")
             yield
+            self.measured[k] = True
+        except BaseException:
+            self.fail(k)
+            raise
         finally:
             self.done[k].set()
+
+    def fail(self, k: int) -> None:
+        """Row k stopped: if before its ceiling, the creature's later rows stop at theirs."""
+        self.failed[k] = not self.measured[k]
+        self.done[k].set()
 
 
 def _side_by_side(make, n: int, lib: Library, backend, pieces: int) -> Iterator[tuple[int, Any]]:
@@ -681,14 +697,23 @@ def _side_by_side(make, n: int, lib: Library, backend, pieces: int) -> Iterator[
                     out.put((k, None, e))
                     return
 
-    for _ in range(min(pieces, n)):
-        threading.Thread(target=work, daemon=True).start()
-    for _ in range(n):
-        k, row, error = out.get()
-        if error is not None:
-            stop.set()
-            raise error
-        yield k, row
+    threads = [threading.Thread(target=work, daemon=True) for _ in range(min(pieces, n))]
+    for t in threads:
+        t.start()
+    try:
+        for _ in range(n):
+            k, row, error = out.get()
+            if error is not None:
+                raise error
+            yield k, row
+    except BaseException:  # an error, or Ctrl-C: no thread starts another row, and the cluster's waits end
+        stop.set()
+        halt = getattr(backend, "stop", None)
+        if callable(halt):
+            halt()  # every row's driver stops within a second, its runs marked interrupted
+            for t in threads:
+                t.join(timeout=10)
+        raise
 
 
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,

@@ -127,13 +127,17 @@ def test_a_node_killed_mid_audit_and_selection_changes_no_verdict(nodes, local, 
     assert made["ray"] == made["here"]
 
 
-def test_a_killed_driver_resumes_on_the_cluster_with_the_same_rows(nodes, local, tmp_path):
-    c, ensure_two, _ = nodes
-    ensure_two()
-    cmd = SANLAB + ["reproduce", "--creatures", "twolink", "--seeds", "0-1", "--controllers", str(TABLE["controllers"]),
+def command(c, tmp_path) -> list[str]:
+    """The small table of the ``local`` fixture as a command on the cluster (rows side by side)."""
+    return SANLAB + ["reproduce", "--creatures", "twolink", "--seeds", "0-1", "--controllers", str(TABLE["controllers"]),
                     "--trials", str(TABLE["trials"]), "--top", str(TABLE["top"]), "--ensemble", str(TABLE["ensemble"]),
                     "--ceiling", str(TABLE["ceiling"]), "--db", str(tmp_path / "g.db"), "--out", str(tmp_path / "r.md"),
                     "--ledger", str(tmp_path / "rows.jsonl"), "--backend", "ray", "--address", c.address]
+
+
+def stopped(cmd, how: int) -> tuple[subprocess.Popen, list[str]]:
+    """``cmd`` sent the signal ``how`` once a row's tuning is under way: (the process, ended, and
+    what it wrote on stderr)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
     assert p.stderr is not None
@@ -142,9 +146,19 @@ def test_a_killed_driver_resumes_on_the_cluster_with_the_same_rows(nodes, local,
         said.append(line)
         if ": tune: " in line:  # a row's search is stored, its tuning under way
             break
-    p.send_signal(signal.SIGKILL)
-    p.wait()
-    assert said and ": tune: " in said[-1], "".join(said)
+    p.send_signal(how)
+    said += p.stderr.read().splitlines(keepends=True)
+    p.wait(timeout=60)
+    return p, said
+
+
+def test_a_killed_driver_resumes_on_the_cluster_with_the_same_rows(nodes, local, tmp_path):
+    c, ensure_two, _ = nodes
+    ensure_two()
+    cmd = command(c, tmp_path)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    p, said = stopped(cmd, signal.SIGKILL)
+    assert any(": tune: " in line for line in said), "".join(said)
     assert not Ledger(tmp_path / "rows.jsonl").entries
     r = subprocess.run(cmd, capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
@@ -158,3 +172,19 @@ def test_a_killed_driver_resumes_on_the_cluster_with_the_same_rows(nodes, local,
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+def test_ctrl_c_stops_every_row_in_one_line_and_the_command_resumes(nodes, local, tmp_path):
+    c, ensure_two, _ = nodes
+    ensure_two()
+    cmd = command(c, tmp_path)
+    p, said = stopped(cmd, signal.SIGINT)
+    assert p.returncode == 130
+    assert said[-1] == "interrupted; every stored evaluation is kept: run the same command again to continue\n"
+    assert not any("Traceback" in line or "Error" in line for line in said), "".join(said)
+    with Library(str(tmp_path / "g.db")) as lib:  # each row's driver stopped and said so
+        assert lib.runs() and all(r.status in ("done", "interrupted") for r in lib.runs())
+    r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 0, r.stderr
+    rows = sorted(str((e.key, same(asdict(e.row)))) for e in Ledger(tmp_path / "rows.jsonl").entries)
+    assert rows == local[1] and counts(tmp_path / "g.db") == local[2]

@@ -176,3 +176,26 @@ def test_ceiling_on_an_existing_cluster_from_the_command_line(cluster, tmp_path)
     assert made["r"] == made["l"] and made["l"]["ceiling"]["speed_cm_s"] > 0
     with Library(str(tmp_path / "r.db")) as lib:
         assert all((r.device or "").startswith("ray") for r in lib.runs())
+
+
+def test_a_row_stopped_before_its_ceiling_stops_the_creatures_later_ceilings():
+    """Rows side by side keep a creature's ceilings in the order of its seeds (a ceiling is the
+    best of the pattern searches stored before it): a later row measured after an earlier one
+    stopped short would see fewer searches than in turn, so it stops too; after the earlier
+    row's ceiling was measured, the later one goes on whatever became of the rest of that row."""
+    from sanlab.reproduce import _Turns
+
+    turns = _Turns([(0, "twolink"), (0, "cart"), (1, "twolink"), (2, "twolink")])
+    with turns.ceiling(1):  # another creature: no wait
+        pass
+    turns.fail(0)  # stopped before its ceiling
+    with pytest.raises(RuntimeError, match="row 0 of twolink stopped before its ceiling"), turns.ceiling(2):
+        pass
+    assert turns.failed[2] and turns.done[2].is_set()
+    turns = _Turns([(0, "twolink"), (1, "twolink")])
+    with turns.ceiling(0):
+        pass
+    turns.fail(0)  # its row stopped after the ceiling was measured
+    with turns.ceiling(1):
+        pass
+    assert turns.measured == [True, True]

@@ -109,6 +109,8 @@ class RayBackend:
         self._alive: tuple[float, int] = (0.0, 0)
         self._inflight = [0]  # tasks in flight, over this backend and its twins (they split by it)
         self._lock = threading.Lock()
+        self._twin = False
+        self._stopping = threading.Event()  # set by stop(), for this backend and its twins
 
     @property
     def slots(self) -> int:
@@ -118,7 +120,12 @@ class RayBackend:
         """Join the cluster (or start one here) and size the pool; done by :meth:`start` and
         :meth:`map`, and once per process."""
         ray = self._ray
+        if not self._twin:
+            self._stopping.clear()  # a new job on this backend after stop(): it runs again
         with _CONNECTING:  # twins on other threads: one ray.init
+            if not ray.is_initialized() and self._twin:
+                # the process is ending (Ctrl-C): a row still running stops here, never starts a cluster
+                raise WorkerError("the connection to the Ray cluster is closed")
             if not ray.is_initialized():
                 # no address: a cluster of this process's own, never one that happens to run here
                 ray.init(address=self.address or "local", include_dashboard=False, log_to_driver=False,
@@ -133,7 +140,7 @@ class RayBackend:
         made side by side): its own requests, the same connection, and one count of the tasks in
         flight, so that a batch is split only while the whole cluster has room."""
         other = RayBackend(self.address, self.workers)
-        other._inflight, other._lock = self._inflight, self._lock
+        other._inflight, other._lock, other._twin, other._stopping = self._inflight, self._lock, True, self._stopping
         return other
 
     def _put(self, evaluator: Evaluator) -> tuple[str, list]:
@@ -151,6 +158,8 @@ class RayBackend:
         self._evaluator = (evaluator, *self._put(evaluator))
 
     def _submit(self, evaluator: Evaluator, token: str, holder: list, request: Request) -> int:
+        if not self._ray.is_initialized():  # Ray would start a cluster of its own for the call
+            raise WorkerError("the connection to the Ray cluster is closed")
         self._tickets += 1
         t = self._tickets
         with self._lock:
@@ -174,7 +183,11 @@ class RayBackend:
 
     def next(self) -> tuple[int, ScoreBatch]:
         while True:
-            ready, _ = self._ray.wait(list(self._refs), num_returns=1)
+            if self._stopping.is_set():
+                raise WorkerError("stopped: the driver is ending")
+            ready, _ = self._ray.wait(list(self._refs), num_returns=1, timeout=0.5)
+            if not ready:
+                continue
             t, c = self._refs.pop(ready[0])
             with self._lock:
                 self._inflight[0] -= 1
@@ -208,6 +221,12 @@ class RayBackend:
             self._drop()
             raise
         return [out[t] for t in tickets]
+
+    def stop(self) -> None:
+        """Make this backend's and its twins' waits end (a :class:`WorkerError` within half a
+        second), so that the threads using them stop before the process ends; the backend's
+        next :meth:`connect` (its next job) undoes it."""
+        self._stopping.set()
 
     def alive(self) -> int:
         """Workers the cluster can run now: its alive CPUs, at most ``workers`` (asked of Ray at
