@@ -569,11 +569,11 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     on any backend. ``pieces`` > 1: that many rows (creature x seed) are made side by side, each
     by a thread of this process with its own connection to ``lib`` and its own copy of
     ``backend`` (``twin()``), so that a cluster runs the table's independent rows at once rather
-    than one after another; a creature's ceilings are still measured in the order of its seeds
-    (a row's ceiling is the best of the creature's pattern searches stored before it), so the
-    rows are those of ``pieces=1``. Each row's chains are then audited side by side too. This process stays the only writer of ``lib`` and of the
-    ledger. An error in one row stops the others (they stop where they are and resume as after
-    a kill)."""
+    than one after another; a row's ceiling (the best of the creature's pattern searches stored
+    before it) is measured once the creature's rows of earlier seeds are finished, so the rows
+    are those of ``pieces=1``. Each row's chains are then audited side by side too. This process
+    stays the only writer of ``lib`` and of the ledger. An error (or Ctrl-C) in one row stops the
+    others within a second (they stop where they are and resume as after a kill)."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -615,7 +615,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
             turns.fail(k)
             raise
         finally:
-            turns.done[k].set()  # measured or not needed: the creature's later rows go on
+            turns.done[k].set()  # finished: the creature's later rows may measure their ceilings
         return row
 
     made: dict[int, Row] = {}
@@ -632,8 +632,9 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
 
 
 class _Turns:
-    """The order a table's ceilings are measured in: row k's after the earlier rows of its creature
-    (``order``: (seed, creature) of each row), whichever thread makes them."""
+    """The order a table's ceilings are measured in: row k's once the earlier rows of its creature
+    (``order``: (seed, creature) of each row) are finished (in the ledger: a row made again after a
+    kill sees the pattern searches it saw in turn), whichever thread makes them."""
 
     def __init__(self, order: list[tuple[int, str]]):
         self.order = order
@@ -655,8 +656,6 @@ class _Turns:
         except BaseException:
             self.fail(k)
             raise
-        finally:
-            self.done[k].set()
 
     def fail(self, k: int) -> None:
         """Row k stopped: if before its ceiling, the creature's later rows stop at theirs."""

@@ -195,6 +195,7 @@ def test_a_row_stopped_before_its_ceiling_stops_the_creatures_later_ceilings():
     turns = _Turns([(0, "twolink"), (1, "twolink")])
     with turns.ceiling(0):
         pass
+    assert not turns.done[0].is_set()  # a later ceiling waits for the whole row, not its ceiling alone
     turns.fail(0)  # its row stopped after the ceiling was measured
     with turns.ceiling(1):
         pass
