@@ -105,7 +105,8 @@ def test_reproduce_and_audit_on_an_existing_cluster_from_the_command_line(cluste
     common = ["reproduce", "--creatures", "twolink", "--controllers", "8", "--trials", "4", "--top", "1",
               "--ensemble", "2"]
     said = {}
-    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto", "--workers", "2"])):
+    here = cluster.get_runtime_context().gcs_address  # this cluster, not "auto": another may run here
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", here, "--workers", "2"])):
         said[tag] = subprocess.run(SANLAB + common + extra + ["--db", str(tmp_path / f"{tag}.db"), "--out",
                                                               str(tmp_path / f"{tag}.md"), "--ledger",
                                                               str(tmp_path / f"{tag}.jsonl")],
@@ -115,11 +116,11 @@ def test_reproduce_and_audit_on_an_existing_cluster_from_the_command_line(cluste
     tuning = [line for line in said["r"] if line.startswith("reproduce: twolink (seed 0): tune: ")]
     assert tuning and all(", 2 workers alive, " in line for line in tuning), said["r"]
     assert not any("workers alive" in line for line in said["l"])
-    assert "ray (auto, 2 workers); total wall time" in (tmp_path / "r.md").read_text()  # where the table was made
+    assert f"ray ({here}, 2 workers); total wall time" in (tmp_path / "r.md").read_text()  # where it was made
     rows = {t: [same(asdict(e.row)) for e in Ledger(tmp_path / f"{t}.jsonl").entries] for t in "lr"}
     assert rows["r"] == rows["l"] and len(rows["l"]) == 1
     audits = {}
-    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto"])):
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", here])):
         with Library(str(tmp_path / f"{tag}.db")) as lib:
             run = next(r.run_id for r in lib.runs() if r.kind == "search")
             tuned = next(r.run_id for r in lib.runs() if r.kind == "tune")
@@ -169,7 +170,8 @@ def test_a_workers_error_ends_a_command_in_its_one_line(capsys):
 @pytest.mark.slow
 def test_ceiling_on_an_existing_cluster_from_the_command_line(cluster, tmp_path):
     made = {}
-    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", "auto", "--workers", "2"])):
+    here = cluster.get_runtime_context().gcs_address
+    for tag, extra in (("l", []), ("r", ["--backend", "ray", "--address", here, "--workers", "2"])):
         out = subprocess.run(SANLAB + ["ceiling", "twolink", "-n", "64", "--seed", "2", "--json", "--db",
                                        str(tmp_path / f"{tag}.db"), *extra], capture_output=True, text=True, check=True)
         made[tag] = same({k: v for k, v in json.loads(out.stdout).items() if k != "seconds"})

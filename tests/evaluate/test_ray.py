@@ -63,7 +63,8 @@ def test_a_worker_killed_mid_run_loses_nothing(cluster, local, tmp_path):
 @pytest.mark.slow
 def test_search_on_an_existing_cluster_from_the_command_line(cluster, tmp_path):
     common = ["search", "cart", "-n", "16", "--seconds", "0.5", "--batch", "8", "--ensemble", "2", "--json"]
-    on_ray = subprocess.run(SANLAB + common + ["--backend", "ray", "--address", "auto", "--db", str(tmp_path / "r.db")],
+    address = cluster.get_runtime_context().gcs_address  # this cluster, not "auto": another may run here
+    on_ray = subprocess.run(SANLAB + common + ["--backend", "ray", "--address", address, "--db", str(tmp_path / "r.db")],
                             capture_output=True, text=True, check=True)
     here = subprocess.run(SANLAB + common + ["--db", str(tmp_path / "l.db")], capture_output=True, text=True, check=True)
     strip = lambda out: [(r["encoding"], r["score"], r["speed_cm_s"]) for r in json.loads(out)["top"]]
