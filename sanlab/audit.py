@@ -53,7 +53,8 @@ from typing import Any
 
 import numpy as np
 
-from sanlab.evaluate import Evaluator
+from sanlab.evaluate import Evaluator, Request
+from sanlab.evaluate.backends import Backend, evaluate_all
 from sanlab.evaluate.ensemble import Ensemble, Key, audit_key, confirm_key, heldout_key, search_key
 from sanlab.gait import Gait
 from sanlab.library import Library, LibraryError, SearchSettings, TuneSettings
@@ -381,11 +382,13 @@ def advice(audit_members: int, need: int | None, most: int = MAX_MEMBERS_ADVISED
 
 def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], ...] = NUDGES,
           threshold: float = THRESHOLD, members: int = MEMBERS, max_members: int = MAX_MEMBERS,
-          level: float = LEVEL, log=None) -> Audit:
+          level: float = LEVEL, log=None, backend: Backend | None = None) -> Audit:
     """Audit the gait ``gait_id`` ("RUN/RANK" or "RUN#IDX") of ``lib`` (see the module
     docstring) on an audit ensemble of ``members`` members, and again on more, up to
-    ``max_members``, while that leaves it undecided (:func:`decide`); store nothing. Raises
-    LibraryError for an unknown gait, ValueError for ``members`` < 2."""
+    ``max_members``, while that leaves it undecided (:func:`decide`); store nothing. ``backend``
+    (``sanlab.evaluate.backends``; default: this process): where the evaluations of each look
+    (the gait's own step and every nudge, side by side) run; the verdict is the same on any.
+    Raises LibraryError for an unknown gait, ValueError for ``members`` < 2."""
     if members < 2:
         raise ValueError(f"members: expected >= 2 (the audit's statistic is over members), got {members}")
     g = _stored_gait(lib, gait_id)
@@ -401,18 +404,28 @@ def audit(lib: Library, gait_id: str, *, nudges: tuple[tuple[str, float, str], .
     own = g.params.k1 is not None or bool(g.params.model) or morphology
     theta = Space(g.spec, morphology=morphology).nominal(g.params)[None] if run.kind != "search" or own else None
 
-    def scored(factor: float, dtype: str, ensemble: Ensemble, k: Key):
+    pattern = g.patterns()
+
+    def job(factor: float, dtype: str, ensemble: Ensemble, k: Key) -> tuple[Evaluator, Request]:
         ev = nudged_evaluator(g.spec, factor, dtype, batch=1, metric=g.metric, seconds=g.seconds, terrain=terrain,
                               ensemble=ensemble, morphology=morphology)
-        return ev(g.weights[None], theta, [k], patterns=g.patterns())
+        return ev, Request(g.weights[None], theta, (k,), pattern)
+
+    def look(M: int, extra: list[tuple[Evaluator, Request]] = []):  # noqa: B006 (never changed)
+        aens = audit_ensemble(g.ensemble, M)
+        out = evaluate_all(backend, [*extra, job(1.0, dtype0, aens, audit_key(key)),
+                                     *(job(factor, dtype, aens, audit_key(key)) for _, factor, dtype in nudges)])
+        return out[:len(extra)], (out[len(extra)], {name: b for (name, _, _), b in zip(nudges, out[len(extra) + 1:],
+                                                                                          strict=True)})
+
+    # the re-score as stored (the gait's own ensemble and draws) runs beside the first look
+    [as_stored], first = look(members, [job(1.0, dtype0, g.ensemble, key)])
+    nominal = float(as_stored.speed_cm_s[0])
 
     def evaluate(M: int, rows: list[int]):
         assert rows == [0]
-        aens = audit_ensemble(g.ensemble, M)
-        return (scored(1.0, dtype0, aens, audit_key(key)),
-                {name: scored(factor, dtype, aens, audit_key(key)) for name, factor, dtype in nudges})
+        return first if M == members else look(M)[1]
 
-    nominal = float(scored(1.0, dtype0, g.ensemble, key).speed_cm_s[0])  # exactly as it was scored
     if log:
         older = ", by an older sanlab's float32, another arithmetic" if run.old_float32 else ""
         log(f"{g.gait_id}: {nominal:.1f} cm/s re-scored as stored (stored {g.speed_cm_s:.1f}{older})")
@@ -583,7 +596,7 @@ def ladder(path: list[tuple[int, float, np.ndarray]], n: int) -> list[tuple[int,
 
 def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold: float = THRESHOLD,
                   members: int = MEMBERS, max_members: int = MAX_MEMBERS, level: float = LEVEL,
-                  log=None) -> Selection:
+                  log=None, backend: Backend | None = None) -> Selection:
     """Audited selection of a finished tuning run's gait. ``top`` vectors of its chain (the
     rungs of its climb, :func:`ladder`: its start, its best and the steps between) are audited
     (:func:`audit`'s statistic, ``members`` members of their own and further looks on up to
@@ -599,7 +612,8 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     The selection's record (every rung's speeds and shifts) is stored in the library whatever
     its outcome, and one made with the same settings is reused; made again with others, a gait
     chosen before that no rung now earns is removed. Returns the :class:`Selection` (``gait_id``
-    None: no rung kept its speed). Raises ValueError for a threshold that is not a finite number
+    None: no rung kept its speed). ``backend``: where the rungs are scored (as :func:`audit`'s;
+    the same selection on any). Raises ValueError for a threshold that is not a finite number
     >= 0, ``top`` < 1 or ``members`` < 2, LibraryError for a run that is not a finished tuning run."""
     from sanlab import sim
     from sanlab.library.records import EvaluationRow
@@ -627,27 +641,31 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     thetas = np.stack([v[2] for v in ranked])
     evaluators: dict = {}
 
-    def scores(factor: float, dtype: str, ensemble: Ensemble, key: Key, rows: Any = None):
-        """The rungs ``rows`` (default: all) scored; a vector the climb visited twice (an accepted
+    def scores(settings: list[tuple[float, str, Ensemble]], key: Key, rows: Any = None):
+        """The rungs ``rows`` (default: all) scored under each (factor, dtype, ensemble) of
+        ``settings``, side by side on the backend; a vector the climb visited twice (an accepted
         trial can land where an earlier one did) is simulated once."""
-        ek = (factor, dtype, ensemble)  # one evaluator per setting, for both draws
-        if ek not in evaluators:
-            evaluators[ek] = nudged_evaluator(spec0, factor, dtype, batch=len(ranked), metric=s.metric,
-                                              seconds=s.seconds, terrain=s.terrain, ensemble=ensemble,
-                                              morphology=s.morphology)
         th = thetas if rows is None else thetas[np.asarray(rows, int)]
         distinct, back = np.unique(th, axis=0, return_inverse=True)
         w = np.repeat(parent.weights[None], len(distinct), axis=0)
-        return evaluators[ek](w, distinct, [key] * len(distinct)).take(back.reshape(-1))
+        jobs = []
+        for ek in settings:  # one evaluator per setting, for both draws
+            if ek not in evaluators:
+                factor, dtype, ensemble = ek
+                evaluators[ek] = nudged_evaluator(spec0, factor, dtype, batch=len(ranked), metric=s.metric,
+                                                  seconds=s.seconds, terrain=s.terrain, ensemble=ensemble,
+                                                  morphology=s.morphology)
+            jobs.append((evaluators[ek], Request(w, distinct, (key,) * len(distinct))))
+        return [b.take(back.reshape(-1)) for b in evaluate_all(backend, jobs)]
 
     def audited(key: Key):
         def evaluate(M: int, rows: list[int]):
             aens = audit_ensemble(s.ensemble, M)
-            return (scores(1.0, dtype0, aens, key, rows),
-                    {name: scores(factor, dtype, aens, key, rows) for name, factor, dtype in NUDGES})
+            ref, *nudged = scores([(1.0, dtype0, aens), *((f, d, aens) for _, f, d in NUDGES)], key, rows)
+            return ref, {name: b for (name, _, _), b in zip(NUDGES, nudged, strict=True)}
         return decide(evaluate, len(ranked), members, max_members, threshold, level, log)
 
-    held = scores(1.0, dtype0, s.ensemble, heldout_key(s.seed, s.chain))  # as the chain scored it: what is stored
+    [held] = scores([(1.0, dtype0, s.ensemble)], heldout_key(s.seed, s.chain))  # as the chain scored it: what is stored
     cands = []
     for k, ((trial, chain_score, _), x) in enumerate(zip(ranked, audited(audit_key(heldout_key(s.seed, s.chain))),
                                                          strict=True)):
@@ -671,7 +689,8 @@ def select_robust(lib: Library, run_id: str, *, top: int = SELECT_TOP, threshold
     record = {"settings": settings, "candidates": [c.to_json() for c in cands], "trial": None, "fell": {}}
     tuned = f"{run.run_id}#0"  # the chain's best: audited too, so that show and exports flag it
     if lib.audit(tuned) is None:
-        audit_and_store(lib, tuned, threshold=threshold, members=members, max_members=max_members, level=level)
+        audit_and_store(lib, tuned, threshold=threshold, members=members, max_members=max_members, level=level,
+                        backend=backend)
     if pick is None:
         lib.put_selection(run.run_id, SELECTED_IDX, record)
         return Selection(run.run_id, None, None, cands, threshold)

@@ -36,9 +36,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import queue
 import re
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -241,7 +244,7 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
     return [r.tuned_gait for r in res], False
 
 
-def _audit(lib: Library, gait_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
+def _audit(lib: Library, gait_id: str, run: bool = True, log=None, backend=None) -> tuple[dict | None, bool]:
     """The gait's audit, the stored one if there is one (else a new one when ``run``, telling
     ``log`` its steps): (its record as a dict or None, whether it was stored before)."""
     from sanlab.audit import THRESHOLD, audit_and_store
@@ -251,11 +254,11 @@ def _audit(lib: Library, gait_id: str, run: bool = True, log=None) -> tuple[dict
         return {**rec.result, "flagged": rec.flagged, "worst": rec.worst}, True
     if not run:
         return None, False
-    a = audit_and_store(lib, gait_id, log=log)
+    a = audit_and_store(lib, gait_id, log=log, backend=backend)
     return {**a.to_json(), "flagged": a.flagged, "worst": a.worst}, False
 
 
-def _select(lib: Library, run_id: str, run: bool = True, log=None) -> tuple[dict | None, bool]:
+def _select(lib: Library, run_id: str, run: bool = True, log=None, backend=None) -> tuple[dict | None, bool]:
     """The tuning run's audited selection (``sanlab.audit.select_robust``), the stored one if
     there is one (else a new one when ``run``): ({"gait", "speed", "trial", "worst",
     "candidates"} or None, whether it was stored before). "gait" is None when no rung of the
@@ -267,7 +270,7 @@ def _select(lib: Library, run_id: str, run: bool = True, log=None) -> tuple[dict
     before = (lib.selection(run_id) or {}).get("settings") == settings
     if not before and not run:
         return None, False
-    sel = select_robust(lib, run_id, log=log)
+    sel = select_robust(lib, run_id, log=log, backend=backend)
     c = sel.chosen
     return {"gait": sel.gait_id, "speed": None if c is None else c.nominal_cm_s, "trial": None if c is None else c.trial,
             "worst": None if c is None else c.worst, "candidates": len(sel.candidates)}, before
@@ -282,8 +285,8 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     earlier call stored it (an interrupted search or tuning continues). Returns {"speed": the
     best selection's speed (cm/s; 0 where no chain kept a robust gait), "gait": its id or None,
     "search": the phase-1 run, "phase1_cm_s": phase 1's best speed, "chains": each chain's
-    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search and the tuning
-    evaluate (default: this machine; the audits run here). ``prune_below``: a phase-1 best speed
+    {"tuned", "tuned_cm_s", "robust", "robust_cm_s"}}. ``backend``: where the search, the tuning
+    and the selections evaluate (default: this machine). ``prune_below``: a phase-1 best speed
     (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
     Raises as ``run_search`` and ``tune``."""
     run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy)
@@ -294,7 +297,7 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     tuned_ids, _ = _tune(lib, text, [e.gait_id for e in best], seed, trials, ens, backend)
     chains = []
     for tid in tuned_ids:
-        sel, _ = _select(lib, tid.split("#")[0])
+        sel, _ = _select(lib, tid.split("#")[0], backend=backend)
         assert sel is not None  # _select with run=True always makes one
         chains.append({"tuned": tid, "tuned_cm_s": lib.gait(tid).speed_cm_s, "robust": sel["gait"],
                        "robust_cm_s": float(sel["speed"] or 0.0)})
@@ -533,7 +536,8 @@ def chains(top: int | None, trials: int, controllers: int) -> int:
 def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, trials: int = 1000,
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
               top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
-              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None) -> str:
+              strategy: str = "random", ceiling: int = 0, progress: Progress | None = None, backend=None,
+              pieces: int = 1) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -562,7 +566,18 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the
     creature, the seed and the step ("walker (seed 0): search"), ``p`` the driver's
     :class:`sanlab.search.driver.Progress` during the search and the tuning and a line of text
-    during the audits (``sanlab.cli`` draws it as ``tune`` does)."""
+    during the audits (``sanlab.cli`` draws it as ``tune`` does), and ``progress("rows", "3 of 10
+    done")`` as each row is finished. ``backend`` (``sanlab.evaluate.backends``; default: this
+    machine): where every evaluation of a row runs (search, tuning, audits, selections and
+    ceiling; the tracking and robustness replays, a few rollouts, run here); the rows are the same
+    on any backend. ``pieces`` > 1: that many rows (creature x seed) are made side by side, each
+    by a thread of this process with its own connection to ``lib`` and its own copy of
+    ``backend`` (``twin()``), so that a cluster runs the table's independent rows at once rather
+    than one after another; a row's ceiling (the best of the creature's pattern searches stored
+    before it) is measured once the creature's rows of earlier seeds are finished, so the rows
+    are those of ``pieces=1``. Each row's chains are then audited side by side too. This process
+    stays the only writer of ``lib`` and of the ledger. An error (or Ctrl-C) in one row stops the
+    others within a second (they stop where they are and resume as after a kill)."""
     seeds = [seed] if seeds is None else list(seeds)
     top = chains(top, trials, controllers)
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
@@ -572,55 +587,175 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     keys: dict[str, list[dict]] = {name: [] for name in creatures}
     texts: dict[str, tuple[str, str]] = {}
     t_all = time.perf_counter()
-    for sd in seeds:
-        for name in creatures:
-            texts[name] = read_source(name)
-            key = row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy)
-            keys[name].append(key)
-            row = book.get(key) if book is not None else None
+    order = [(sd, name) for sd in seeds for name in creatures]
+    for sd, name in order:
+        texts[name] = read_source(name)
+        keys[name].append(row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy))
+    turns = _Turns(order)
+    written = threading.Lock()
+
+    def make(k: int, lib: Library, backend) -> Row:
+        """Row ``k`` of ``order``, from the ledger or made (and added to it)."""
+        sd, name = order[k]
+        key = keys[name][seeds.index(sd)]
+        row = book.get(key) if book is not None else None
+        try:
             if row is not None and ceiling and row.ceiling is None and book is not None:
                 # a row made without its ceiling: the ceiling alone is measured, the row kept (a later line wins)
-                row.ceiling = _ceiling(lib, name, sd, ceiling)
-                book.add(key, row)
+                with turns.ceiling(k):
+                    row.ceiling = _ceiling(lib, name, sd, ceiling, backend)
+                with written:
+                    book.add(key, row)
             if row is None:
-                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling)
+                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling,
+                                backend, turns.ceiling(k), pieces > 1)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
                     row.robustness = {"gait": shown, "grounds": robustness(lib, shown)}
                 if book is not None:
-                    book.add(key, row)
-            rows.append(row)
-            log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
-                f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
+                    with written:
+                        book.add(key, row)
+        except BaseException:
+            turns.fail(k)
+            raise
+        finally:
+            turns.done[k].set()  # finished: the creature's later rows may measure their ceilings
+        return row
+
+    made: dict[int, Row] = {}
+    for k, row in _side_by_side(make, len(order), lib, backend, pieces):
+        made[k] = row
+        sd, name = order[k]
+        if progress is not None:
+            progress("rows", f"{len(made)} of {len(order)} done")
+        log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
+            f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
+    rows = [made[k] for k in range(len(order))]
     files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
     return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files, strategy)
 
 
+class _Turns:
+    """The order a table's ceilings are measured in: row k's once the earlier rows of its creature
+    (``order``: (seed, creature) of each row) are finished (in the ledger: a row made again after a
+    kill sees the pattern searches it saw in turn), whichever thread makes them."""
+
+    def __init__(self, order: list[tuple[int, str]]):
+        self.order = order
+        self.done = [threading.Event() for _ in order]
+        self.failed = [False] * len(order)
+        self.measured = [False] * len(order)
+
+    @contextmanager
+    def ceiling(self, k: int):
+        name = self.order[k][1]
+        try:
+            for j in range(k):
+                if self.order[j][1] == name:
+                    self.done[j].wait()
+                    if self.failed[j]:  # measured now, this ceiling would see fewer searches than in turn
+                        raise RuntimeError(f"row {j} of {name} stopped before its ceiling")
+            yield
+            self.measured[k] = True
+        except BaseException:
+            self.fail(k)
+            raise
+
+    def fail(self, k: int) -> None:
+        """Row k stopped: if before its ceiling, the creature's later rows stop at theirs."""
+        self.failed[k] = not self.measured[k]
+        self.done[k].set()
+
+
+def _side_by_side(make, n: int, lib: Library, backend, pieces: int) -> Iterator[tuple[int, Any]]:
+    """Yield (k, ``make(k, lib, backend)``) for k < n as each is made: in order here with
+    ``pieces`` <= 1, else on up to ``pieces`` daemon threads, each with its own library
+    connection and backend twin. The first error is raised here; the threads still running stop
+    with the process (what they stored resumes as after a kill)."""
+    if pieces <= 1 or n <= 1:
+        for k in range(n):
+            yield k, make(k, lib, backend)
+        return
+    connect = getattr(backend, "connect", None)
+    if callable(connect):
+        connect()  # here, in the main thread (Ray sets its signal handlers there), once for every twin
+    todo: queue.Queue[int] = queue.Queue()
+    for k in range(n):
+        todo.put(k)
+    out: queue.Queue[tuple[int, Any, BaseException | None]] = queue.Queue()
+    stop = threading.Event()
+
+    def work() -> None:
+        twin = getattr(backend, "twin", None)
+        mine = twin() if callable(twin) else backend
+        with Library(lib.path, timeout=lib.timeout) as own:
+            while not stop.is_set():
+                try:
+                    k = todo.get_nowait()
+                except queue.Empty:
+                    return
+                try:
+                    out.put((k, make(k, own, mine), None))
+                except BaseException as e:  # handed to the caller's thread, which raises it
+                    out.put((k, None, e))
+                    return
+
+    threads = [threading.Thread(target=work, daemon=True) for _ in range(min(pieces, n))]
+    for t in threads:
+        t.start()
+    try:
+        for _ in range(n):
+            k, row, error = out.get()
+            if error is not None:
+                raise error
+            yield k, row
+    except BaseException:  # an error, or Ctrl-C: no thread starts another row, and the cluster's waits end
+        stop.set()
+        halt = getattr(backend, "stop", None)
+        if callable(halt):
+            halt()  # every row's driver stops within a second, its runs marked interrupted
+            for t in threads:
+                t.join(timeout=10)
+        raise
+
+
 def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ensemble, audit: bool,
-              top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0) -> Row:
+              top: int, progress: Progress | None = None, strategy: str = "random", ceiling: int = 0,
+              backend=None, turn=None, side: bool = False) -> Row:
     """Phase 1, phase 2 (``top`` chains), the audits and selections of one creature and seed
     (``progress``: as :func:`reproduce`'s; with ``ceiling`` its pattern ceiling too, measured
-    with that many patterns)."""
+    with that many patterns, in its ``turn``: a context held while it is measured), every
+    evaluation on ``backend``; ``side``: the chains' audits and selections side by side, on
+    threads of their own)."""
     t0 = time.perf_counter()
     spec = load(name)
     seconds = spec.evaluation.seconds  # 6 s; 30 s for the fish and the crawler (their files say so)
     text, where = read_source(name)
 
-    def told(step: str, say: Progress | None = progress):
+    def told(step: str, say: Progress | None = progress, on=backend):
+        if on is not None and hasattr(on, "label"):  # a worker's error names the row and the step
+            on.label = f"{name} (seed {seed}): {step}"
         return None if say is None else (lambda p: say(f"{name} (seed {seed}): {step}", p))
 
-    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, strategy=strategy,
+    run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy,
                                reporter=told("search"))
     best = lib.top(run_id, top)
-    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens,
+    tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens, backend,
                                     reporter=told("tune"))
     stored = searched or tuned_before
-    chains = []
-    for k, tid in enumerate(tuned_ids):
-        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}"))
-        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}"))
-        stored = stored or audited or selected
-        chains.append((lib.gait(tid), report, robust))
+
+    def chain(k: int, lib: Library, backend):
+        """Chain k's best, its audit and its selection (and whether they were stored before)."""
+        tid = tuned_ids[k]
+        report, audited = _audit(lib, tid, run=audit, log=told(f"audit of chain {k}", on=backend), backend=backend)
+        robust, selected = _select(lib, tid.split("#")[0], run=audit, log=told(f"selection of chain {k}", on=backend),
+                                   backend=backend)
+        return lib.gait(tid), report, robust, audited or selected
+
+    # the chains' audits are independent: side by side too when the rows are (the row's longest step)
+    made = dict(_side_by_side(chain, len(tuned_ids), lib, backend, len(tuned_ids) if side else 1))
+    chains = [made[k][:3] for k in range(len(tuned_ids))]
+    stored = stored or any(made[k][3] for k in made)
     # the row stands on the chain with the best robust speed (the chain best where none has one);
     # under tracking, on the one whose robust gait keeps closest to the point: its score, not a speed
     def rank(c):
@@ -639,21 +774,23 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
         row.tracking = tracking(lib, run_id, shown)
     from sanlab.evaluate.evaluator import describe_devices
 
-    if ceiling:
-        row.ceiling = _ceiling(lib, name, seed, ceiling)
-    row.device = describe_devices()
+    with turn if turn is not None and ceiling else nullcontext():
+        if ceiling:
+            told("ceiling")
+            row.ceiling = _ceiling(lib, name, seed, ceiling, backend)
+    row.device = describe_devices() if backend is None else backend.describe()
     row.wall = time.perf_counter() - t0
     return row
 
 
-def _ceiling(lib, name: str, seed: int, evaluations: int) -> dict | None:
+def _ceiling(lib, name: str, seed: int, evaluations: int, backend=None) -> dict | None:
     """The creature's pattern ceiling (``sanlab.search.ceiling.measure``: ``evaluations`` patterns
     on ``seed``, the best audited until one is robust; taken from ``lib`` where it holds that
     search) as a row stores it."""
     from sanlab.search.ceiling import measure
 
     text, where = read_source(name)
-    _, c = measure(lib, text, where, evaluations=evaluations, seed=seed)
+    _, c = measure(lib, text, where, evaluations=evaluations, seed=seed, backend=backend)
     return None if c is None else c.to_json()
 
 
@@ -861,7 +998,8 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         + " per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + (f"{describe_devices()}; total wall time {total / 60:.1f} min." if not any(r.ledger for r in rows) else
+        + (f"{' and '.join(sorted({r.device for r in rows if r.device})) or describe_devices()}; total wall time "
+           f"{total / 60:.1f} min." if not any(r.ledger for r in rows) else
            f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in rows}))}: their wall times sum "
            f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import pytest
 
 from sanlab.creature import read_source
@@ -46,3 +48,14 @@ def bounder_run(tmp_path_factory):
     with Library(str(db)) as lib:
         run_id = run_search(lib, text, where, controllers=64, seconds=2.0, seed=1, batch=64)
     return db, run_id
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A local Ray cluster in this process for the module's tests (2 CPUs, a small object store),
+    stopped after them; the test is skipped where Ray is not installed."""
+    ray = pytest.importorskip("ray")
+    ray.init(address="local", num_cpus=2, object_store_memory=80 * 1024 * 1024, include_dashboard=False, log_to_driver=False,
+             logging_level=logging.WARNING)
+    yield ray
+    ray.shutdown()

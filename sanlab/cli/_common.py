@@ -11,6 +11,7 @@ import math
 import os
 import stat
 import tempfile
+import threading
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Annotated, Any, TypeVar
 
@@ -372,13 +373,17 @@ def refuse_with_resume(ctx: typer.Context, command: str, names: tuple[str, ...])
 
 
 def library_call(fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)``, or exit 2 with the LibraryError's one line."""
+    """``fn(*args)``, or exit 2 with the LibraryError's one line (1 with a remote worker's error,
+    ``sanlab.evaluate.ray_backend.WorkerError``)."""
+    from sanlab.evaluate.ray_backend import WorkerError
     from sanlab.library import LibraryError
 
     try:
         return fn(*args)
     except LibraryError as e:
         raise fail(str(e)) from None
+    except WorkerError as e:
+        raise fail(str(e), 1) from None
 
 
 def direction(dx_m: Any) -> str | None:
@@ -545,6 +550,8 @@ class ProgressBar:
         )
         self._task: Any = None
         self._key: str | None = None
+        self._keyed: dict[str, Any] = {}
+        self._lock = threading.Lock()
 
     def waiting(self, description: str, total: int | None = None) -> None:
         """Show ``description`` before the first report: a first batch can take a minute (its
@@ -554,13 +561,18 @@ class ProgressBar:
 
     def update(self, description: str, completed: int, total: int, rate: float, best: float,
                key: str | None = None) -> None:
-        """Move the bar; a ``key`` other than the last one's starts a new bar under it (a job of
-        several steps, ``sanlab reproduce``: each its own count, pace and time left)."""
-        if key is not None and key != self._key:
-            self._key, self._task = key, None
-        if self._task is None:
-            self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
-        self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate, best=best)
+        """Move the bar; a ``key`` not seen before starts a new bar under the others, and a key
+        seen before moves its own bar (a job of several steps, some side by side, ``sanlab
+        reproduce``: each its own count, pace and time left)."""
+        with self._lock:  # rows made side by side report from their own threads
+            if key is not None and key != self._key:
+                self._key, self._task = key, self._keyed.get(key)
+            if self._task is None:
+                self._task = self.progress.add_task(description, total=total, rate=0.0, best=best)
+                if key is not None:
+                    self._keyed[key] = self._task
+            self.progress.update(self._task, description=description, total=total, completed=completed, rate=rate,
+                                 best=best)
 
     def __enter__(self) -> ProgressBar:
         self.progress.__enter__()
@@ -601,7 +613,8 @@ class ProgressLines:
         self._last_done = 0
         self._mark: tuple[float, int] | None = None  # (time, done) of the first report with work done
 
-    def update(self, done: int, total: int, rate: float, best: float) -> None:
+    def update(self, done: int, total: int, rate: float, best: float, workers: int | None = None) -> None:
+        """``workers``: the workers alive on a cluster, said in the line (None: not said)."""
         now = self._clock()
         if self._mark is None or done <= self._mark[1]:
             self._mark = (now, done)  # the rate is measured after the first batch, which compiles
@@ -613,6 +626,7 @@ class ProgressLines:
         left = self.left(done, total, now)
         tail = f", about {duration(left)} left" if left is not None and done < total else ""
         said = f"{self.rate.format(rate)}, " if self.rate else ""
+        said += "" if workers is None else f"{workers} workers alive, "
         warn(f"{self.what}: {done}/{total} {self.unit} ({100 * done // max(total, 1)} %), {said}"
              f"{self.best.format(best)}, {duration(now - self._t0)} elapsed{tail}")
 

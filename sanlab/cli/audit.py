@@ -11,8 +11,12 @@ from rich import box
 from rich.table import Table
 
 from sanlab.cli._common import (
+    AddressOpt,
+    BackendOpt,
     DbOpt,
     JsonOpt,
+    WorkersOpt,
+    backend_or_exit,
     console,
     dump_json,
     fail,
@@ -41,6 +45,9 @@ def audit(
     select: Annotated[bool, typer.Option("--select", help=(
         "With a tuning run: audit the rungs of its climb and store the best-scoring one that no nudge "
         "moves by more than the threshold as its gait RUN#1."))] = False,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
     db: DbOpt = "sanlab.db",
     as_json: JsonOpt = False,
 ) -> None:
@@ -59,11 +66,15 @@ def audit(
     With --select and a tuning run: up to 16 rungs of its chain's climb (its start, its best and
     the vectors that first reached the scores between) are audited, and the best-scoring robust
     one that is robust again on fresh draws (the start itself, when no tuned rung is) is stored
-    as the run's gait RUN#1, the tuned result to quote."""
+    as the run's gait RUN#1, the tuned result to quote.
+
+    With --backend ray each look's evaluations (the gait's step and every nudge, and the rungs)
+    run side by side on a Ray cluster's workers; the verdicts are the same (docs/ray.md)."""
     from sanlab.audit import SELECT_TOP, audit_and_store
 
     if not math.isfinite(threshold):
         raise fail(f"audit: --threshold: expected a finite number >= 0, got {threshold}")
+    engine = backend_or_exit(backend, address, workers)
     lib = open_library(db)
     if select:
         if "/" in target or "#" in target:
@@ -75,7 +86,7 @@ def audit(
         log = steps(as_json)
         try:
             sel = library_call(lambda r: select_and_report(lib, r, threshold, log, as_json, top or SELECT_TOP, members,
-                                                                   max_members),
+                                                                   max_members, engine),
                                run.run_id)
         except KeyboardInterrupt:
             typer.echo("interrupted; nothing of this selection was stored: run the same command again", err=True)
@@ -94,7 +105,7 @@ def audit(
         gaits = [e.gait_id for e in library_call(lib.top, run.run_id, top)]
     log = steps(as_json)
     results = [library_call(lambda g: audit_and_store(lib, g, threshold=threshold, members=members,
-                                                           max_members=max_members, log=log), g)
+                                                           max_members=max_members, log=log, backend=engine), g)
                for g in gaits]
     if as_json:
         typer.echo(dump_json([audit_record(a) for a in results]))
@@ -195,13 +206,14 @@ def verdict_cell(verdict: str, needed: int | None = None) -> str:
 
 
 def select_and_report(lib, run_id: str, threshold: float = 0.10, log=None, quiet: bool = False, top: int = 16,
-                      members: int = 64, max_members: int = 1024) -> dict:
+                      members: int = 64, max_members: int = 1024, backend=None) -> dict:
     """``sanlab.audit.select_robust`` on one tuning run, printed as a table of its rungs unless
     ``quiet``; returns its JSON summary, the ``selection`` record ({"schema", "run_id", "robust_gait", "trial", "speed_cm_s", "worst",
-    "candidates": [...]})."""
+    "candidates": [...]}). ``backend``: where the rungs are scored (default: here)."""
     from sanlab.audit import combine, rung_name, select_robust
 
-    sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top, members=members, max_members=max_members)
+    sel = select_robust(lib, run_id, threshold=threshold, log=log, top=top, members=members, max_members=max_members,
+                        backend=backend)
     c = sel.chosen
     out = record("selection", {"run_id": sel.run_id, "robust_gait": sel.gait_id, "trial": None if c is None else c.trial,
            "speed_cm_s": None if c is None else c.nominal_cm_s, "worst": None if c is None else c.worst,

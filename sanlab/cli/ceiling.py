@@ -9,11 +9,13 @@ import typer
 from rich.markup import escape
 
 from sanlab.cli._common import (
+    AddressOpt,
     BackendOpt,
     CreatureArg,
     DbOpt,
     JsonOpt,
     ProgressBar,
+    WorkersOpt,
     backend_or_exit,
     check_seed,
     console,
@@ -34,6 +36,8 @@ def ceiling(
         "Patterns to evaluate (CMA-ES restarts every 40 generations of 32)."))] = 2560,
     seed: Annotated[int, typer.Option(help="Seed of the search.")] = 0,
     backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
     db: DbOpt = "sanlab.db",
     resume: Annotated[str | None, typer.Option(help="Continue an interrupted pattern search (its RUN id).")] = None,
     as_json: JsonOpt = False,
@@ -44,13 +48,14 @@ def ceiling(
     all) by CMA-ES under the same robust objective as every SAN score, stores them as pattern
     gaits (run `search --strategy pattern`), and audits the best until one is robust. `show`, the
     studio and `reproduce` then say what fraction of it a SAN gait of this creature reaches. A
-    reference, not a bound: where the closed loop holds a gait an open loop cannot, SANs pass it."""
+    reference, not a bound: where the closed loop holds a gait an open loop cannot, SANs pass it.
+    With --backend ray the search and the audits run on a Ray cluster (docs/ray.md), with the same result."""
     from sanlab.search.ceiling import measure
 
     check_seed(seed)
     load_or_exit(creature)
     text, where = read_source(creature)
-    engine = backend_or_exit(backend, None, None)
+    engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=resume is None)
     bar = ProgressBar(console.is_terminal and not as_json)
     t0 = time.perf_counter()
@@ -59,7 +64,8 @@ def ceiling(
     def report(p) -> None:
         nonlocal run_id
         run_id = p.run_id
-        bar.update(f"ceiling {p.run_id}: patterns", p.evaluated, p.total, p.rate, p.best)
+        alive = "" if p.workers is None else f" ({p.workers} workers)"
+        bar.update(f"ceiling {p.run_id}: patterns{alive}", p.evaluated, p.total, p.rate, p.best)
 
     try:
         with bar:

@@ -161,6 +161,8 @@ def design(
         bar.update(f"design {what}" if what else "design", done, total, 0.0, best)
         lines.update(done, total, 0.0, best)
 
+    from sanlab.evaluate.ray_backend import WorkerError
+
     try:
         with bar:
             bar.waiting("design: the reference body (a first compile takes a minute)")
@@ -171,6 +173,8 @@ def design(
         raise typer.Exit(130) from None
     except (ValueError, LibraryError) as e:
         raise fail(f"design: {e}") from None
+    except WorkerError as e:  # an evaluation raised on a Ray worker: its one line
+        raise fail(f"design: {e}", 1) from None
     with output_file(str(target), "--out") as path:  # whole or not at all; a full disk is one line too
         Path(path).write_text(result.text, encoding="utf-8")
     s, ch, ref = settings, result.chosen, result.reference

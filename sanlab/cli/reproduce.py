@@ -8,10 +8,14 @@ from typing import Annotated
 import typer
 
 from sanlab.cli._common import (
+    AddressOpt,
+    BackendOpt,
     DbOpt,
     DtFactorsOpt,
     ProgressBar,
     ProgressLines,
+    WorkersOpt,
+    backend_or_exit,
     check_run_args,
     console,
     ensemble_or_exit,
@@ -54,12 +58,20 @@ def reproduce(
     out: Annotated[str, typer.Option(help="Markdown report to write.")] = "report.md",
     audit: Annotated[bool, typer.Option(help="Audit each tuned gait (dt/2, dt/4) and print the audit beside its speed.")] = True,
     ledger: Annotated[str | None, typer.Option(help="JSON-lines file of finished rows: a row it holds is reused, a new one appended.")] = None,
+    backend: BackendOpt = "local",
+    address: AddressOpt = None,
+    workers: WorkersOpt = None,
+    pieces: Annotated[int | None, typer.Option(min=1, help=(
+        "Rows (creature x seed) made side by side (default: 1 with --backend local, every row with ray).")
+    )] = None,
     db: DbOpt = "sanlab.db",
 ) -> None:
     """Reproduce the paper's Table 1 (phase 1 + simulated annealing per creature) as a Markdown report.
 
     Resumable: the same command again on the same --db reuses every finished search, tuning run and audit, and continues an interrupted one where it stopped.
-    With --ledger, finished rows are kept in a small file that travels without the library (a table made in pieces)."""
+    With --ledger, finished rows are kept in a small file that travels without the library (a table made in pieces).
+    With --backend ray every evaluation runs on a Ray cluster's workers, the rows side by side (docs/ray.md);
+    the library and the ledger stay here, and the rows are the same."""
     from sanlab.reproduce import chains, parse_seeds
     from sanlab.reproduce import reproduce as run
 
@@ -94,30 +106,33 @@ def reproduce(
             raise fail(f"--ledger: {safe(str(e))}") from None
         if not os.path.isdir(os.path.dirname(os.path.abspath(ledger))):
             raise fail(f"--ledger {safe(ledger)}: directory {safe(os.path.dirname(os.path.abspath(ledger)))} does not exist")
+    engine = backend_or_exit(backend, address, workers)
     lib = open_library(db, create=True)
     shown = console.is_terminal
     bar = ProgressBar(shown)
     steps: dict[str, ProgressLines] = {}  # a log gets tune's lines, one series per step of a row
 
     def progress(stage: str, p) -> None:
-        if isinstance(p, str):  # an audit's step: a rung can take a minute
+        if isinstance(p, str):  # an audit's step (a rung can take a minute), or the rows done
             if shown:
                 bar.progress.console.print(f"[dim]{safe(stage)}: {safe(p)}[/dim]", soft_wrap=True, highlight=False)
             else:
                 warn(f"reproduce: {stage}: {p}")
             return
-        bar.update(safe(stage), p.evaluated, p.total, p.rate, p.best, key=stage)
+        alive = "" if p.workers is None else f" ({p.workers} workers)"
+        bar.update(safe(stage) + alive, p.evaluated, p.total, p.rate, p.best, key=stage)
         if stage not in steps:
             steps[stage] = ProgressLines(not shown, f"reproduce: {stage}",
-                                         "controllers" if stage.endswith("search") else "trials")
-        steps[stage].update(p.evaluated, p.total, p.rate, p.best)
+                                         "controllers" if stage.endswith(("search", "ceiling")) else "trials")
+        steps[stage].update(p.evaluated, p.total, p.rate, p.best, workers=p.workers)
 
     try:
         with bar:
             report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                               log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
                                               ledger=book, command=_command_line(), progress=progress,
-                                              strategy=strategy, ceiling=ceiling))
+                                              strategy=strategy, ceiling=ceiling, backend=engine,
+                                              pieces=pieces or (len(names) * len(seed_list) if backend == "ray" else 1)))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)
         raise typer.Exit(130) from None

@@ -152,8 +152,9 @@ def search(
             label += f" (coverage {p.stats['coverage']:.0%}, QD {p.stats['qd_score']:.3g})"
         if p.evaluated == 0:  # a creature's first run compiles here, for up to a minute: say so
             label += ": first batch (compiled first, on a creature's first run)"
-        bar.update(label, p.evaluated, p.total, p.rate, p.best)
-        lines.update(p.evaluated, p.total, p.rate, p.best)
+        bar.update(label + ("" if p.workers is None else f" ({p.workers} workers)"), p.evaluated, p.total, p.rate,
+                   p.best)
+        lines.update(p.evaluated, p.total, p.rate, p.best, workers=p.workers)
 
     try:
         with bar:

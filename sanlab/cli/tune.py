@@ -121,8 +121,8 @@ def tune(
     def report(p) -> None:
         nonlocal run_ids
         run_ids = p.run_ids  # known from the first report on, so Ctrl-C names these runs
-        bar.update("tune", p.trials, p.total, p.rate, p.best)
-        lines.update(p.trials, p.total, p.rate, p.best)
+        bar.update("tune" + ("" if p.workers is None else f" ({p.workers} workers)"), p.trials, p.total, p.rate, p.best)
+        lines.update(p.trials, p.total, p.rate, p.best, workers=p.workers)
         left = lines.left(p.trials, p.total)
         if not said[0] and left is not None:
             said[0] = True
@@ -135,6 +135,8 @@ def tune(
                     bar.progress.console.print(line, soft_wrap=True, highlight=False)
                 else:
                     typer.echo(line, err=True)
+
+    from sanlab.evaluate.ray_backend import WorkerError
 
     try:
         with bar:
@@ -149,6 +151,8 @@ def tune(
         raise fail(f"tune: {e}") from None
     except LibraryError as e:
         raise fail(str(e)) from None
+    except WorkerError as e:  # an evaluation raised on a Ray worker: its one line
+        raise fail(f"tune: {e}", 1) from None
     def stored_dx(gait_id: str):
         dx = (library_call(lib.gait, gait_id).extra or {}).get("dx_m")
         return dx if isinstance(dx, (int, float)) and not isinstance(dx, bool) else None

@@ -42,6 +42,11 @@ class Backend(Protocol):
         """Wait for a submitted request to finish: (its ticket, its scores), in any order."""
         ...
 
+    def map(self, jobs: list[tuple[Evaluator, Request]], /) -> list[ScoreBatch]:
+        """Independent (evaluator, request) pairs evaluated (side by side where it can), their
+        scores in the order of ``jobs``; needs no :meth:`start`."""
+        ...
+
     def describe(self) -> str:
         """What the evaluations run on (stored as the run's device), e.g. "2 x cpu (cpu)"."""
         ...
@@ -75,11 +80,23 @@ class Local:
         ticket, request = self._queue.pop(0)
         return ticket, self._evaluator.evaluate(request)
 
+    def map(self, jobs: list[tuple[Evaluator, Request]]) -> list[ScoreBatch]:
+        return [ev.evaluate(r) for ev, r in jobs]
+
+    def twin(self) -> Local:
+        """Another local backend, for another thread."""
+        return Local()
+
     def describe(self) -> str:
         return describe_devices()
 
     def close(self) -> None:
         self._queue.clear()
+
+
+def evaluate_all(backend: Backend | None, jobs: list[tuple[Evaluator, Request]]) -> list[ScoreBatch]:
+    """``backend.map(jobs)``, or each evaluated here in turn where ``backend`` is None."""
+    return [ev.evaluate(r) for ev, r in jobs] if backend is None else backend.map(jobs)
 
 
 def make_backend(name: str = "local", *, address: str | None = None, workers: int | None = None) -> Backend:

@@ -92,7 +92,8 @@ def measure(lib: Library, creature_text: str, source: str, *, evaluations: int =
     """Search patterns on the creature (``evaluations`` of them; or go on with the pattern run
     ``resume``), then audit its best (up to :data:`AUDITED`, storing each audit) until one is
     robust; returns (the run id, the creature's ceiling from :func:`find`, which may be an earlier
-    run's when that one is faster). A pattern search of the same file, budget and seed already in
+    run's when that one is faster). ``backend``: where the search and the audits evaluate
+    (default: this machine). A pattern search of the same file, budget and seed already in
     ``lib`` is taken as it is, or continued where it was interrupted (``sanlab reproduce
     --ceiling`` resumes so)."""
     from sanlab.audit import audit_and_store
@@ -117,7 +118,7 @@ def measure(lib: Library, creature_text: str, source: str, *, evaluations: int =
         if e.nonfinite or e.fell:
             break
         if e.idx not in audits:
-            audit_and_store(lib, e.gait_id, log=log)
+            audit_and_store(lib, e.gait_id, log=log, backend=backend)
         a = lib.audits(run_id)[e.idx]
         if a.verdict == "robust" and not _fell(a):
             break

@@ -37,6 +37,7 @@ class Progress:
     done: bool = False
     run_ids: tuple[str, ...] = ()  # every run being written
     stats: dict | None = None  # what the strategy says of itself (map-elites: coverage, qd_score, elites)
+    workers: int | None = None  # workers alive on the backend (a Ray cluster's); None: this machine
 
     @property
     def trials(self) -> int:
@@ -78,7 +79,10 @@ def run(strategy: Strategy, evaluator: Evaluator, library: Library, reporter: Re
         rate = evaluated / max(time.perf_counter() - t0, 1e-9)
         stats = getattr(strategy, "stats", None)
         said = stats() if callable(stats) else None
-        return Progress(run_ids[0], units, total, best, rate, done, run_ids, said if isinstance(said, dict) else None)
+        alive = getattr(backend, "alive", None)  # a cluster's backend says how many of its workers are up
+        workers = alive() if callable(alive) else None
+        return Progress(run_ids[0], units, total, best, rate, done, run_ids, said if isinstance(said, dict) else None,
+                        workers if isinstance(workers, int) else None)
 
     pending: dict[int, list[Candidate]] = {}
     try:
