@@ -8,6 +8,8 @@ import sys
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent  # the checkout (PYTHONPATH for subprocesses)
 DATA = Path(__file__).resolve().parent / "data"  # creature files made for the tests
 SANLAB = [sys.executable, "-m", "sanlab"]  # the command line, in a fresh process
@@ -101,3 +103,18 @@ def rows_in(db, table: str = "evaluations") -> int:
             return c.execute(f"select count(*) from {table}").fetchone()[0]
     except sqlite3.Error:
         return 0
+
+
+def same_on_one_and_two_threads(code: str, tmp_path: Path) -> None:
+    """Run ``code`` (it saves one array to the path in ``sys.argv[1]``) in a fresh process on 1
+    and on 2 OpenMP threads, from the checkout, and assert the two arrays are equal bit for bit."""
+    import os
+    import subprocess
+
+    outs = []
+    for threads in ("1", "2"):
+        path = tmp_path / f"q{threads}.npy"
+        env = dict(os.environ, OMP_NUM_THREADS=threads)
+        subprocess.run([sys.executable, "-c", code, str(path)], check=True, env=env, cwd=ROOT)
+        outs.append(np.load(path))
+    assert np.array_equal(outs[0], outs[1])

@@ -10,10 +10,7 @@ median score of the same 200 random SANs lies inside float64's 95 % bootstrap in
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -22,8 +19,9 @@ from sanlab import creature, descriptors, sim
 from sanlab.metrics import Metric
 from sanlab.random_sans import random_san_params, simulate_random
 from sanlab.sim import kernel
+from tests.helpers import same_on_one_and_two_threads
 from tests.sim.test_gpu import needs_nvrtc
-from tests.sim.test_kernel import HORIZONTAL, ROOT, VERTICAL, observe_of
+from tests.sim.test_kernel import HORIZONTAL, VERTICAL, observe_of
 
 
 def _run(name: str, dtype: str, B: int, steps: int, seed: int = 3, order=None, scalar: bool = False, **kw) -> dict:
@@ -103,13 +101,7 @@ import numpy as np
 from tests.sim.test_float32 import _run
 np.save(sys.argv[1], _run("bounder", "float32", 40, 200)["q"])
 """
-    outs = []
-    for threads in ("1", "2"):
-        path = tmp_path / f"q{threads}.npy"
-        env = dict(os.environ, OMP_NUM_THREADS=threads)
-        subprocess.run([sys.executable, "-c", code, str(path)], check=True, env=env, cwd=ROOT)
-        outs.append(np.load(path))
-    assert np.array_equal(outs[0], outs[1])
+    same_on_one_and_two_threads(code, tmp_path)
 
 
 @pytest.mark.parametrize("name", ["bounder", "crawler", "fish"])

@@ -11,7 +11,6 @@ as the SIMD tiles.
 from __future__ import annotations
 
 import dataclasses
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +22,7 @@ from sanlab import creature, sim
 from sanlab.creature.spec import Terrain
 from sanlab.random_sans import random_san_params
 from sanlab.sim import kernel
+from tests.helpers import same_on_one_and_two_threads
 
 VERTICAL = ("cart", "bounder", "twolink", "threelink", "fourlink", "star", "luxo", "walker")
 HORIZONTAL = ("fish", "crawler")  # water, point masses, linear springs, eyes, anisotropic friction
@@ -103,13 +103,7 @@ m = sim.compile_creature(spec, dtype="float64")
 san, sp = random_san_params(spec, 40, 5, dtype="float64")
 np.save(__import__("sys").argv[1], run_kernel(m, san, sp, sim.make_state(m), 200)["q"])
 """
-    outs = []
-    for threads in ("1", "2"):
-        path = tmp_path / f"q{threads}.npy"
-        env = dict(os.environ, OMP_NUM_THREADS=threads)
-        subprocess.run([sys.executable, "-c", code, str(path)], check=True, env=env, cwd=ROOT)
-        outs.append(np.load(path))
-    assert np.array_equal(outs[0], outs[1])
+    same_on_one_and_two_threads(code, tmp_path)
 
 
 def test_rows_that_carry_their_own_numbers_step_as_each_would_alone():
