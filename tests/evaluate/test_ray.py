@@ -21,11 +21,11 @@ from tests.helpers import SANLAB
 N, SECONDS, BATCH = 48, 0.5, 8  # six batches of the cart, an ensemble of two
 
 
-def search(db, backend=None, reporter=None):
+def search(db, backend=None, reporter=None, strategy="random"):
     text, where = read_source("cart")
     with Library(str(db)) as lib:
         run_id = run_search(lib, text, where, controllers=N, seconds=SECONDS, seed=5, batch=BATCH, ensemble=2,
-                            backend=backend, reporter=reporter)
+                            backend=backend, reporter=reporter, strategy=strategy)
         rows = sorted((e.idx, e.encoding, e.score, e.speed_cm_s, e.fell, e.nonfinite, str(e.extra))
                       for e in lib.top(run_id, None))
         return run_id, rows, lib.get_run(run_id)
@@ -41,6 +41,20 @@ def test_ray_gives_bit_identical_results_to_local(cluster, local, tmp_path):
     _, rows, run = search(tmp_path / "g.db", make_backend("ray", workers=2))
     assert rows == local and len(rows) == N  # every score, speed and ensemble spread, bit for bit
     assert run.status == "done" and (run.device or "").startswith("ray")
+
+
+@pytest.mark.slow
+def test_the_rhythm_search_on_ray_stores_the_local_clocks(cluster, tmp_path):
+    """Its evaluator carries the creature's parameter space to the workers: every clock's weights,
+    delays and ranges, and its score, as a local run stores them."""
+    a, here, _ = search(tmp_path / "l.db", strategy="rhythm")
+    b, rows, run = search(tmp_path / "r.db", make_backend("ray", workers=2), strategy="rhythm")
+    assert rows == here and len(rows) == N and run.params["strategy"] == "rhythm"
+    params = []
+    for db, run_id in ((tmp_path / "l.db", a), (tmp_path / "r.db", b)):
+        with Library(str(db)) as lib:
+            params.append(sorted((e.idx, json.dumps(e.params, sort_keys=True)) for e in lib.top(run_id, None)))
+    assert params[0] == params[1] and any('"k1"' in p for _, p in params[0])  # the clocks' own delays
 
 
 @pytest.mark.slow
