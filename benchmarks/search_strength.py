@@ -10,6 +10,8 @@ group's median: every score's objective):
 - ``catcma+sa``: CatCMAwM for half, annealing of its best for the other half;
 - ``rhythm``: SANs built as clocks, CMA-ES over their rhythm (``search --strategy rhythm``);
 - ``rhythm+sa``: the rhythm search for half, annealing of its best for the other half;
+- ``reflex``: ``search --strategy reflex`` for the whole budget (the rhythm search, its last
+  quarter on reflexes);
 - ``pattern``: CMA-ES over open-loop square waves (``search --strategy pattern``): the ceiling.
 
 Each strategy's anytime curve is its best search-time score after each tenth of the budget, and
@@ -50,7 +52,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 SPEED_CREATURES = ("bounder", "walker", "luxo", "fourlink", "threelink", "cart", "twolink", "star", "fish")
-STRATEGIES = ("random+sa", "catcma", "catcma+sa", "rhythm", "rhythm+sa", "pattern")
+STRATEGIES = ("random+sa", "catcma", "catcma+sa", "rhythm", "rhythm+sa", "reflex", "pattern")
 
 
 def heldout(lib, gait_id: str, n: int, terrain: str = "flat") -> dict:
@@ -104,9 +106,10 @@ def one(creature: str, strategy: str, seed: int, budget: int, n_heldout: int) ->
         c0, t0 = time.process_time(), time.perf_counter()
         runs = []
         first = {"random+sa": ("random", budget // 6), "catcma": ("catcma", budget), "catcma+sa": ("catcma", budget // 2),
-                 "rhythm": ("rhythm", budget), "rhythm+sa": ("rhythm", budget // 2), "pattern": ("pattern", budget)}[strategy]
+                 "rhythm": ("rhythm", budget), "rhythm+sa": ("rhythm", budget // 2), "reflex": ("reflex", budget),
+                 "pattern": ("pattern", budget)}[strategy]
         run_id = run_search(lib, text, where, controllers=first[1], seed=seed, strategy=first[0],
-                            batch=32 if first[0] in ("pattern", "rhythm") else 256)
+                            batch=32 if first[0] in ("pattern", "rhythm", "reflex") else 256)
         runs.append(run_id)
         gait = lib.top(run_id, 1)[0].gait_id
         if strategy.endswith("+sa"):

@@ -61,7 +61,7 @@ class DesignSettings:
     """What a design run does: ``designs`` bodies in all (the reference not counted),
     ``generation`` per round of the ``strategy``; per body ``controllers`` random SANs, ``top``
     chains of ``trials`` trials, scored over ``seconds`` (None: the file's) with an ensemble of
-    ``ensemble`` members (``search``: phase 1's strategy, "random", "catcma" or "rhythm", see
+    ``ensemble`` members (``search``: phase 1's strategy, "random", "catcma", "rhythm" or "reflex", see
     ``sanlab.search.catcma`` and ``sanlab.search.rhythm``); ``validate`` best bodies scored again on ``seeds``. ``prune``: a body of
     the search whose phase-1 best speed is below this fraction of the reference's skips phase 2
     and scores 0 (0: none is pruned); the validation never prunes."""
@@ -78,7 +78,7 @@ class DesignSettings:
     validate: int = 2
     seeds: tuple[int, ...] = (1,)
     prune: float = 0.0
-    search: str = "random"  # each body's phase 1: "random" (§5.2), or "catcma" or "rhythm" (``controllers`` evaluations of it)
+    search: str = "random"  # each body's phase 1: "random" (§5.2), or "catcma", "rhythm" or "reflex" (``controllers`` evaluations of it)
 
 
 @dataclass

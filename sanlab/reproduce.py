@@ -196,7 +196,7 @@ def _search(lib: Library, text: str, where: str, seconds: float, seed: int, cont
     from sanlab.search import run_search
     from sanlab.search.pattern import POPSIZE
 
-    batch = POPSIZE if strategy == "rhythm" else SEARCH_BATCH  # the rhythm search's batch is its generation
+    batch = POPSIZE if strategy in ("rhythm", "reflex") else SEARCH_BATCH  # the rhythm search's batch is its generation
 
     def wanted(run: Run) -> bool:
         s = run.settings
@@ -559,8 +559,8 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     ValueError for a ``top`` :func:`chains` refuses or a malformed ledger; KeyboardInterrupt
     leaves every stored evaluation in the library and every finished row in the ledger.
     ``command``: the command line that made the report, named at its top. ``strategy``: phase
-    1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM; ``rhythm``:
-    of the rhythm search, ``sanlab.search.rhythm``). ``ceiling``
+    1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM; ``rhythm``
+    and ``reflex``: of the rhythm search, ``sanlab.search.rhythm``). ``ceiling``
     > 0: each row also measures its creature's pattern ceiling with that many patterns
     (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed.
     ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the

@@ -59,7 +59,8 @@ def design(
     controllers: Annotated[int, typer.Option(min=1, help="Each body's phase 1: random SANs, or --search's evaluations.")] = 200,
     search: Annotated[str, typer.Option(help=(
         "Each body's phase 1: random (§5.2), catcma (random SANs, then CatCMAwM from the best) or rhythm "
-        "(random SANs, then SANs built as clocks, CMA-ES over their rhythm)."))] = "random",
+        "(random SANs, then SANs built as clocks, CMA-ES over their rhythm) or reflex (rhythm, then reflexes on "
+        "its best)."))] = "random",
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials of each chain of each body's phase 2.")] = 100,
     top: Annotated[int, typer.Option(min=1, help="Chains per body: its best phase-1 SANs tuned.")] = 2,
     seconds: Annotated[float | None, typer.Option(min=0.01, help="Evaluation time (s); default: the file's.")] = None,
@@ -129,8 +130,8 @@ def design(
 
     engine = backend_or_exit(backend, address, workers)
 
-    if search not in ("random", "catcma", "rhythm"):
-        raise fail(f"design: --search: expected random, catcma or rhythm, got {safe(search)}")
+    if search not in ("random", "catcma", "rhythm", "reflex"):
+        raise fail(f"design: --search: expected random, catcma, rhythm or reflex, got {safe(search)}")
     settings = DesignSettings(designs, generation, strategy, controllers, trials, top, seconds, ensemble, seed,
                               validate, valid_seeds, prune, search)
     from sanlab.design import reference_name

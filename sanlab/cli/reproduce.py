@@ -48,8 +48,8 @@ def reproduce(
     seeds: Annotated[str | None, typer.Option(help="Several seeds (0-4, 0,2,7): the report opens with the median, min and max over them.")] = None,
     controllers: Annotated[int, typer.Option(min=1, help="Phase-1 evaluations per creature: random SANs (the paper: 200), or --strategy's.")] = 200,
     strategy: Annotated[str, typer.Option(help=(
-        "Phase 1: random (the paper's §5.2), catcma (CatCMAwM over the weights) or rhythm (SANs built as "
-        "clocks, CMA-ES over their rhythm)."))] = "random",
+        "Phase 1: random (the paper's §5.2), catcma (CatCMAwM over the weights), rhythm (SANs built as "
+        "clocks, CMA-ES over their rhythm) or reflex (rhythm, then reflexes on its best)."))] = "random",
     ceiling: Annotated[int, typer.Option(min=0, help="Also measure each creature's pattern ceiling with this many patterns (sanlab ceiling; 0: not).")] = 0,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials per creature (the paper: 1000).")] = 1000,
     top: Annotated[int | None, typer.Option(min=1, help="Spread the trials over the K best phase-1 gaits (trials/K each; §5.3; default 4).")] = None,
@@ -76,8 +76,8 @@ def reproduce(
     from sanlab.reproduce import reproduce as run
 
     ens = ensemble_or_exit(ensemble, dt_factors)
-    if strategy not in ("random", "catcma", "rhythm"):
-        raise fail(f"--strategy: expected random, catcma or rhythm, got {safe(strategy)}")
+    if strategy not in ("random", "catcma", "rhythm", "reflex"):
+        raise fail(f"--strategy: expected random, catcma, rhythm or reflex, got {safe(strategy)}")
     if seeds is not None and seed != 0:
         raise fail("give --seed or --seeds, not both")
     try:

@@ -68,7 +68,8 @@ def search(
     strategy: Annotated[str, typer.Option(help=(
         "random (§5.2: random SANs; many modes), catcma (the fastest SAN: a sixth random, then CatCMAwM over the "
         "weights from the best; give -n in the thousands), rhythm (the fastest SAN where the body wants a rhythm: a "
-        "sixth random, then SANs built as clocks, CMA-ES over their rhythm; -n in the thousands), map-elites (a repertoire: the best gait in each cell of "
+        "sixth random, then SANs built as clocks, CMA-ES over their rhythm; -n in the thousands), reflex (rhythm, "
+        "its last quarter on reflexes: the sensors' weights to the actuators of the best SAN), map-elites (a repertoire: the best gait in each cell of "
         "--grid; needs pip install 'sanlab[qd]') or pattern (open-loop square waves, no SAN: the ceiling's search; "
         "see sanlab ceiling)."))] = "random",
     grid: Annotated[str | None, typer.Option(help=(
@@ -98,7 +99,9 @@ def search(
     then a mixed-integer CMA-ES (CatCMAwM) over the weights from the best of them. With --strategy
     rhythm, the first sixth random, then SANs whose hidden nodes make a clock (each actuator
     switched on a rhythm of period, phases and duties), CMA-ES over that rhythm; its gaits carry
-    their own node delays and ranges, and tune as any. With --strategy map-elites, they are spent on a repertoire: the first tenth random, then mutants of the
+    their own node delays and ranges, and tune as any; --strategy reflex spends the last quarter
+    on reflexes, CatCMAwM over the weights from the sensors to the actuator nodes of the best SAN,
+    its clock untouched. With --strategy map-elites, they are spent on a repertoire: the first tenth random, then mutants of the
     archive's elites, keeping the best gait of each cell of --grid. With --strategy pattern, on
     open-loop square waves (pattern gaits, no SAN; `sanlab ceiling` makes the creature's ceiling of them)."""
     check_dtype(dtype)
@@ -122,7 +125,7 @@ def search(
     if strategy == "map-elites" and resume is None:
         _ribs_or_exit()
     if batch is None:
-        batch = DEFAULT_GENERATION if strategy == "map-elites" else POPSIZE if strategy in ("pattern", "rhythm") else 256
+        batch = DEFAULT_GENERATION if strategy == "map-elites" else POPSIZE if strategy in ("pattern", "rhythm", "reflex") else 256
     text = where = ""
     archive = None
     if creature is not None:

@@ -111,9 +111,13 @@ class Generational:
             i = max(sorted(self.warm_scores), key=lambda j: self.warm_scores[j])  # the first of the best
             self.elite = (self.warm_scores[i], i, self.warm(i))
 
+    def restart_of(self, g: int) -> int:
+        """The restart that generation ``g`` belongs to: a new one starts a fresh optimiser."""
+        return g // self.generations if self.generations else 0
+
     def _new_generation(self) -> None:
         g = (self._next - self._n_warm) // self.popsize
-        restart = g // self.generations if self.generations else 0
+        restart = self.restart_of(g)
         if restart != self._restart:
             self._restart, self._again = restart, 0
             self._opt = self.optimiser(self._seed(restart, 0))

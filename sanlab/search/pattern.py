@@ -25,6 +25,8 @@ resumes by replaying its stored generations and ends exactly as an uninterrupted
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from sanlab.evaluate.ensemble import search_key
@@ -71,7 +73,7 @@ class PatternSearch(Generational):
         self.popsize = max(4, int(problem.generation))
         self._zero = np.zeros((problem.san.n_nodes, problem.san.n_inputs), np.int8)
 
-    def optimiser(self, seed: int):
+    def optimiser(self, seed: int) -> Any:
         from cmaes import CMA
 
         rng = np.random.default_rng(seed)

@@ -18,7 +18,7 @@ from sanlab.search.catcma import CatCma
 from sanlab.search.map_elites import MapElites
 from sanlab.search.pattern import PatternSearch
 from sanlab.search.random_search import RandomSearch
-from sanlab.search.rhythm import RhythmSearch
+from sanlab.search.rhythm import ReflexSearch, RhythmSearch
 from sanlab.search.sga import SGA
 
 STRATEGIES: dict[str, StrategyClass] = {
@@ -26,6 +26,7 @@ STRATEGIES: dict[str, StrategyClass] = {
     "catcma": CatCma,  # phase 1: mixed-integer CMA-ES over the weights
     "map-elites": MapElites,  # phase 1: a repertoire over two behaviour descriptors
     "rhythm": RhythmSearch,  # phase 1: SANs built as clocks, CMA-ES over their rhythm
+    "reflex": ReflexSearch,  # phase 1: the rhythm search, then reflexes (sensors to actuators) on its best
     "pattern": PatternSearch,  # phase 1: open-loop patterns by CMA-ES, the pattern ceiling (no SAN)
     "sga": SGA,  # phase 2: stochastic gradient ascent (Figure 9)
     "sa": Anneal,  # phase 2: simulated annealing

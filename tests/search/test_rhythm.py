@@ -16,7 +16,7 @@ from sanlab.evaluate.evaluator import Evaluator
 from sanlab.library import Library
 from sanlab.search.base import Problem
 from sanlab.search.pattern import decode
-from sanlab.search.rhythm import RhythmSearch, bias_sensor, clock
+from sanlab.search.rhythm import ReflexSearch, RhythmSearch, bias_sensor, clock
 from sanlab.search.space import Space
 
 
@@ -182,3 +182,39 @@ def test_a_rhythm_gait_replays_and_audits_at_its_stored_score(tmp_path):
         assert float(again.score[0]) == best.score  # bit for bit: delays, ranges and all
         a = audit(lib, best.gait_id, members=4, max_members=4)
         assert a.nominal_cm_s == pytest.approx(best.speed_cm_s, abs=1e-9)  # re-scored as stored
+
+
+def test_reflexes_move_only_the_sensors_weights_to_the_actuators_of_the_best_clock(tmp_path):
+    spec = creature.load("cart")
+    space = Space(spec)
+    H, S = space.san.n_hidden, space.san.n_sensors
+    bias = bias_sensor(space)
+    target = next(s for s in range(S) if s != bias)  # the toy's best reflex: this sensor, +2, to the actuator
+
+    def score(c) -> float:
+        if c.idx < 48:  # the warm-up's random SANs: below any clock
+            return -10.0
+        return 1.0 + 0.5 * float(c.weights[H, target]) - 0.1 * float(np.count_nonzero(c.weights[H, :S]))
+
+    with Library(str(tmp_path / "a.db")) as lib:
+        run_id = lib.create_run("search", "cart", "text", {}, seed=0, total=1, sanlab_version=__version__).run_id
+        s = ReflexSearch(Problem(run_id, space.san, 288, seed=2, space=space, generation=12))
+        assert s.warmup == 48 and s.reflex_from == 15  # 180 clocks (15 generations), then 60 reflexes
+        cands = []
+        while not s.done:
+            asked = s.ask(64)
+            cands += asked
+            b = np.asarray([score(c) for c in asked])
+            no = np.zeros(len(b), bool)
+            t = s.tell(asked, ScoreBatch(b, b, b, no, no, b[:, None], b[:, None]))
+            lib.commit(t.evaluations, t.trace, t.finished)
+        clocks = [c for c in cands if 48 <= c.idx < 48 + 180]
+        reflexes = [c for c in cands if c.idx >= 48 + 180]
+        assert len(reflexes) == 60 and max(score(c) for c in reflexes) > max(score(c) for c in clocks)
+        assert max(int(c.weights[H, target]) for c in reflexes) == 2  # the best reflex found
+        for c in reflexes:  # the clock's nodes, its delays and ranges, and the bias untouched
+            base = next(k for k in clocks if np.array_equal(k.weights[:H], c.weights[:H]))
+            assert np.array_equal(c.theta, base.theta) and c.weights[H, bias] == base.weights[H, bias]
+            assert np.array_equal(c.weights[H:, S:], base.weights[H:, S:])
+    plain = RhythmSearch(Problem("r", space.san, 288, seed=2, space=space, generation=12))
+    assert plain.reflex_from > (288 - 48) // 12  # the rhythm search alone has none

@@ -90,7 +90,7 @@ def stored(lib: Library, run_id: str):
 
 
 def test_the_registry_has_both_phases():
-    assert names(1) == ["random", "catcma", "map-elites", "rhythm", "pattern"] and set(names(2)) == {"sga", "sa"}
+    assert names(1) == ["random", "catcma", "map-elites", "rhythm", "reflex", "pattern"] and set(names(2)) == {"sga", "sa"}
     with pytest.raises(ValueError, match="expected one of"):
         make("newton", problem("random", "x"))
 
