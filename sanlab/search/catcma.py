@@ -37,6 +37,18 @@ WARMUP = 1 / 6  # of the budget on random SANs first: the paper's proportions (2
 SPREAD = 0.8  # a weight's standard deviation about the elite a restart starts from (the alphabet's step is 1)
 
 
+def around(weights, spread: float, population_size: int, seed: int):
+    """CatCMAwM over the weights' alphabet {-2, ..., 2}, started from ``weights`` (any shape),
+    each with a standard deviation of ``spread`` (a weight at the alphabet's edge sits a little
+    inside it: the package needs room on both sides)."""
+    from cmaes import CatCMAwM
+
+    mean = np.clip(np.asarray(weights, float).reshape(-1), WEIGHT_MIN + 0.5, WEIGHT_MAX - 0.5)
+    n = mean.size
+    return CatCMAwM(z_space=[list(range(WEIGHT_MIN, WEIGHT_MAX + 1))] * n, population_size=population_size,
+                    seed=seed, mean=mean, cov=np.eye(n) * spread**2, sigma=1.0)
+
+
 def population(n_weights: int) -> int:
     """CatCMAwM's default population for ``n_weights`` integer variables: 4 + floor(3 ln n)."""
     return 4 + int(3 * np.log(n_weights))
@@ -65,11 +77,7 @@ class CatCma(Generational):
         alphabet = list(range(WEIGHT_MIN, WEIGHT_MAX + 1))
         if self.elite is None:  # no warm-up: the alphabet's centre, the package's own spread
             return CatCMAwM(z_space=[alphabet] * n, population_size=self.popsize, seed=seed)
-        # from the best SAN so far, each weight's spread a standard deviation of SPREAD (an
-        # elite at the alphabet's edge sits a little inside it: the package needs room on both sides)
-        mean = np.clip(self.elite[2].weights.reshape(-1).astype(float), WEIGHT_MIN + 0.5, WEIGHT_MAX - 0.5)
-        return CatCMAwM(z_space=[alphabet] * n, population_size=self.popsize, seed=seed, mean=mean,
-                        cov=np.eye(n) * SPREAD**2, sigma=1.0)
+        return around(self.elite[2].weights, SPREAD, self.popsize, seed)  # from the best SAN so far
 
     def candidate(self, idx: int, point) -> Candidate:
         w = np.rint(np.asarray(point.z)).astype(np.int8).reshape(self.shape)

@@ -314,16 +314,11 @@ class RhythmSearch(PatternSearch):
     def optimiser(self, seed: int) -> Any:
         if (self._next - self._n_warm) // self.popsize < self.reflex_from or not self._sensors or self.elite is None:
             return super().optimiser(seed)
-        from cmaes import CatCMAwM
-
-        from sanlab.san import WEIGHT_MAX, WEIGHT_MIN
+        from sanlab.search.catcma import around
 
         self._base = self.elite[2]
         H = self.problem.san.n_hidden
-        mean = np.clip(self._base.weights[H:, self._sensors].reshape(-1).astype(float), WEIGHT_MIN + 0.5, WEIGHT_MAX - 0.5)
-        n = mean.size
-        return CatCMAwM(z_space=[list(range(WEIGHT_MIN, WEIGHT_MAX + 1))] * n, population_size=self.popsize, seed=seed,
-                        mean=mean, cov=np.eye(n) * REFLEX_SPREAD**2, sigma=1.0)
+        return around(self._base.weights[H:, self._sensors], REFLEX_SPREAD, self.popsize, seed)
 
     def warm(self, idx: int) -> Candidate:
         """Random SAN ``idx`` of the run's seed, with the creature file's parameters."""
