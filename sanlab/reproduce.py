@@ -537,7 +537,7 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
               log=print, ensemble: int | Ensemble = 8, audit: bool = True, seeds: list[int] | None = None,
               top: int | None = None, ledger: str | Path | Ledger | None = None, command: str | None = None,
               strategy: str = "random", ceiling: int = 0, progress: Progress | None = None, backend=None,
-              pieces: int = 1) -> str:
+              pieces: int = 1, also: tuple[str, int] | None = None) -> str:
     """Run the paper's budget on each creature for each seed of ``seeds`` (default: ``[seed]``),
     every score over an ensemble (``ensemble``: a number of members, scored as searches score by
     default, ``default_ensemble``, or an :class:`Ensemble`), and audit each tuned gait
@@ -562,7 +562,12 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     1's (``random``, the paper's; ``catcma``: ``controllers`` evaluations of CatCMAwM; ``rhythm``
     and ``reflex``: of the rhythm search, ``sanlab.search.rhythm``). ``ceiling``
     > 0: each row also measures its creature's pattern ceiling with that many patterns
-    (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed.
+    (``sanlab.search.ceiling``, the row's seed) and quotes it beside the robust speed (not for a
+    creature scored by tracking: a pattern ceiling is a speed's). ``also``: a second phase-1
+    budget, (strategy, controllers), made for every creature whose score is a speed (not
+    tracking) with the same phase 2, seeds and ledger; the report then opens with both budgets
+    side by side (:func:`budgets`) and gives each its own tables (issue 56: Table 1 at the
+    paper's budget and at sanlab's).
     ``progress``: called as ``progress(stage, p)`` while a row is made, ``stage`` naming the
     creature, the seed and the step ("walker (seed 0): search"), ``p`` the driver's
     :class:`sanlab.search.driver.Progress` during the search and the tuning and a line of text
@@ -583,31 +588,35 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     book = ledger if isinstance(ledger, Ledger) or ledger is None else Ledger(ledger)
     lib.mark_stale_runs()  # runs of a killed earlier call become "interrupted", so they can continue
     ens = ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble))
-    rows: list[Row] = []
-    keys: dict[str, list[dict]] = {name: [] for name in creatures}
-    texts: dict[str, tuple[str, str]] = {}
+    keys: dict[tuple[int, str], list[dict]] = {}
+    texts = {name: read_source(name) for name in creatures}
+    speeds = {name for name in creatures if loads(*texts[name]).evaluation.metric != "tracking"}
     t_all = time.perf_counter()
-    order = [(sd, name) for sd in seeds for name in creatures]
-    for sd, name in order:
-        texts[name] = read_source(name)
-        keys[name].append(row_key(name, texts[name][0], sd, controllers, trials, ens, top, audit, strategy))
-    turns = _Turns(order)
+    plans = [(strategy, controllers)] + ([(also[0], int(also[1]))] if also is not None else [])
+    # (budget, seed, creature) of each row: the second budget's only where the score is a speed
+    order = [(b, sd, name) for b in range(len(plans)) for sd in seeds for name in creatures if b == 0 or name in speeds]
+    for b, sd, name in order:
+        keys.setdefault((b, name), []).append(
+            row_key(name, texts[name][0], sd, plans[b][1], trials, ens, top, audit, plans[b][0]))
+    turns = _Turns([(sd, name) for _, sd, name in order])
     written = threading.Lock()
 
     def make(k: int, lib: Library, backend) -> Row:
         """Row ``k`` of ``order``, from the ledger or made (and added to it)."""
-        sd, name = order[k]
-        key = keys[name][seeds.index(sd)]
+        b, sd, name = order[k]
+        how, many = plans[b]
+        key = keys[(b, name)][seeds.index(sd)]
+        measure = ceiling if name in speeds else 0
         row = book.get(key) if book is not None else None
         try:
-            if row is not None and ceiling and row.ceiling is None and book is not None:
+            if row is not None and measure and row.ceiling is None and book is not None:
                 # a row made without its ceiling: the ceiling alone is measured, the row kept (a later line wins)
                 with turns.ceiling(k):
-                    row.ceiling = _ceiling(lib, name, sd, ceiling, backend)
+                    row.ceiling = _ceiling(lib, name, sd, measure, backend)
                 with written:
                     book.add(key, row)
             if row is None:
-                row = _creature(lib, name, sd, controllers, trials, ens, audit, top, progress, strategy, ceiling,
+                row = _creature(lib, name, sd, many, trials, ens, audit, top, progress, how, measure,
                                 backend, turns.ceiling(k), pieces > 1)
                 if name == "bounder":
                     shown = row.robust["gait"] if row.robust and row.robust["gait"] else row.tuned_gait
@@ -625,14 +634,20 @@ def reproduce(lib, creatures: list[str], seed: int = 0, controllers: int = 200, 
     made: dict[int, Row] = {}
     for k, row in _side_by_side(make, len(order), lib, backend, pieces):
         made[k] = row
-        sd, name = order[k]
+        b, sd, name = order[k]
         if progress is not None:
             progress("rows", f"{len(made)} of {len(order)} done")
-        log(f"{name} (seed {sd}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
+        at = f", {_plan(*plans[b])}" if also is not None else ""
+        log(f"{name} (seed {sd}{at}): {row.before:.1f} -> {row.after:.1f} cm/s, audit: {_verdict(row.audit)}, "
             f"robust: {_robust(row.robust)} ({row.wall:.0f} s{', from the ledger' if row.ledger else ''})")
-    rows = [made[k] for k in range(len(order))]
-    files = creature_files(book, keys, {name: loads(*texts[name]).history for name in texts})
-    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files, strategy)
+    rows = [made[k] for k in range(len(order)) if order[k][0] == 0]
+    files = creature_files(book, {name: keys[(0, name)] for name in creatures},
+                           {name: loads(*texts[name]).history for name in texts})
+    second = None
+    if also is not None:
+        second = (plans[1][0], plans[1][1], [made[k] for k in range(len(order)) if order[k][0] == 1])
+    return markdown(rows, seeds, controllers, trials, time.perf_counter() - t_all, ens, top, command, files, strategy,
+                    also=second)
 
 
 class _Turns:
@@ -969,14 +984,62 @@ def shortfalls(rows: list[Row], seeds: list[int]) -> list[str]:
     return out
 
 
+def _plan(strategy: str, controllers: int) -> str:
+    """A phase-1 budget in words: "200 random SANs", "3000 SANs of rhythm"."""
+    if strategy == "random":
+        return f"{controllers} random SANs" + (" (the paper's)" if controllers == 200 else "")
+    return f"{controllers} SANs of {strategy}"
+
+
+def budgets(first: tuple[str, int, list[Row]], second: tuple[str, int, list[Row]], seeds: list[int]) -> list[str]:
+    """The two budgets side by side, a row per creature of ``first`` ((strategy, controllers,
+    rows) each): Table 1's speed; at each budget the median over ``seeds`` of the robust tuned
+    speed (a seed without one counts 0) and how many seeds reach Table 1's; the creature's pattern
+    ceiling, the best any of its rows measured (every row's is the best pattern search stored
+    when it was made, so the latest is the best of all of them: "not vouched for" where no audit
+    found it robust), and each budget's median over it (the issue 56 goal: at least 0.8)."""
+    (s1, c1, rows1), (s2, c2, rows2) = first, second
+    lines = [f"| creature | Table 1 speed (cm/s) | {_plan(s1, c1)}: robust, median (cm/s) | seeds at Table 1 "
+             f"| {_plan(s2, c2)}: robust, median (cm/s) | seeds at Table 1 | pattern ceiling (cm/s) "
+             f"| {_plan(s1, c1)} / ceiling | {_plan(s2, c2)} / ceiling |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name, mine in _by_creature(rows1, seeds):
+        theirs = [r for r in rows2 if r.creature == name]
+        paper = mine[0].paper_speed
+        cells, medians = [], []
+        for rs in (mine, theirs):
+            if not rs:
+                cells += ["-", "-"]
+                medians.append(None)
+                continue
+            sp = np.array([r.robust_speed for r in rs])
+            medians.append(float(np.median(sp)))
+            cells += [f"{medians[-1]:.1f}", "-" if paper is None else f"{int((sp >= paper).sum())} of {len(rs)}"]
+        known = [r.ceiling for r in (*mine, *theirs) if r.ceiling and r.ceiling.get("speed_cm_s")]
+        if known:
+            best = max(known, key=lambda c: (c.get("verdict") == "robust" and not c.get("fell"), c["speed_cm_s"]))
+            vouched = best.get("verdict") == "robust" and not best.get("fell")
+            top = float(best["speed_cm_s"])
+            ceil = f"{top:.1f}" + ("" if vouched else " (not vouched for)")
+            fracs = ["-" if m is None else f"{m / top:.2f}" for m in medians]
+        else:
+            ceil, fracs = "-", ["-", "-"]
+        lines.append(f"| {name} | {'U' if paper is None else f'{paper:g}'} | {' | '.join(cells)} | {ceil} "
+                     f"| {' | '.join(fracs)} |")
+    return lines
+
+
 def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: int, total: float,
              ensemble: int | Ensemble = 8, top: int = 1, command: str | None = None,
-             files: list[CreatureFile] | None = None, strategy: str = "random") -> str:
+             files: list[CreatureFile] | None = None, strategy: str = "random",
+             also: tuple[str, int, list[Row]] | None = None) -> str:
     """The report: for several seeds the table over seeds first, then the creature files (``files``,
     :func:`creature_files`: which changed since the ledger's earlier rows, and why; none when
     None), then each seed's table, the tracking (§6) and the bounder's robustness (§6.2)
     sections. ``total``: this call's wall time (s); rows taken from a ledger add the wall times
-    they were made in."""
+    they were made in. ``also``: a second budget's (strategy, controllers, rows): the report
+    opens with :func:`budgets`, and the second budget's table over seeds and its seeds' tables
+    follow the first's."""
 
     from sanlab import __version__
 
@@ -984,6 +1047,7 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
     from sanlab.evaluate.evaluator import describe_devices
 
     which = f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {', '.join(map(str, seeds))}"
+    every = rows + (also[2] if also else [])  # the rows of both budgets
     phase2 = (f"then {trials} simulated-annealing trials on the best" if top == 1 else
               f"then {trials} simulated-annealing trials spread over the best {top} ({trials // top} each, "
               f"as parallel chains; each row quotes the chain with the best robust speed, or for a creature "
@@ -998,22 +1062,34 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
         + " per creature (6 s; 30 s for the fish "
         f"and the crawler), {phase2}; "
         + _scoring(ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)))
-        + (f"{' and '.join(sorted({r.device for r in rows if r.device})) or describe_devices()}; total wall time "
-           f"{total / 60:.1f} min." if not any(r.ledger for r in rows) else
-           f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in rows}))}: their wall times sum "
-           f"to {sum(r.wall for r in rows) / 60:.1f} min (this call {total / 60:.1f} min)."),
+        + (f"{' and '.join(sorted({r.device for r in every if r.device})) or describe_devices()}; total wall time "
+           f"{total / 60:.1f} min." if not any(r.ledger for r in every) else
+           f"rows made in pieces (a ledger) on {' and '.join(sorted({r.device or '?' for r in every}))}: their wall times sum "
+           f"to {sum(r.wall for r in every) / 60:.1f} min (this call {total / 60:.1f} min)."),
         "",
     ]
+    if also:
+        lines += [f"The second budget: {_plan(also[0], also[1])} (`search --strategy {also[0]} -n {also[1]}`) per "
+                  "creature whose score is a speed, then the same phase 2, audits and selection.", ""]
     missing = [n for n in TABLE1 if n not in {r.creature for r in rows}]
     if missing:
         lines += [f"Not in this report: {', '.join(missing)} (Table 1's other creatures).", ""]
-    if len(seeds) > 1:
-        lines += [f"## Over {len(seeds)} seeds", ""] + summary(rows, seeds) + [
+    if also:
+        n = f"{len(seeds)} seeds" if len(seeds) > 1 else f"seed {seeds[0]}"
+        lines += [f"## Two budgets, over {n}", ""] + budgets((strategy, controllers, rows), also, seeds) + [
+            "", "*Robust, median*: the median over seeds of the audited selection's speed (a seed without a robust "
+            "gait counts 0 cm/s). *Pattern ceiling*: the fastest open-loop pattern an audit found robust, the "
+            "best of the creature's pattern searches (`sanlab ceiling`, one per seed); *not vouched for* where "
+            "no audit found one robust. *... / ceiling*: the median over it (the goal: at least 0.8).", ""]
+    parts = [(strategy, controllers, rows)] + ([also] if also else [])
+    for how, many, mine in parts if len(seeds) > 1 else []:
+        title = f"## Over {len(seeds)} seeds" + (f": {_plan(how, many)}" if also else "")
+        lines += [title, ""] + summary(mine, seeds) + [
             "", "*Robust tuned speed*: each seed's audited selection (below); a seed where no rung of the "
             "climb kept its speed counts 0 cm/s. *Audits of the tuned gaits*: the verdicts of the chain bests "
             "(before the selection). *Tracking*: the mean distance to the follow point of the quoted gait over "
             "that of the seed's median random SAN (the goal: below 1/3).", ""]
-        short = shortfalls(rows, seeds)
+        short = shortfalls(mine, seeds)
         lines += ["### Where the goal is not met", ""] + (short or ["Every creature meets it."]) + [
             "", "The goal: the median of the robust tuned speed at least Table 1's; for the creatures that follow a "
             "point, a median tracking ratio below 1/3. What was tried on the creatures that fall short, and the "
@@ -1021,9 +1097,12 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
     if files is not None:
         lines += files_section(files)
     for sd in seeds:
-        if len(seeds) > 1 or files is not None:  # one seed's table gets a heading of its own after the files
+        if len(seeds) > 1 or files is not None or also:  # one seed's table gets a heading of its own after the files
             lines += [f"## Seed {sd}", ""]
-        lines += _table([r for r in rows if r.seed == sd], strategy) + [""]
+        for how, many, mine in parts:
+            if also:
+                lines += [f"### {_plan(how, many)}", ""]
+            lines += _table([r for r in mine if r.seed == sd], how) + [""]
     from sanlab.audit import LEVEL, MAX_MEMBERS, MEMBERS, NUDGES, THRESHOLD
 
     nudges = " and ".join(name for name, _, _ in NUDGES)
@@ -1048,7 +1127,8 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
               "when its pursuit score was at least 10 % of the distance the follow point travelled; by "
               "tracking, when its mean distance to the follow point was at least 10 % below that of the creature "
               "standing still at its start."]
-    tracked = [r for r in rows if r.tracking]
+    budget = {id(r): (f" ({_plan(how, many)})" if also else "") for how, many, mine in parts for r in mine}
+    tracked = [r for r in every if r.tracking]
     if tracked:
         lines += ["", "## Tracking (§6)", "",
                   "| creature | seed | controller | mean distance to the follow point (m) | score |",
@@ -1057,16 +1137,16 @@ def markdown(rows: list[Row], seeds: list[int] | int, controllers: int, trials: 
             for label, v in (r.tracking or {}).items():
                 metric = "tracking" if "tracking" in v else "pursuit"
                 score = f"{v[metric]:.3f} m (pursuit)" if metric == "pursuit" else f"{v[metric]:.3f} (tracking)"
-                lines.append(f"| {r.creature} | {r.seed} | {label} (`{v['gait']}`) | {v['mean_distance_m']:.3f} "
+                lines.append(f"| {r.creature} | {r.seed}{budget[id(r)]} | {label} (`{v['gait']}`) | {v['mean_distance_m']:.3f} "
                              f"| {score} |")
-    robust_rows = [r for r in rows if r.robustness]
+    robust_rows = [r for r in every if r.robustness]
     if robust_rows:
         lines += ["", "## Robustness (§6.2): the tuned flat-ground bounder gait on other ground", "",
                   "| seed | gait | ground | time (s) | distance (m, ensemble median) | fell |", "|---|---|---|---|---|---|"]
         for r in robust_rows:
             sd, gait, res = r.seed, (r.robustness or {})["gait"], (r.robustness or {})["grounds"]
             for name, v in res.items():
-                lines.append(f"| {sd} | `{gait}` | {name} | {v['seconds']:g} | {v['distance_m']:.2f} "
+                lines.append(f"| {sd}{budget[id(r)]} | `{gait}` | {name} | {v['seconds']:g} | {v['distance_m']:.2f} "
                              f"| {'yes' if v['fell'] else 'no'} |")
     return "\n".join(lines) + "\n"
 

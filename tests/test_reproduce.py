@@ -368,3 +368,38 @@ def test_standing_still_tracks_as_the_kernel_scores_a_still_creature():
     still = evaluate(spec, None, seconds=3.0)["score"]
     assert _still_tracking(spec, 3.0) == pytest.approx(still, rel=1e-9)
     assert 0.3 < still < 0.9  # the point drew away from it
+
+
+@pytest.mark.slow  # about 20 s on 2 busy cores: two budgets, a ceiling and the crawler's 30 s rollouts
+def test_a_second_budget_is_made_beside_the_first_and_the_report_opens_with_both(tmp_path):
+    """Issue 56: Table 1 at two budgets. The second budget's rows are made for the creatures scored
+    by a speed only (the crawler tracks a point: no second row, no pattern ceiling), kept in the
+    same ledger under their own keys, and the report opens with both side by side, each budget's
+    median over the creature's best ceiling."""
+    from sanlab.reproduce import reproduce
+
+    ledger = tmp_path / "rows.jsonl"
+    kw = dict(seeds=[0], controllers=4, trials=2, ensemble=1, audit=False, top=1, log=lambda s: None, ledger=ledger,
+              also=("random", 6), ceiling=32)
+    with Library(str(tmp_path / "a.db")) as lib:
+        text = reproduce(lib, ["twolink", "crawler"], **kw)
+        searches = sorted((r.creature, r.params["controllers"]) for r in lib.runs()
+                          if r.kind == "search" and r.params.get("strategy", "random") == "random")
+        patterns = [r.creature for r in lib.runs() if r.kind == "search" and r.params.get("strategy") == "pattern"]
+    assert searches == [("crawler", 4), ("twolink", 4), ("twolink", 6)]
+    assert patterns == ["twolink"]  # one ceiling, measured once for both of twolink's rows
+    lines = ledger.read_text().splitlines()
+    assert len(lines) == 3
+    head = text.split("## Two budgets, over seed 0\n\n")[1].split("\n\n")[0].splitlines()
+    assert "4 random SANs: robust, median" in head[0] and "6 random SANs: robust, median" in head[0]
+    twolink = [c.strip() for c in next(x for x in head if x.startswith("| twolink")).strip("|").split("|")]
+    crawler = [c.strip() for c in next(x for x in head if x.startswith("| crawler")).strip("|").split("|")]
+    assert crawler[1] == "U" and crawler[4:] == ["-", "-", "-", "-", "-"]  # no second row, no ceiling
+    ceiling = float(twolink[6].split()[0])
+    assert ceiling > 0 and twolink[7] == f"{float(twolink[2]) / ceiling:.2f}" and twolink[8] == f"{float(twolink[4]) / ceiling:.2f}"
+    assert "### 4 random SANs" in text and "### 6 random SANs" in text
+    with Library(str(tmp_path / "b.db")) as lib:  # from the ledger alone: nothing run, the same report
+        again = reproduce(lib, ["twolink", "crawler"], **kw)
+        assert lib.runs() == []
+    body = lambda t: t.split("\n", 3)[3]
+    assert body(again) == body(text)

@@ -30,6 +30,8 @@ from sanlab.cli._common import (
 from sanlab.creature import builtin_names
 from sanlab.creature.table1 import TABLE1
 
+STRATEGIES = ("random", "catcma", "rhythm", "reflex")  # phase 1's, as reproduce runs them
+
 
 def _command_line() -> str | None:
     """This call as typed (``sanlab reproduce ...``), for the report to name; None when the
@@ -50,6 +52,9 @@ def reproduce(
     strategy: Annotated[str, typer.Option(help=(
         "Phase 1: random (the paper's §5.2), catcma (CatCMAwM over the weights), rhythm (SANs built as "
         "clocks, CMA-ES over their rhythm) or reflex (rhythm, then reflexes on its best)."))] = "random",
+    also: Annotated[str | None, typer.Option(help=(
+        "A second phase-1 budget, STRATEGY:N (rhythm:3000: sanlab's search at its budget), made for every "
+        "creature scored by a speed; the report opens with both side by side."))] = None,
     ceiling: Annotated[int, typer.Option(min=0, help="Also measure each creature's pattern ceiling with this many patterns (sanlab ceiling; 0: not).")] = 0,
     trials: Annotated[int, typer.Option(min=1, help="Annealing trials per creature (the paper: 1000).")] = 1000,
     top: Annotated[int | None, typer.Option(min=1, help="Spread the trials over the K best phase-1 gaits (trials/K each; §5.3; default 4).")] = None,
@@ -76,8 +81,15 @@ def reproduce(
     from sanlab.reproduce import reproduce as run
 
     ens = ensemble_or_exit(ensemble, dt_factors)
-    if strategy not in ("random", "catcma", "rhythm", "reflex"):
+    if strategy not in STRATEGIES:
         raise fail(f"--strategy: expected random, catcma, rhythm or reflex, got {safe(strategy)}")
+    second = None
+    if also is not None:
+        how, _, many = also.partition(":")
+        if how not in STRATEGIES or not many.isdigit() or int(many) < 1:
+            raise fail(f"--also: expected STRATEGY:N with a strategy of random, catcma, rhythm or reflex and N >= 1 "
+                       f"(rhythm:3000), got {safe(also)}")
+        second = (how, int(many))
     if seeds is not None and seed != 0:
         raise fail("give --seed or --seeds, not both")
     try:
@@ -85,7 +97,7 @@ def reproduce(
     except ValueError as e:
         raise fail(f"--seeds {safe(seeds)}: {str(e).removeprefix('seeds: ')}") from None
     try:
-        top = chains(top, trials, controllers)
+        top = chains(top, trials, min(controllers, second[1]) if second else controllers)
     except ValueError as e:
         raise fail(f"--{e}") from None
 
@@ -93,7 +105,8 @@ def reproduce(
     for n in names:  # every argument checked before the first run is created
         spec = load_or_exit(n)[0]
         for sd in seed_list:
-            check_run_args(spec, controllers=controllers, trials=trials // top, seed=sd, top=top)
+            for many in (controllers, *((second[1],) if second else ())):
+                check_run_args(spec, controllers=many, trials=trials // top, seed=sd, top=top)
     if not os.path.isdir(os.path.dirname(os.path.abspath(out))):
         raise fail(f"--out {out}: directory {os.path.dirname(os.path.abspath(out))} does not exist")
     book = None
@@ -131,7 +144,7 @@ def reproduce(
             report = library_call(lambda: run(lib, names, seeds=seed_list, controllers=controllers, trials=trials,
                                               log=lambda s: console.print(s), ensemble=ens, audit=audit, top=top,
                                               ledger=book, command=_command_line(), progress=progress,
-                                              strategy=strategy, ceiling=ceiling, backend=engine,
+                                              strategy=strategy, ceiling=ceiling, backend=engine, also=second,
                                               pieces=pieces or (len(names) * len(seed_list) if backend == "ray" else 1)))
     except KeyboardInterrupt:
         typer.echo("interrupted; every stored evaluation is kept: run the same command again to continue", err=True)

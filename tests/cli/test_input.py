@@ -408,6 +408,10 @@ def test_the_progress_bar_shows_an_estimate_of_the_time_left():
     (["--seeds", "4-2"], "--seeds 4-2: expected a range"),
     (["--seeds", "0-1", "--seed", "3"], "not both"),
     (["--ledger", "/nonexistent/rows.jsonl"], "--ledger /nonexistent/rows.jsonl: directory /nonexistent does not exist"),
+    (["--also", "rhythm"], "--also: expected STRATEGY:N"),
+    (["--also", "hill:300"], "--also: expected STRATEGY:N"),
+    (["--also", "rhythm:0"], "--also: expected STRATEGY:N"),
+    (["--also", "rhythm:2", "--top", "4"], "--top: expected 1 to 2"),
 ])  # fmt: skip
 def test_reproduce_checks_every_argument_before_a_run(tmp_path, args, words):
     db = tmp_path / "g.db"
