@@ -232,16 +232,16 @@ def _tune(lib: Library, text: str, parents: list[str], seed: int, trials: int, e
 
     found = [_earlier(lib, "tune", text, seed, wanted(i)) for i in range(len(parents))]
     runs = [r for r in found if r is not None]
-    if len(runs) == len(parents):
-        todo = [r.run_id for r in runs if r.status != "done"]
-        if todo:
-            tune(lib, resume=todo, backend=backend, reporter=reporter)
-        return [f"{r.run_id}#0" for r in runs], True
-    # the chains are created together before the first trial, so a partial set is a crash
-    # between two creations: start all of them again (their random streams depend on the chain)
-    res = tune(lib, parents, method="sa", trials=trials, seed=seed, batch=TUNE_BATCH, ensemble=ens, backend=backend,
-               reporter=reporter)
-    return [r.tuned_gait for r in res], False
+    todo = [r.run_id for r in runs if r.status != "done"]
+    if todo:
+        tune(lib, resume=todo, backend=backend, reporter=reporter)
+    missing = [i for i, r in enumerate(found) if r is None]
+    if missing:  # a chain's trials depend on its number alone, so the stored chains stand beside new ones
+        res = tune(lib, [parents[i] for i in missing], method="sa", trials=trials, seed=seed, batch=TUNE_BATCH,
+                   ensemble=ens, backend=backend, reporter=reporter, chains=missing)
+        for i, r in zip(missing, res, strict=True):
+            found[i] = lib.get_run(r.tuned_gait.split("#")[0])
+    return [f"{r.run_id}#0" for r in found if r is not None], bool(runs)
 
 
 def _audit(lib: Library, gait_id: str, run: bool = True, log=None, backend=None) -> tuple[dict | None, bool]:
@@ -290,7 +290,9 @@ def robust_tuned(lib: Library, text: str, where: str, *, seed: int, controllers:
     (cm/s) below which phase 2 and the selection are skipped and the speed is 0 ("pruned": True).
     Raises as ``run_search`` and ``tune``."""
     run_id, _ = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy)
-    best = lib.top(run_id, top)
+    from sanlab.search.rhythm import starts
+
+    best = starts(lib, run_id, top)
     if prune_below is not None and best[0].speed_cm_s < prune_below:
         return {"speed": 0.0, "gait": None, "search": run_id, "phase1_cm_s": float(best[0].speed_cm_s),
                 "chains": [], "pruned": True}
@@ -313,13 +315,17 @@ def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens:
             audit: bool, strategy: str = "random") -> dict:
     """What makes a row: the creature and the SHA-256 of its file's text (a changed file is
     another creature), the seed, the budget, phase 1's strategy (absent for random search, as in
-    the rows made before there were others) and the simulator (:data:`ENGINE`: a row the XLA
-    engine made before issue 46, whose key has no engine, is made again)."""
+    the rows made before there were others), where phase 2 starts (``starts``, for the rhythm
+    search's runs: rows made before it started one chain on the warm-up are made again) and the
+    simulator (:data:`ENGINE`: a row the XLA engine made before issue 46, whose key has no engine,
+    is made again)."""
     key = {"creature": name, "creature_sha256": hashlib.sha256(text.encode()).hexdigest(), "seed": seed,
            "controllers": controllers, "trials": trials, "top": top, "ensemble": ens.to_json(), "audit": audit,
            "engine": ENGINE}
     if strategy != "random":
         key["strategy"] = strategy
+    if strategy in ("rhythm", "reflex") and top > 1:
+        key["starts"] = "warm-up"  # phase 2 from the k - 1 best and the warm-up's best (sanlab.search.rhythm.starts)
     return key
 
 
@@ -754,7 +760,9 @@ def _creature(lib, name: str, seed: int, controllers: int, trials: int, ens: Ens
 
     run_id, searched = _search(lib, text, where, seconds, seed, controllers, ens, backend, strategy=strategy,
                                reporter=told("search"))
-    best = lib.top(run_id, top)
+    from sanlab.search.rhythm import starts
+
+    best = starts(lib, run_id, top)
     tuned_ids, tuned_before = _tune(lib, text, [e.gait_id for e in best], seed, trials // top, ens, backend,
                                     reporter=told("tune"))
     stored = searched or tuned_before

@@ -7,6 +7,7 @@ import subprocess
 
 import pytest
 
+from sanlab.creature import read_source
 from sanlab.creature.table1 import TABLE1
 from sanlab.library import Library
 from tests.helpers import SANLAB
@@ -106,6 +107,29 @@ def test_reproduce_with_the_rhythm_search_searches_in_its_generations_and_resume
         assert len(clocks) == 34 and all("k1" in e.params for e in clocks)
         runs = {r.run_id: r.status for r in lib.runs()}
         assert call(lib)[:13] == first[:13] and {r.run_id: r.status for r in lib.runs()} == runs  # reused
+
+
+def test_phase_two_adds_a_chain_beside_the_stored_ones_it_still_wants(tmp_path):
+    """Issue 56: where phase 2's starts change (a rhythm row now starts its last chain on the
+    warm-up's best SAN), the chains already stored for the same start and number are kept and only
+    the new one is tuned, under its own number (tests/search/test_tune.py: a chain tuned alone is
+    that chain of a run that tuned several)."""
+    from sanlab.evaluate.ensemble import default_ensemble
+    from sanlab.reproduce import _tune
+    from sanlab.search.runner import run_search
+
+    text, source = read_source("twolink")
+    ens = default_ensemble(1)
+    with Library(str(tmp_path / "r.db")) as lib:
+        run_id = run_search(lib, text, source, controllers=8, seed=0, batch=8, ensemble=ens)
+        a, b, c = (e.gait_id for e in lib.top(run_id, 3))
+        old, _ = _tune(lib, text, [a, b], 0, 6, ens)
+        new, stored = _tune(lib, text, [a, c], 0, 6, ens)
+        assert stored and new[0] == old[0] and new[1] != old[1]  # chain 0 kept, chain 1 made for c
+        assert lib.get_run(new[1].split("#")[0]).parent_gait == c
+        assert lib.get_run(new[1].split("#")[0]).params["chain"] == 1  # its stream: chain 1's, as if made with a
+        again, stored = _tune(lib, text, [a, c], 0, 6, ens)
+        assert stored and again == new  # and both are reused as they are
 
 
 def test_summary_over_seeds_takes_median_min_and_max_of_the_robust_speeds():

@@ -277,6 +277,35 @@ def _tree(rise: np.ndarray, on: np.ndarray, P: int, root: int, fit):
     return node, trigger, delays, slip
 
 
+CLOCKS = ("rhythm", "reflex")  # the strategies of this module: their runs hold clocks after a random warm-up
+
+
+def starts(lib, run_id: str, k: int) -> list:
+    """Where phase 2 starts on the finished search run ``run_id``: its ``k`` best evaluations
+    (``Library.top``), but for a run of the rhythm search (``rhythm``, ``reflex``) and k > 1 its k - 1
+    best and the best SAN of its random warm-up (indices below ``int(controllers * WARMUP)``), where
+    no warm-up SAN is among the k best and that one neither fell nor blew up.
+
+    Why: a clock is an open loop, and its best few are close kin. Where a body's gait needs its
+    sensors, a closed loop that random weights make is what keeps its speed through the audit: on
+    the fourlink (Table 1, sanlab's budget) the clocks' tuned gaits lost 5-7 % at dt/4 on fresh
+    draws on four seeds of five, and a chain from the warm-up's best kept a robust gait on two of
+    those four (docs/search.md, "Phase 2 on a clock search")."""
+    from sanlab.library.records import SearchSettings
+
+    best = lib.top(run_id, k)
+    s = lib.get_run(run_id).settings
+    if k < 2 or not isinstance(s, SearchSettings) or s.strategy not in CLOCKS:
+        return best
+    n = min(int(s.controllers * WARMUP), s.controllers)
+    if any(e.idx < n for e in best):
+        return best
+    warm = next((e for e in lib.top(run_id, None) if e.idx < n), None)
+    if warm is None or warm.fell or warm.nonfinite:
+        return best
+    return [*best[: k - 1], warm]
+
+
 class RhythmSearch(PatternSearch):
     """``problem.budget`` SANs: the first :data:`WARMUP` of them the random SANs a random search
     of the same seed draws (stored as its rows are, so the closed loops random search finds are

@@ -86,13 +86,17 @@ def tune(
     reporter: driver.Reporter | None = None,
     resume: Sequence[str] = (),
     backend: Backend | None = None,
+    chains: Sequence[int] | None = None,
 ) -> list[TuneResult]:
     """Tune each gait of ``gait_ids`` as its own chain (all of one creature), storing every
     trial as it is decided; or, with ``resume``, finish the given tune runs (their own settings).
     Each trial is scored as its ensemble's median (``ensemble`` members, drawn per chain and
     trial); returns one result per chain. Raises ValueError on bad settings, LibraryError on
     unknown gaits or runs. ``batch``: controllers simulated together per round (default:
-    :func:`default_batch` of the chains; a resumed run keeps its own)."""
+    :func:`default_batch` of the chains; a resumed run keeps its own). ``chains``: each gait's
+    chain number (default 0, 1, ...), on which its random stream depends: chain 2 tuned alone is
+    chain 2 of a run that tuned 0 to 3 together, trial for trial (``sanlab.search.chain``: a
+    chain's trials do not depend on the batch), so a caller may add chains to stored ones."""
     t_start = time.perf_counter()
     if batch is None:
         batch = default_batch(max(1, len(gait_ids)))
@@ -100,14 +104,17 @@ def tune(
     if bool(gait_ids) == bool(resume):
         raise ValueError("give gaits to tune, or runs to resume (not both)")
     if resume:
-        ev, chains = _resumed(library, resume)
+        ev, made = _resumed(library, resume)
     else:
-        ev, chains = _fresh(library, list(gait_ids), method, trials, seed, morphology, terrain, batch, dtype,
-                            ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)),
-                            backend.describe())
-    summary = driver.run(Together([c for _, c in chains]), ev, library, reporter, backend)
+        numbers = list(range(len(gait_ids))) if chains is None else [int(c) for c in chains]
+        if len(numbers) != len(gait_ids) or len(set(numbers)) != len(numbers) or min(numbers, default=0) < 0:
+            raise ValueError(f"chains: expected {len(gait_ids)} distinct numbers >= 0 (one per gait), got {list(numbers)}")
+        ev, made = _fresh(library, list(gait_ids), method, trials, seed, morphology, terrain, batch, dtype,
+                          ensemble if isinstance(ensemble, Ensemble) else default_ensemble(int(ensemble)),
+                          backend.describe(), numbers)
+    summary = driver.run(Together([c for _, c in made]), ev, library, reporter, backend)
     results = []
-    for parent, chain in chains:
+    for parent, chain in made:
         run_id = chain.run_ids[0]
         final = library.gait(f"{run_id}#0")
         extra = final.extra or {}
@@ -123,7 +130,8 @@ def tune(
 
 
 def _fresh(library: Library, gait_ids: list[str], method: str, trials: int, seed: int, morphology: bool,
-           terrain: str, batch: int, dtype: str, ens: Ensemble, device: str) -> tuple[Evaluator, list[tuple[str, Strategy]]]:
+           terrain: str, batch: int, dtype: str, ens: Ensemble, device: str,
+           numbers: list[int]) -> tuple[Evaluator, list[tuple[str, Strategy]]]:
     if method not in METHODS:
         raise ValueError(f"method: expected one of {list(METHODS)}, got {method!r}")
     if terrain not in TERRAINS:
@@ -140,7 +148,7 @@ def _fresh(library: Library, gait_ids: list[str], method: str, trials: int, seed
     ev = Evaluator(spec, metric=gaits[0].metric, seconds=gaits[0].seconds, dtype=dtype, batch=batch, terrain=terrain,
                    ensemble=ens, space=space)
     chains = []
-    for i, g in enumerate(gaits):
+    for i, g in zip(numbers, gaits, strict=True):
         settings = TuneSettings(method, trials, seed, i, morphology, terrain, ev.seconds, ev.metric.kind, batch,
                                 g.source, ens, tuple(space.names))
         run = library.create_run(

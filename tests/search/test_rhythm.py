@@ -218,3 +218,24 @@ def test_reflexes_move_only_the_sensors_weights_to_the_actuators_of_the_best_clo
             assert np.array_equal(c.weights[H:, S:], base.weights[H:, S:])
     plain = RhythmSearch(Problem("r", space.san, 288, seed=2, space=space, generation=12))
     assert plain.reflex_from > (288 - 48) // 12  # the rhythm search alone has none
+
+
+def test_phase_two_on_a_clock_search_starts_one_chain_on_the_warm_ups_best_san(tmp_path):
+    """Issue 56: a clock is an open loop; the k - 1 best and the best random SAN of the warm-up
+    start phase 2 where no warm-up SAN is among the k best. Other searches: the k best."""
+    from sanlab.search.rhythm import WARMUP, starts
+    from sanlab.search.runner import run_search
+
+    text, source = creature.read_source("twolink")
+    with Library(str(tmp_path / "a.db")) as lib:
+        run_id = run_search(lib, text, source, controllers=96, seed=1, batch=32, strategy="rhythm", ensemble=2,
+                            seconds=2.0)
+        n = int(96 * WARMUP)
+        ranked = lib.top(run_id, None)
+        warm = next(e for e in ranked if e.idx < n)
+        assert all(e.idx >= n for e in ranked[:3]), "the test wants clocks ahead of every warm-up SAN"
+        got = starts(lib, run_id, 3)
+        assert [e.idx for e in got] == [ranked[0].idx, ranked[1].idx, warm.idx]
+        assert [e.idx for e in starts(lib, run_id, 1)] == [ranked[0].idx]  # one chain: the best
+        plain = run_search(lib, text, source, controllers=16, seed=1, batch=16, ensemble=2, seconds=2.0)
+        assert [e.idx for e in starts(lib, plain, 3)] == [e.idx for e in lib.top(plain, 3)]

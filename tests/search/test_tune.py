@@ -207,3 +207,19 @@ def test_terrain_scores_differ_from_flat_ground(bounder_run):
     assert flat.score[0] != rough.score[0]
     with pytest.raises(ValueError, match="terrain"):
         Evaluator(g.spec, metric="distance", seconds=2.0, terrain="moon", space=space)
+
+
+def test_a_chain_tuned_alone_is_that_chain_of_a_run_that_tuned_several(bounder_run):
+    """Issue 56: phase 2 may add a chain beside stored ones (``chains``): a chain's trials depend
+    on its number, not on which chains share its batches."""
+    db, run_id = bounder_run
+    with Library(str(db)) as lib:
+        both = tune(lib, [f"{run_id}/2", f"{run_id}/3"], method="sa", trials=12, seed=4, batch=16)
+        [alone] = tune(lib, [f"{run_id}/3"], method="sa", trials=12, seed=4, batch=16, chains=[1])
+        [first] = tune(lib, [f"{run_id}/3"], method="sa", trials=12, seed=4, batch=16)  # chain 0: another stream
+        trace = lambda r: [(t.trial, t.score, t.accepted) for t in lib.trace(r.run_id)]
+        assert trace(alone) == trace(both[1]) and alone.after == both[1].after
+        assert lib.gait(alone.tuned_gait).params == lib.gait(both[1].tuned_gait).params
+        assert trace(first) != trace(both[1])
+        with pytest.raises(ValueError, match="chains: expected 2 distinct numbers"):
+            tune(lib, [f"{run_id}/2", f"{run_id}/3"], trials=2, chains=[1, 1])
