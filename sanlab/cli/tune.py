@@ -50,7 +50,9 @@ def tune(
     method: Annotated[str, typer.Option(help="sa (simulated annealing) or sga (stochastic gradient ascent).")] = "sa",
     trials: Annotated[int, typer.Option(min=1, help="Trials per gait (the paper: 1000).")] = 1000,
     seed: Annotated[int, typer.Option(help="Seed of the perturbations.")] = 0,
-    top: Annotated[int | None, typer.Option(min=1, help="Tune a run's top K gaits as parallel chains.")] = None,
+    top: Annotated[int | None, typer.Option(min=1, help=(
+        "Tune a run's top K gaits as parallel chains (a rhythm or reflex run: its K - 1 best and the best "
+        "random SAN of its warm-up)."))] = None,
     morphology: Annotated[bool, typer.Option("--morphology", help=(
         "Also tune the body: a file's free numbers that shape it (the local case of `sanlab design`), "
         "else link lengths (and so masses)."))] = False,
@@ -103,8 +105,10 @@ def tune(
     lib = open_library(db)  # the gaits to tune are in it: a missing file is a mistyped --db
     gaits: list[str] = []
     if gait is not None and top is not None:
+        from sanlab.search.rhythm import starts
+
         run = library_call(lib.get_run, gait)
-        gaits = [f"{run.run_id}/{k}" for k in range(1, min(top, run.count) + 1)]
+        gaits = [e.gait_id for e in library_call(starts, lib, run.run_id, min(top, run.count))]
     elif gait is not None:
         library_call(lib.gait, gait)
         gaits = [gait]
