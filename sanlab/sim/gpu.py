@@ -11,10 +11,12 @@ driver's a dozen; ctypes reaches both with nothing to install beyond the NVRTC w
 
 What is built (docs/gpu.md): ``gpu.cu``'s entry points (one per controller kind and arithmetic,
 kernel.cpp's ``sanlab_rollout`` with W = 1: ``sanlab_gpu_san`` in float64, ``sanlab_gpu_san_f32``
-in float32, ...), compiled with ``-default-device`` (every function a device
+in float32, ...), compiled with :data:`OPTIONS`: ``-default-device`` (every function a device
 function), ``--fmad=false`` (no fused multiply-adds: every multiply and add rounded apart, as the
-CPU's ``-ffp-contract=off``) and ``-std=c++17``. Without a GPU, :func:`compile_ptx` and
-:func:`resources` still work (CI checks them); :func:`device` says in one line why there is none.
+CPU's ``-ffp-contract=off``), IEEE division and square root without flushing denormals, and
+``-std=c++17``. Each thread's scratch is lane-innermost in blocks of a warp (:data:`WARP`). Without
+a GPU, :func:`compile_ptx`, :func:`report` and :func:`resources` still work (CI checks them);
+:func:`device` says in one line why there is none.
 """
 
 from __future__ import annotations
@@ -37,7 +39,9 @@ DTYPES = ("float64", "float32")  # the arithmetics, as the CPU's (a model's dtyp
 # gpu.cu's entry points, by (controller kind, dtype)
 ENTRIES = {(kind, dtype): f"sanlab_gpu_{kind}{'_f32' if dtype == 'float32' else ''}"
            for dtype in DTYPES for kind in layout.KINDS}
-OPTIONS = ("-default-device", "--fmad=false", "-std=c++17")
+# IEEE division and square root, denormals kept: NVRTC's defaults, stated because float32's bits
+# rest on them (CUDA's fast float division, sqrt and flush to zero would part from the CPU's)
+OPTIONS = ("-default-device", "--fmad=false", "--prec-div=true", "--prec-sqrt=true", "--ftz=false", "-std=c++17")
 # NVRTC has no C++ standard library: the two headers the kernel's tables include (layout.h,
 # tables.h), as the few typedefs they need (LP64, as the CPU build)
 HEADERS = {
@@ -199,7 +203,7 @@ def resources(arch: str = ARCH, dtype: str = "float64") -> dict[str, dict[str, i
     arithmetic (NVRTC runs ptxas itself for a real arch; ``-Xptxas -v`` puts its report in the
     log): per entry (a controller kind, layout.KINDS), ``registers``, ``spill_stores`` and
     ``spill_loads`` (bytes), ``stack`` (bytes of stack frame). Not cached: it is the check CI
-    runs (about 50 s for the five entries of one dtype)."""
+    runs (about 40 s for the five entries of one dtype)."""
     return report(arch, dtype)[0]
 
 

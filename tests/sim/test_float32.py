@@ -161,7 +161,7 @@ def test_float32_scores_agree_with_float64_in_distribution(name):
 @pytest.mark.slow
 def test_the_gpus_float_entry_points_compile_to_sm_90_without_spills_or_float64_arithmetic():
     # gpu.cu's five _f32 entry points under NVRTC (no GCC vectors, no <cmath>: CUDA's sqrtf,
-    # floorf, fabsf, atan2f), ptxas run on them (about 50 s): no spills, registers within the
+    # floorf, fabsf, atan2f), ptxas run on them (about 40 s): no spills, registers within the
     # float64 entries' budget, and in the PTX float64 only moves (the caller's float64 arrays read
     # and rounded, results widened and stored): every add, multiply, compare... is f32
     from sanlab.sim import gpu, layout
@@ -178,3 +178,5 @@ def test_the_gpus_float_entry_points_compile_to_sm_90_without_spills_or_float64_
     f64 = {op.split(".")[0] for op in re.findall(r"^\s*([a-z][\w.]*\.f64)\b", ptx, re.M)}
     assert f64 <= {"ld", "st", "cvt"}, f64
     assert len(re.findall(r"\b(?:add|sub|mul|div)\.rn\.f32\b", ptx)) > 1000
+    # IEEE division and square root, denormals kept (gpu.OPTIONS), as the CPU's float tiles
+    assert re.findall(r"\b(?:div|sqrt)\.rn\.f32\b", ptx) and not re.search(r"\.(?:approx|full|ftz)\b", ptx)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -264,8 +265,9 @@ def test_without_a_gpu_asking_for_one_says_why_in_one_line():
 @needs_nvrtc
 @pytest.mark.slow
 def test_the_kernel_compiles_through_nvrtc_to_sm_90_without_spills_within_the_register_budget():
-    report = gpu.resources("sm_90")  # about 50 s: ptxas on five whole rollouts
+    report, ptx = gpu.report("sm_90")  # about 40 s: ptxas on five whole rollouts
     assert set(report) == set(layout.KINDS)
+    assert re.findall(r"\bdiv\.rn\.f64\b", ptx) and not re.search(r"\.(?:approx|full|ftz)\b", ptx)  # IEEE, as the CPU
     for kind, r in report.items():
         assert r["spill_stores"] == 0 and r["spill_loads"] == 0, (kind, r)
         assert 0 < r["registers"] <= REGISTERS, (kind, r)
