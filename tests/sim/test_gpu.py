@@ -144,9 +144,11 @@ def test_gpu_entry_points_step_every_creature_bit_for_bit_as_the_cpus_scalar_for
     assert host.blocks == {}  # every block it allocated was given back
 
 
-def test_gpu_rows_that_carry_their_own_numbers_step_as_on_the_cpu(host):
-    # a per-row table is each thread's own row; a shared one, one address every thread reads
-    pk, args = _case("bounder", B=6)
+@pytest.mark.parametrize("dtype", gpu.DTYPES)
+def test_gpu_rows_that_carry_their_own_numbers_step_as_on_the_cpu(host, dtype):
+    # a per-row table is each thread's own row; a shared one, one address every thread reads (in
+    # float32, both rounded once per call)
+    pk, args = _case("bounder", B=6, dtype=dtype)
     scale = np.linspace(0.8, 1.25, 6)
     lf = np.repeat(pk.lf[None], 6, 0)
     lf[:, :, kernel.F_MASS] *= scale[:, None]
