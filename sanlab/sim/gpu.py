@@ -1,5 +1,6 @@
-"""The simulator's kernel on an NVIDIA GPU: the scalar form of the same C++ template the CPU runs
-(``sanlab/sim/_kernel``, ``Lanes<double>``: one creature per thread), compiled at run time by
+"""The simulator's kernel on an NVIDIA GPU: the scalar forms of the same C++ template the CPU runs
+(``sanlab/sim/_kernel``, ``Lanes<double>`` or ``Lanes<float>``: one creature per thread, in the
+arithmetic of the model's dtype as on the CPU), compiled at run time by
 NVRTC from NVIDIA's pip wheel (``pip install 'sanlab[gpu]'``: ``nvidia-cuda-nvrtc-cu12``; no
 CUDA toolkit), cached on disk, and launched through the CUDA driver API (``libcuda``, which comes
 with the GPU's driver) by ctypes.
@@ -8,11 +9,14 @@ Why ctypes and not ``cuda-python``/``cuda.core``: NVRTC's C API needs six functi
 driver's a dozen; ctypes reaches both with nothing to install beyond the NVRTC wheel, where
 ``cuda-bindings`` would add a compiled package whose major version must match the driver's.
 
-What is built (docs/gpu.md): ``gpu.cu``'s five entry points (one per controller kind, kernel.cpp's
-``sanlab_rollout`` with W = 1), compiled with ``-default-device`` (every function a device
+What is built (docs/gpu.md): ``gpu.cu``'s entry points (one per controller kind and arithmetic,
+kernel.cpp's ``sanlab_rollout`` with W = 1: ``sanlab_gpu_san`` in float64, ``sanlab_gpu_san_f32``
+in float32, ...), compiled with :data:`OPTIONS`: ``-default-device`` (every function a device
 function), ``--fmad=false`` (no fused multiply-adds: every multiply and add rounded apart, as the
-CPU's ``-ffp-contract=off``) and ``-std=c++17``. Without a GPU, :func:`compile_ptx` and
-:func:`resources` still work (CI checks them); :func:`device` says in one line why there is none.
+CPU's ``-ffp-contract=off``), IEEE division and square root without flushing denormals, and
+``-std=c++17``. Each thread's scratch is lane-innermost in blocks of a warp (:data:`WARP`). Without
+a GPU, :func:`compile_ptx`, :func:`report` and :func:`resources` still work (CI checks them);
+:func:`device` says in one line why there is none.
 """
 
 from __future__ import annotations
@@ -28,11 +32,16 @@ import numpy as np
 
 from sanlab.sim import layout
 from sanlab.sim.native import _dims, _tables
-from sanlab.sim.tables import Packed
+from sanlab.sim.tables import ROW_TABLES, TABLES, Packed
 
 KERNEL = Path(__file__).parent / "_kernel"
-ENTRIES = {kind: f"sanlab_gpu_{kind}" for kind in layout.KINDS}  # gpu.cu's, by controller kind
-OPTIONS = ("-default-device", "--fmad=false", "-std=c++17")
+DTYPES = ("float64", "float32")  # the arithmetics, as the CPU's (a model's dtype)
+# gpu.cu's entry points, by (controller kind, dtype)
+ENTRIES = {(kind, dtype): f"sanlab_gpu_{kind}{'_f32' if dtype == 'float32' else ''}"
+           for dtype in DTYPES for kind in layout.KINDS}
+# IEEE division and square root, denormals kept: NVRTC's defaults, stated because float32's bits
+# rest on them (CUDA's fast float division, sqrt and flush to zero would part from the CPU's)
+OPTIONS = ("-default-device", "--fmad=false", "--prec-div=true", "--prec-sqrt=true", "--ftz=false", "-std=c++17")
 # NVRTC has no C++ standard library: the two headers the kernel's tables include (layout.h,
 # tables.h), as the few typedefs they need (LP64, as the CPU build)
 HEADERS = {
@@ -41,6 +50,9 @@ HEADERS = {
     "cstddef": "#pragma once\ntypedef unsigned long size_t;\n",
 }
 ARCH = "sm_90"  # H100, H200: the devices this is written for
+# the scratch's layout (gpu.cu, tables.h: Strided): lane-innermost in blocks of a warp, value k of
+# thread b at (b // WARP) * WARP * per_thread + k * WARP + b % WARP; NVRTC is given it as SANLAB_WARP
+WARP = 32
 
 
 class GpuUnavailable(RuntimeError):
@@ -92,7 +104,7 @@ def source_hash() -> str:
     h = hashlib.sha256()
     for f in sorted(KERNEL.glob("*.[hc]*")):
         h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
-    h.update(repr((nvrtc_version(), OPTIONS, HEADERS)).encode())
+    h.update(repr((nvrtc_version(), OPTIONS, HEADERS, WARP)).encode())
     return h.hexdigest()[:16]
 
 
@@ -102,16 +114,22 @@ class CompileError(RuntimeError):
 
 def _kinds(kinds) -> tuple[str, ...]:
     kinds = tuple(layout.KINDS) if kinds is None else tuple(kinds)
-    bad = [k for k in kinds if k not in ENTRIES]
+    bad = [k for k in kinds if k not in layout.KINDS]
     if bad or not kinds:
         raise ValueError(f"kinds: expected some of {list(layout.KINDS)}, got {list(kinds)}")
     return tuple(k for k in layout.KINDS if k in kinds)
 
 
-def _compile(arch: str, extra: tuple[str, ...] = (), kinds=None) -> tuple[bytes, str]:
+def _dtype(dtype) -> str:
+    if dtype not in DTYPES:
+        raise ValueError(f"dtype: expected one of {list(DTYPES)}, got {dtype!r}")
+    return dtype
+
+
+def _compile(arch: str, extra: tuple[str, ...] = (), kinds=None, dtype: str = "float64") -> tuple[bytes, str, str]:
     """NVRTC on gpu.cu for ``arch`` ("sm_90": a CUBIN; "compute_90": PTX) with the entry points of
-    ``kinds`` (controller kinds, layout.KINDS; None: all): (the binary, the log). Raises
-    CompileError with NVRTC's log where it fails."""
+    ``kinds`` (controller kinds, layout.KINDS; None: all) in ``dtype``'s arithmetic: (the binary,
+    the log, the PTX). Raises CompileError with NVRTC's log where it fails."""
     lib = _nvrtc()
     prog = ctypes.c_void_p()
     src = source().encode()
@@ -124,7 +142,8 @@ def _compile(arch: str, extra: tuple[str, ...] = (), kinds=None) -> tuple[bytes,
     texts = (ctypes.c_char_p * len(HEADERS))(*[t.encode() for t in HEADERS.values()])
     check(lib.nvrtcCreateProgram(ctypes.byref(prog), src, b"gpu.cu", len(HEADERS), texts, names), "nvrtcCreateProgram")
     try:
-        opts = [*OPTIONS, f"-arch={arch}", f"-I{KERNEL}", *(f"-DSANLAB_GPU_{k.upper()}" for k in _kinds(kinds)), *extra]
+        opts = [*OPTIONS, f"-arch={arch}", f"-I{KERNEL}", *(f"-DSANLAB_GPU_{k.upper()}" for k in _kinds(kinds)),
+                f"-DSANLAB_GPU_F{'32' if _dtype(dtype) == 'float32' else '64'}", f"-DSANLAB_WARP={WARP}", *extra]
         argv = (ctypes.c_char_p * len(opts))(*[o.encode() for o in opts])
         rc = lib.nvrtcCompileProgram(prog, len(opts), argv)
         n = ctypes.c_size_t()
@@ -134,12 +153,16 @@ def _compile(arch: str, extra: tuple[str, ...] = (), kinds=None) -> tuple[bytes,
         text = log.value.decode(errors="replace")
         if rc:
             raise CompileError(f"NVRTC could not compile sanlab/sim/_kernel/gpu.cu for {arch}:\n{text}")
-        cubin = arch.startswith("sm_")
-        get_size, get = (lib.nvrtcGetCUBINSize, lib.nvrtcGetCUBIN) if cubin else (lib.nvrtcGetPTXSize, lib.nvrtcGetPTX)
-        check(get_size(prog, ctypes.byref(n)), "size")
-        out = ctypes.create_string_buffer(n.value)
-        check(get(prog, out), "output")
-        return out.raw, text
+
+        def get(size, data, what: str) -> bytes:
+            check(size(prog, ctypes.byref(n)), what)
+            out = ctypes.create_string_buffer(n.value)
+            check(data(prog, out), what)
+            return out.raw
+
+        ptx = get(lib.nvrtcGetPTXSize, lib.nvrtcGetPTX, "PTX")  # kept for a real arch too
+        binary = get(lib.nvrtcGetCUBINSize, lib.nvrtcGetCUBIN, "CUBIN") if arch.startswith("sm_") else ptx
+        return binary, text, ptx.rstrip(b"\0").decode(errors="replace")
     finally:
         lib.nvrtcDestroyProgram(ctypes.byref(prog))
 
@@ -151,18 +174,18 @@ def cache_dir() -> Path:
     return Path(base) / "gpu"
 
 
-def build(arch: str = ARCH, kinds=None) -> bytes:
+def build(arch: str = ARCH, kinds=None, dtype: str = "float64") -> bytes:
     """The kernel built for ``arch`` ("sm_90": a CUBIN the driver loads as it is; "compute_90":
     PTX the driver compiles on load) with the entry points of ``kinds`` (None: every controller
-    kind), from the disk cache when these sources, this NVRTC and these options built it before.
-    Raises GpuUnavailable without NVRTC, CompileError where it fails, ValueError for an unknown
-    kind."""
+    kind) in ``dtype``'s arithmetic ("float64" or "float32"), from the disk cache when these
+    sources, this NVRTC and these options built it before. Raises GpuUnavailable without NVRTC,
+    CompileError where it fails, ValueError for an unknown kind or dtype."""
     ks = _kinds(kinds)
-    tag = "all" if len(ks) == len(layout.KINDS) else "+".join(ks)
+    tag = ("all" if len(ks) == len(layout.KINDS) else "+".join(ks)) + ("-f32" if _dtype(dtype) == "float32" else "")
     path = cache_dir() / f"{source_hash()}-{arch}-{tag}.{'cubin' if arch.startswith('sm_') else 'ptx'}"
     if path.exists():
         return path.read_bytes()
-    binary, _ = _compile(arch, kinds=ks)
+    binary, _, _ = _compile(arch, kinds=ks, dtype=dtype)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(f".{os.getpid()}.tmp")
     tmp.write_bytes(binary)
@@ -170,23 +193,30 @@ def build(arch: str = ARCH, kinds=None) -> bytes:
     return binary
 
 
-def compile_ptx(arch: str = "compute_90", kinds=None) -> str:
+def compile_ptx(arch: str = "compute_90", kinds=None, dtype: str = "float64") -> str:
     """The kernel's PTX for a virtual ``arch`` (text), cached as :func:`build`."""
-    return build(arch, kinds).rstrip(b"\0").decode()
+    return build(arch, kinds, dtype).rstrip(b"\0").decode()
 
 
-def resources(arch: str = ARCH) -> dict[str, dict[str, int]]:
-    """What ptxas reports for each entry point of the kernel built for ``arch`` (NVRTC runs ptxas
-    itself for a real arch; ``-Xptxas -v`` puts its report in the log): per entry (a controller
-    kind, layout.KINDS), ``registers``, ``spill_stores`` and ``spill_loads`` (bytes),
-    ``stack`` (bytes of stack frame). Not cached: it is the check CI runs."""
-    _, log = _compile(arch, ("-Xptxas", "-v"))
+def resources(arch: str = ARCH, dtype: str = "float64") -> dict[str, dict[str, int]]:
+    """What ptxas reports for each entry point of the kernel built for ``arch`` in ``dtype``'s
+    arithmetic (NVRTC runs ptxas itself for a real arch; ``-Xptxas -v`` puts its report in the
+    log): per entry (a controller kind, layout.KINDS), ``registers``, ``spill_stores`` and
+    ``spill_loads`` (bytes), ``stack`` (bytes of stack frame). Not cached: it is the check CI
+    runs (about 40 s for the five entries of one dtype)."""
+    return report(arch, dtype)[0]
+
+
+def report(arch: str = ARCH, dtype: str = "float64") -> tuple[dict[str, dict[str, int]], str]:
+    """:func:`resources`, and the PTX that ptxas compiled, from one NVRTC run (CI checks both)."""
+    _, log, ptx = _compile(arch, ("-Xptxas", "-v"), dtype=dtype)
+    names = {e: k for (k, d), e in ENTRIES.items() if d == dtype}
     out: dict[str, dict[str, int]] = {}
     entry = None
     for line in log.splitlines():
         m = re.search(r"Compiling entry function '(\w+)'", line)
         if m:
-            entry = next((k for k, e in ENTRIES.items() if e == m.group(1)), m.group(1))
+            entry = names.get(m.group(1), m.group(1))
             out[entry] = {}
             continue
         if entry is None:
@@ -197,9 +227,9 @@ def resources(arch: str = ARCH) -> dict[str, dict[str, int]]:
         m = re.search(r"Used (\d+) registers", line)
         if m:
             out[entry]["registers"] = int(m.group(1))
-    if set(out) != set(ENTRIES) or any(len(v) != 4 for v in out.values()):
+    if set(out) != set(layout.KINDS) or any(len(v) != 4 for v in out.values()):
         raise CompileError(f"ptxas's report did not name every entry point with its registers and spills:\n{log}")
-    return out
+    return out, ptx
 
 
 # ------------------------------------------------------------------ the driver: a device, a launch
@@ -277,18 +307,21 @@ class _Session:
         self.modules: list[ctypes.c_void_p] = []
         self.lib = lib
 
-    def function(self, kind: str) -> ctypes.c_void_p:
-        """The entry point of controller ``kind``, built (one module per kind: a first call waits for
-        its own kind's build alone) and loaded on first use. The image is a CUBIN for this device's
-        arch: the driver JITs nothing, and any driver of NVRTC's major version or later loads it."""
-        if kind not in self.functions:
+    def function(self, name: str) -> ctypes.c_void_p:
+        """The entry point ``name`` (one of :data:`ENTRIES`), built (one module per controller kind
+        and dtype: a first call waits for its own entry's build alone) and loaded on first use. The
+        image is a CUBIN for this device's arch: the driver JITs nothing, and any driver of NVRTC's
+        major version or later loads it."""
+        if name not in self.functions:
+            kind, dtype = next(k for k, e in ENTRIES.items() if e == name)
             module = ctypes.c_void_p()
-            _check(self.lib.cuModuleLoadData(ctypes.byref(module), build(self.arch, (kind,))), "cuModuleLoadData")
+            _check(self.lib.cuModuleLoadData(ctypes.byref(module), build(self.arch, (kind,), dtype)),
+                   "cuModuleLoadData")
             self.modules.append(module)
             f = ctypes.c_void_p()
-            _check(self.lib.cuModuleGetFunction(ctypes.byref(f), module, ENTRIES[kind].encode()), "cuModuleGetFunction")
-            self.functions[kind] = f
-        return self.functions[kind]
+            _check(self.lib.cuModuleGetFunction(ctypes.byref(f), module, name.encode()), "cuModuleGetFunction")
+            self.functions[name] = f
+        return self.functions[name]
 
     def alloc(self, nbytes: int) -> ctypes.c_uint64:
         p = ctypes.c_uint64()
@@ -307,10 +340,10 @@ class _Session:
     def free(self, p: ctypes.c_uint64) -> None:
         self.lib.cuMemFree_v2(p)
 
-    def launch(self, kind: str, args: list, blocks: int, threads: int) -> None:
-        """gpu.cu's entry for controller ``kind`` over blocks x threads threads, waited for."""
+    def launch(self, name: str, args: list, blocks: int, threads: int) -> None:
+        """gpu.cu's entry point ``name`` (:data:`ENTRIES`) over blocks x threads threads, waited for."""
         argv = (ctypes.c_void_p * len(args))(*[ctypes.cast(ctypes.byref(a), ctypes.c_void_p) for a in args])
-        _check(self.lib.cuLaunchKernel(self.function(kind), blocks, 1, 1, threads, 1, 1, 0, None, argv, None),
+        _check(self.lib.cuLaunchKernel(self.function(name), blocks, 1, 1, threads, 1, 1, 0, None, argv, None),
                "cuLaunchKernel")
         _check(self.lib.cuCtxSynchronize(), "the rollout")
 
@@ -336,7 +369,7 @@ def derived(pk: Packed) -> np.ndarray:
 
 
 def scratch_values(dims: np.ndarray, n_param: int, n_state: int, n_acc: int) -> int:
-    """Float64 values of scratch one thread needs: its tile (tables.h: tile_layout, asked of the
+    """Values of scratch (float64 or float32: the arithmetic's) one thread needs: its tile (tables.h: tile_layout, asked of the
     CPU build: sanlab_tile_values) and the state, parameters, controller state, accumulators and
     velocity gpu.cu copies in."""
     from sanlab.sim.native import _library
@@ -348,16 +381,28 @@ def scratch_values(dims: np.ndarray, n_param: int, n_state: int, n_acc: int) -> 
     return int(fn(dims.ctypes.data)) + state + n_param + n_state + n_acc + d["dofs"]
 
 
+def scratch_bytes(B: int, per_thread: int, dtype: Any = "float64") -> int:
+    """Bytes of scratch B threads of ``per_thread`` values of ``dtype`` take: whole warps (the
+    layout's blocks, :data:`WARP`)."""
+    return -(-B // WARP) * WARP * per_thread * np.dtype(dtype).itemsize
+
+
 def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, t0: Any = 0.0,
             rows: dict | None = None, threads: int = 128, on: Any = None) -> dict:
     """``steps`` steps of B creatures under SANs on the GPU, one creature per thread: arguments and
     result as :func:`sanlab.sim.kernel.run_san` (``rows``: per-row tables, as there) without
-    observers or frames (the keys q, p, anchor, istate, out, t, dmax, qd). ``threads`` per block. ``on``: where to
-    run (None: the GPU; the tests pass a host emulation of the same entry points). Raises
-    GpuUnavailable without a GPU or NVRTC, ValueError for arrays or per-row tables of the wrong
-    shape (as the CPU's)."""
+    observers or frames (the keys q, p, anchor, istate, out, t, dmax, qd). The arithmetic is the
+    tables' ``pk.dtype``, as on the CPU: float64, or float32 (the ``_f32`` entry points; arrays in
+    and out float64 either way, a float32 run's rounded on the way in and its float32 values
+    returned exactly). ``threads`` per block. ``on``: where to run (None: the GPU; the tests pass a
+    host emulation of the same entry points). Raises GpuUnavailable without a GPU or NVRTC,
+    ValueError for tables of another dtype, arrays or per-row tables of the wrong shape (as the
+    CPU's)."""
     from sanlab.sim import kernel
 
+    kernel._lanes_of(pk, True)  # the CPU's check of the tables' dtype: float64 or float32
+    dtype = str(pk.dtype)
+    real = np.float32 if dtype == "float32" else np.float64
     B = np.shape(q)[0] if np.ndim(q) else 0
     if B < 1:
         raise ValueError(f"q: expected at least one row [B, {pk.ndof}], got shape {np.shape(q)}")
@@ -391,18 +436,25 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
         return held[-1]
 
     try:
-        tables = put(np.array([put(a).value for a in arrays], np.uint64))
+        table_ptrs = [put(a).value for a in arrays]
+        tables = put(np.array(table_ptrs, np.uint64))
+        # the numbers a step reads, in its arithmetic: float64's are the tables themselves, float32's
+        # rounded once per call (as the CPU's float tiles round them as a tile starts)
+        first = TABLES.index(ROW_TABLES[0])
+        row_ptrs = table_ptrs[first:first + len(ROW_TABLES)] if real is np.float64 else \
+            [put(np.asarray(a, np.float32)).value for a in arrays[first:first + len(ROW_TABLES)]]
+        numbers = put(np.array(row_ptrs, np.uint64))
         state = [put(a) for a in st]
         cst_d, qd_d = put(cst), put(np.zeros((B, D)))
         per_thread = scratch_values(dims, par.shape[1], cst.shape[1], 0)
-        scratch = s.alloc(B * per_thread * 8)
+        scratch = s.alloc(scratch_bytes(B, per_thread, real))
         held.append(scratch)
         null = ctypes.c_uint64(0)
         i32, i64 = ctypes.c_int32, ctypes.c_int64
-        args = [put(dims), tables, put(per_row), put(np.array([x.value for x in state], np.uint64)), put(par), cst_d,
-                put(w16), i32(NP), null, null, i32(1), null, qd_d, null, i64(1), i64(0), put(derived(pk)), scratch,
-                i64(per_thread), i64(B), i64(steps)]
-        s.launch("san", args, -(-B // threads), threads)
+        args = [put(dims), tables, numbers, put(per_row), put(np.array([x.value for x in state], np.uint64)),
+                put(par), cst_d, put(w16), i32(NP), null, null, i32(1), null, qd_d, null, i64(1), i64(0),
+                put(derived(pk)), scratch, i64(per_thread), i64(B), i64(steps)]
+        s.launch(ENTRIES["san", dtype], args, -(-B // threads), threads)
         res = {}
         for name, a, d in zip(("q", "p", "anchor", "t", "dmax"), st, state):
             res[name] = np.empty(a.shape)
@@ -418,5 +470,6 @@ def run_san(pk: Packed, weights, k1, k2, q, p, anchor, istate, out, steps: int, 
             s.free(x)
 
 
-__all__ = ["ARCH", "ENTRIES", "CompileError", "GpuUnavailable", "build", "cache_dir", "compile_ptx", "derived", "device",
-           "nvrtc_version", "resources", "run_san", "scratch_values", "source"]
+__all__ = ["ARCH", "DTYPES", "ENTRIES", "WARP", "CompileError", "GpuUnavailable", "build", "cache_dir", "compile_ptx",
+           "derived", "device", "nvrtc_version", "report", "resources", "run_san", "scratch_bytes", "scratch_values",
+           "source"]

@@ -157,42 +157,26 @@ def test_float32_scores_agree_with_float64_in_distribution(name):
     assert not np.array_equal(a, b)  # two arithmetics, not one
 
 
-# every controller's rollout in the float form, as a GPU thread would run it (gpu.cu has the
-# double form's entry points only: it reads the float64 tables in place)
-FLOAT_TU = r"""
-#include "rollout.h"
-using namespace sanlab;
-template <class Ctl> static void go(const Model &m, float *mem, const Ctl &ctl, const Observers &o, double *fr) {
-  Tile<float> t = tile_at<float>(m, mem);
-  float *s = mem + tile_values<float>(m);
-  const Record rec{1, 1, 1};
-  run_tile(m, t, ctl, s, s, s, 10, o, s, s, rec, fr);
-}
-extern "C" __global__ void sanlab_f32(const int32_t *dims, const void *const *tables, const int32_t *oi,
-                                      const double *of, const short *w, float *mem, double *fr) {
-  Model m;
-  model_of(m, dims, tables);
-  const Observers o{oi, of, 1};
-  go(m, mem, SanControl<float>{w, 32, 0}, o, fr);
-  go(m, mem, HoldControl<float>{}, o, fr);
-  go(m, mem, SineControl<float>{}, o, fr);
-  go(m, mem, PatternControl<float>{}, o, fr);
-  go(m, mem, ReflexControl<float>{}, o, fr);
-}
-"""
-
-
 @needs_nvrtc
 @pytest.mark.slow
-def test_the_float_form_compiles_through_nvrtc_with_no_float64_arithmetic(monkeypatch):
-    # the headers' float form under NVRTC (no GCC vectors, no <cmath>: CUDA's sqrtf, floorf,
-    # fabsf, atan2f), about 30 s; in its PTX float64 only moves (the float64 tables read and
-    # rounded, frames widened and stored): every add, multiply, compare... is f32
-    from sanlab.sim import gpu
+def test_the_gpus_float_entry_points_compile_to_sm_90_without_spills_or_float64_arithmetic():
+    # gpu.cu's five _f32 entry points under NVRTC (no GCC vectors, no <cmath>: CUDA's sqrtf,
+    # floorf, fabsf, atan2f), ptxas run on them (about 40 s): no spills, registers within the
+    # float64 entries' budget, and in the PTX float64 only moves (the caller's float64 arrays read
+    # and rounded, results widened and stored): every add, multiply, compare... is f32
+    from sanlab.sim import gpu, layout
+    from tests.sim.test_gpu import REGISTERS, STACK
 
-    monkeypatch.setattr(gpu, "source", lambda: FLOAT_TU)
-    ptx = gpu._compile("compute_90", kinds=("san",))[0].decode(errors="replace")
-    assert ".entry sanlab_f32(" in ptx
+    report, ptx = gpu.report("sm_90", "float32")
+    assert set(report) == set(layout.KINDS)
+    for kind, r in report.items():
+        assert r["spill_stores"] == 0 and r["spill_loads"] == 0, (kind, r)
+        assert 0 < r["registers"] <= REGISTERS and r["stack"] <= STACK, (kind, r)
+    for kind in layout.KINDS:
+        assert f".entry {gpu.ENTRIES[kind, 'float32']}(" in ptx
+    assert ".entry sanlab_gpu_san(" not in ptx  # the float64 entries are built apart
     f64 = {op.split(".")[0] for op in re.findall(r"^\s*([a-z][\w.]*\.f64)\b", ptx, re.M)}
     assert f64 <= {"ld", "st", "cvt"}, f64
     assert len(re.findall(r"\b(?:add|sub|mul|div)\.rn\.f32\b", ptx)) > 1000
+    # IEEE division and square root, denormals kept (gpu.OPTIONS), as the CPU's float tiles
+    assert re.findall(r"\b(?:div|sqrt)\.rn\.f32\b", ptx) and not re.search(r"\.(?:approx|full|ftz)\b", ptx)

@@ -19,18 +19,19 @@ template <class V> static inline void ref_of(const Model &m, const Tile<V> &t, i
   ry = t.X[r][1];
 }
 
-template <class V> static inline void sym_outer(V *A, V c, const V *a) {
+// (these three over any pointers: a tile's rows and the small arrays a function keeps of its own)
+template <class V, class PA, class Pa> static inline void sym_outer(PA A, V c, Pa a) {
   A[0] += (c * a[0]) * a[0]; A[1] += (c * a[0]) * a[1]; A[2] += (c * a[0]) * a[2];
   A[3] += (c * a[1]) * a[1]; A[4] += (c * a[1]) * a[2]; A[5] += (c * a[2]) * a[2];
 }
 
-template <class V> static inline void sym_vec(const V *A, const V *x, V *y) {
+template <class PA, class PX, class PY> static inline void sym_vec(PA A, PX x, PY y) {
   y[0] = A[0] * x[0] + A[1] * x[1] + A[2] * x[2];
   y[1] = A[1] * x[0] + A[3] * x[1] + A[4] * x[2];
   y[2] = A[2] * x[0] + A[4] * x[1] + A[5] * x[2];
 }
 
-template <class V> static inline V dot3(const V *a, const V *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+template <class PA, class PB> static inline auto dot3(PA a, PB b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 // The body row of a world point (px, py) on link i along n: (r x n, n_x, n_y), r from the
 // tree's reference point
@@ -53,7 +54,7 @@ template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
     ref_of(m, t, i, rx, ry);
     V mass = t.link(i).mass, cx = t.com[i][0] - rx, cy = t.com[i][1] - ry;
     V mcx = mass * cx, mcy = mass * cy;
-    V *I = t.I[i];
+    Ptr<V> I = t.I[i];
     I[0] = t.link(i).inertia + (mcx * cx + mcy * cy);
     I[1] = -mcy; I[2] = mcx; I[3] = mass; I[4] = V{}; I[5] = mass;
     if (l.parent >= 0) {
@@ -65,9 +66,9 @@ template <class V> static inline void bodies(const Model &m, Tile<V> &t) {
 }
 
 // y = M x in tree coordinates: body momenta summed leaves first, projected on each joint
-template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, const V *x, V *y) {
+template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, Ptr<const V> x, Ptr<V> y) {
   for (int d = 0; d < m.ndof; ++d) y[d] = V{};
-  V (*Vb)[3] = t.acc;
+  RowPtr<V, 3> Vb = t.acc;
   for (int i = 0; i < m.nlink; ++i) {
     const LinkInts &l = m.link(i);
     if (l.welded) continue;
@@ -95,7 +96,7 @@ template <class V> static inline void art_matvec(const Model &m, Tile<V> &t, con
 
 // x = (M + sum J^T E J + diag(arm))^-1 (b + sum J^T F): the articulated-body recursion
 // (Featherstone 2008, §7.3); with_terms = 0 solves with M alone
-template <class V> static inline void art_solve(const Model &m, Tile<V> &t, const V *b, V *x, int with_terms) {
+template <class V> static inline void art_solve(const Model &m, Tile<V> &t, Ptr<const V> b, Ptr<V> x, int with_terms) {
   using Ls = Lanes<V>;
   for (int i = 0; i < m.nlink; ++i) {
     if (m.link(i).welded) continue;
@@ -106,7 +107,8 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
     const LinkInts &l = m.link(i);
     int par = l.parent, d = l.dof_rot;
     if (par < 0) continue;
-    V *s = t.s[i], Ui[3];
+    Ptr<V> s = t.s[i];
+    V Ui[3];
     sym_vec(t.IA[i], s, Ui);
     V D = dot3(s, Ui) + (with_terms ? t.arm[d] : V{});
     V inv = 1.0f / D, ui = b[d] - dot3(s, t.pA[i]);
@@ -128,7 +130,7 @@ template <class V> static inline void art_solve(const Model &m, Tile<V> &t, cons
     const LinkInts &l = m.link(r);
     const int dofs[3] = {l.dof_rot, l.dof_x, l.dof_y};
     V K[3][3], rhs[3];
-    const V *A = t.IA[r];
+    Ptr<const V> A = t.IA[r];
     K[0][0] = A[0]; K[0][1] = K[1][0] = A[1]; K[0][2] = K[2][0] = A[2];
     K[1][1] = A[3]; K[1][2] = K[2][1] = A[4]; K[2][2] = A[5];
     for (int k = 0; k < 3; ++k) {

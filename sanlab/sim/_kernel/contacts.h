@@ -64,7 +64,7 @@ template <class V> static inline void stick_slip(V stretch, V v, V limit, V gk, 
 // Vertical plane: every contact's normal force and stick-slip friction against the ground, as
 // elements of the step (paper §3.4: "stiff spring and dampers"); a contact no lane touches adds
 // nothing
-template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
+template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, RowPtr<V, 2> anchor, V &dmax) {
   using Ls = Lanes<V>;
   const V h = t.world().dt;
   const V gk = t.world().ground_k, gc = t.world().ground_c, slip = t.world().slip;
@@ -106,7 +106,7 @@ template <class V> static inline void ground_laws(const Model &m, Tile<V> &t, V 
 // Horizontal plane: every contact's friction against the floor under its constant load
 // (paper §3.4's ground, seen from above): anisotropic along a link axis (stick_slip per axis), or
 // isotropic within a disc (the same law on the tangential vector)
-template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (*anchor)[2]) {
+template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, RowPtr<V, 2> anchor) {
   using Ls = Lanes<V>;
   const V h = t.world().dt, gk = t.world().ground_k, slip = t.world().slip;
   for (int c = 0; c < m.ncontact; ++c) {
@@ -156,7 +156,7 @@ template <class V> static inline void plane_laws(const Model &m, Tile<V> &t, V (
 }
 
 // Every contact's forces: against the ground (vertical plane) or the floor (horizontal)
-template <class V> static inline void contacts(const Model &m, Tile<V> &t, V (*anchor)[2], V &dmax) {
+template <class V> static inline void contacts(const Model &m, Tile<V> &t, RowPtr<V, 2> anchor, V &dmax) {
   if (m.world().plane == PLANE_VERTICAL) ground_laws(m, t, anchor, dmax);
   else plane_laws(m, t, anchor);
 }

@@ -17,9 +17,9 @@ template <class V> static inline void joint(Tile<V> &t, int D, int d, V h, V f, 
 // A dense row over every dof: g = J_b^T e - J_a^T e, for an element between a point on link la
 // and one on link lb
 template <class V> static inline void two_point_row(const Model &m, Tile<V> &t, int la, V pax, V pay, int lb, V pbx,
-                                                    V pby, V ex, V ey, V *row) {
+                                                    V pby, V ex, V ey, Ptr<V> row) {
   const int D = m.ndof;
-  V *g = t.g;
+  Ptr<V> g = t.g;
   for (int d = 0; d < D; ++d) row[d] = V{};
   int n = point_row(m, t, lb, pbx, pby, ex, ey, g);
   for (int a = 0; a < n; ++a) row[m.ri[lb * m.nchain + a]] += g[a];
@@ -50,7 +50,8 @@ template <class V> static inline void linear(const Model &m, Tile<V> &t, int la,
 // dT/dq in O(n): for joint k, -sum over its subtree of
 // u_i x (v_ci - V_k), u_i = m_i (v_ci - v_c), from the subtree sums of u_i x v_ci and of u_i
 template <class V> static inline void inertial_linear(const Model &m, Tile<V> &t) {
-  V *Asum = t.uu, (*Bsum)[3] = t.acc;  // scratch: the solve that owns them runs later
+  Ptr<V> Asum = t.uu;  // scratch, as Bsum: the solve that owns them runs later
+  RowPtr<V, 3> Bsum = t.acc;
   for (int tr = 0; tr < m.ntree; ++tr) {
     const TreeInts &T = m.tree(tr);
     if (T.point == 1) continue;
@@ -226,7 +227,7 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
     if (m.world().articulated) {  // the normal row on the body, and its rotation row (1, 0, 0)
       V an[3], aw[3] = {V{} + 1.0f, V{}, V{}};
       body_row(m, t, i, ax, ay, nx, ny, an);
-      V *E = t.E[i];
+      Ptr<V> E = t.E[i];
       sym_outer(E, h * c1, an);
       static const int P[6] = {0, 0, 0, 1, 1, 2}, Qi[6] = {0, 1, 2, 1, 2, 2};
       for (int q = 0; q < 6; ++q) E[q] += (h * c2 * an[P[q]]) * aw[Qi[q]] + (h * c2 * aw[P[q]]) * an[Qi[q]];
@@ -237,7 +238,7 @@ template <class V> static inline void water(const Model &m, Tile<V> &t) {
       continue;
     }
     int n = point_row(m, t, i, ax, ay, nx, ny, t.g);
-    V *gw = t.row;  // the link's rotation row on the same dofs
+    Ptr<V> gw = t.row;  // the link's rotation row on the same dofs
     for (int a = 0; a < n; ++a) gw[a] = V{} + ((!point && m.rl[i * m.nchain + a] >= 0) ? 1.0f : 0.0f);
     outer(t.A, D, h * c1, idx, t.g, n);
     outer2(t.A, D, h * c2, idx, t.g, gw, n);

@@ -11,7 +11,7 @@ namespace sanlab {
 // and centre of mass com in the world; a free tree's coordinates are its centre of mass, so its
 // links are placed about their own centre of mass first and shifted (docs/simulator.md, "Units
 // and coordinates"), S the turning rates that shift takes (used by turn)
-template <class V> static inline void link_frames(const Model &m, const V *q, Tile<V> &t) {
+template <class V> static inline void link_frames(const Model &m, Ptr<const V> q, Tile<V> &t) {
   const int L = m.nlink;
   for (int i = 0; i < L; ++i) {
     const LinkInts &l = m.link(i);
@@ -105,7 +105,7 @@ template <class V> static inline void point_vel(const Tile<V> &t, int i, V px, V
 
 // The row g = J^T n of a world point (px, py) on link i along n, at the dofs of the link's chain
 //; returns the entry count.
-template <class V> static inline int point_row(const Model &m, const Tile<V> &t, int i, V px, V py, V nx, V ny, V *g) {
+template <class V> static inline int point_row(const Model &m, const Tile<V> &t, int i, V px, V py, V nx, V ny, Ptr<V> g) {
   int n = m.rn[i];
   const int32_t *rl = m.rl + i * m.nchain;
   for (int a = 0; a < n; ++a) {
@@ -121,7 +121,7 @@ template <class V> static inline int point_row(const Model &m, const Tile<V> &t,
 // Between state and tree coordinates of each free tree (docs/simulator.md, "Units and coordinates"):
 // velocities (force = 0; sign +1: u = S v, -1: v = S^-1 u) or forces (force = 1; +1: S^T g,
 // -1: S^-T f), in place
-template <class V> static inline void turn(const Model &m, const Tile<V> &t, V *v, int sign, int force) {
+template <class V> static inline void turn(const Model &m, const Tile<V> &t, Ptr<V> v, int sign, int force) {
   for (int tr = 0; tr < m.ntree; ++tr) {
     const TreeInts &T = m.tree(tr);
     if (T.free == 0 || T.point == 1) continue;

@@ -14,7 +14,13 @@
 #pragma once
 #ifdef __CUDACC_RTC__  // <cstdint> and <cstddef> are gpu.py's (HEADERS): their few typedefs
 #define SANLAB_MATH(f) ::f
+// a rollout inlined whole into each entry point (gpu.cu's gpu_rollout, run_tile, step): left to
+// itself NVRTC's inliner calls one of them as a function once the scratch is Strided, and the
+// tile it is handed by reference then lives on the stack (about 800 bytes), each of its pointers
+// loaded from there (and with run_tile inlined alone, spills)
+#define SANLAB_INLINE __forceinline__
 #else
+#define SANLAB_INLINE inline
 #include <cmath>
 #include <cstddef>
 #include <cstdint>

@@ -87,7 +87,7 @@ template <class V> static inline void energy(const Model &m, const Tile<V> &t, V
 // The momenta p = M(q) qd of a tile whose positions are computed, for
 // velocities qd in state coordinates: turned into tree coordinates, multiplied by the mass matrix
 // (formed, or composite bodies on the articulated route), turned back as a force.
-template <class V> static inline void momenta(const Model &m, Tile<V> &t, const V *qd, V *p) {
+template <class V> static inline void momenta(const Model &m, Tile<V> &t, Ptr<const V> qd, Ptr<V> p) {
   const int D = m.ndof;
   for (int d = 0; d < D; ++d) t.x[d] = qd[d];
   turn(m, t, t.x, 1, 0);
@@ -106,7 +106,7 @@ template <class V> static inline void momenta(const Model &m, Tile<V> &t, const 
 }
 
 // the accumulators at the start (positions of the tile already computed)
-template <class V> static inline void observe_init(const Model &m, const Tile<V> &t, const int32_t *oi, V *acc) {
+template <class V> static inline void observe_init(const Model &m, const Tile<V> &t, const int32_t *oi, Ptr<V> acc) {
   for (int k = 0; k < obs_values(oi); ++k) acc[k] = V{};
   V cx, cy;
   centre_of_mass(m, t, cx, cy, (V *)nullptr, (V *)nullptr);
@@ -118,7 +118,7 @@ template <class V> static inline void observe_init(const Model &m, const Tile<V>
 // one step's update, from a prepared tile at time `time` (paper §5.1's metric: sanlab.metrics;
 // the behaviour descriptors: sanlab.descriptors)
 template <class V> static inline void observe(const Model &m, const Tile<V> &t, const int32_t *oi, const double *of,
-                                              V time, V *acc) {
+                                              V time, Ptr<V> acc) {
   using Ls = Lanes<V>;
   using R = real<V>;
   const bool vertical = m.world().plane == PLANE_VERTICAL;
@@ -179,7 +179,7 @@ template <class V> static inline void observe(const Model &m, const Tile<V> &t, 
     for (int k = 0; k < oi[O_N_JOINTS]; ++k) js = js + Ls::abs(t.qd[joints[k]]);
     acc[A_JOINT_SPEED] = acc[A_JOINT_SPEED] + js / R(oi[O_N_JOINTS]);
   }
-  V *duty = acc + A_FIXED, *words = duty + oi[O_N_TOUCH], *times = words + EVENTS;
+  Ptr<V> duty = acc + A_FIXED, words = duty + oi[O_N_TOUCH], times = words + EVENTS;
   for (int k = 0; k < oi[O_N_TOUCH]; ++k) duty[k] = duty[k] + t.bits[touch[k]];
   if (oi[O_SENSORS]) {
     V w{};

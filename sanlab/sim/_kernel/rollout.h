@@ -67,7 +67,7 @@ template <class V> struct SanControl {
   static size_t n_param(const Model &m) { return 2 * (size_t)m.nnode; }
   static size_t n_state(const Model &m) { return 2 * (size_t)m.nnode; }
   SanControl at(int64_t b) const { return {weights + (size_t)b * per_tile, NP, per_tile}; }
-  void act(const Model &m, Tile<V> &t, const V *par, V *st, V) const {
+  void act(const Model &m, Tile<V> &t, Ptr<const V> par, Ptr<V> st, V) const {
 #ifndef __CUDACC_RTC__
     if (wv) return san_lanes(m, t, wv, par, par + m.nnode, st, st + m.nnode);
 #endif
@@ -80,7 +80,7 @@ template <class V> struct HoldControl {
   static size_t n_param(const Model &m) { return m.nact; }
   static size_t n_state(const Model &) { return 0; }
   HoldControl at(int64_t) const { return *this; }
-  void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
+  void act(const Model &m, Tile<V> &t, Ptr<const V> par, Ptr<V>, V) const {
     for (int a = 0; a < m.nact; ++a) t.act[a] = par[a];
   }
 };
@@ -91,7 +91,7 @@ template <class V> struct SineControl {
   static size_t n_param(const Model &m) { return m.nact + 1; }
   static size_t n_state(const Model &) { return 0; }
   SineControl at(int64_t) const { return *this; }
-  void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
+  void act(const Model &m, Tile<V> &t, Ptr<const V> par, Ptr<V>, V time) const {
     const V w = real<V>(2 * M_PI) * par[m.nact] * time;  // ((2 pi) f) t, the order the stored gaits ran in
     for (int a = 0; a < m.nact; ++a) {
       V s, c;
@@ -109,11 +109,11 @@ template <class V> struct PatternControl {
   static size_t n_param(const Model &m) { return 4 * (size_t)m.nact + 1; }
   static size_t n_state(const Model &) { return 0; }
   PatternControl at(int64_t) const { return *this; }
-  void act(const Model &m, Tile<V> &t, const V *par, V *, V time) const {
+  void act(const Model &m, Tile<V> &t, Ptr<const V> par, Ptr<V>, V time) const {
     using Ls = Lanes<V>;
     const V cycles = time / par[4 * m.nact];
     for (int a = 0; a < m.nact; ++a) {
-      const V *pa = par + 4 * a;
+      Ptr<const V> pa = par + 4 * a;
       const V x = cycles - pa[0];
       t.act[a] = Ls::sel(x - Ls::floor(x) < pa[1], pa[3], pa[2]);
     }
@@ -125,7 +125,7 @@ template <class V> struct ReflexControl {
   static size_t n_param(const Model &m) { return (size_t)m.nact * m.nsensor + m.nact; }
   static size_t n_state(const Model &) { return 0; }
   ReflexControl at(int64_t) const { return *this; }
-  void act(const Model &m, Tile<V> &t, const V *par, V *, V) const {
+  void act(const Model &m, Tile<V> &t, Ptr<const V> par, Ptr<V>, V) const {
     using Ls = Lanes<V>;
     for (int a = 0; a < m.nact; ++a) {
       V x{};
@@ -151,10 +151,12 @@ inline size_t state_values(const Model &m) { return 2 * (size_t)m.ndof + 2 * (si
 // velocity and, for the metric, its centre of mass. frames: the tile's [n, values, W] float64
 // (the caller's: a float tile's values widened exactly)
 template <class V, class Ctl>
-static void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, V *state, const V *par, V *cst, int64_t steps,
-                     const Observers &o, V *acc, V *qd_out, const Record &rec, double *frames) {
+static SANLAB_INLINE void run_tile(const Model &m, Tile<V> &t, const Ctl &ctl, Ptr<V> state, Ptr<const V> par, Ptr<V> cst,
+                     int64_t steps, const Observers &o, Ptr<V> acc, Ptr<V> qd_out, const Record &rec, double *frames) {
   using Ls = Lanes<V>;
-  V *q = state, *p = q + m.ndof, (*anchor)[2] = (V(*)[2])(p + m.ndof), *time = (V *)(anchor + m.ncontact);
+  Ptr<V> q = state, p = q + m.ndof;
+  RowPtr<V, 2> anchor = rows<2>(p + m.ndof);
+  Ptr<V> time = flat(anchor + m.ncontact);
   StepState<V> s{q, p, anchor, time, time + 1};
   const int ns = (int)Ctl::n_state(m), at_u = 2 * m.ndof + m.nsensor, at_state = at_u + m.nact;
   if (o.oi && o.init) {

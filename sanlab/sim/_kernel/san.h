@@ -8,8 +8,8 @@ namespace sanlab {
 // sums t.total: each node's internal state integrates at rate k1 (sum > 0) or k2 and is clipped to
 // [0, 1]; its output flips to 0 or 1 where the state reaches that end; an actuator node's
 // activation is its sum clipped to [-2, 2] and mapped to [0, 1].
-template <class V> static inline void san_update(const Model &m, Tile<V> &t, const V *k1, const V *k2, V *istate,
-                                                 V *out) {
+template <class V> static inline void san_update(const Model &m, Tile<V> &t, Ptr<const V> k1, Ptr<const V> k2,
+                                                 Ptr<V> istate, Ptr<V> out) {
   using Ls = Lanes<V>;
   const int N = m.nnode, H = m.world().hidden;
   const V dt = t.world().dt;
@@ -29,8 +29,8 @@ template <class V> static inline void san_update(const Model &m, Tile<V> &t, con
 // GPU's, and the CPU's reference): node by node, in int. Exact, as the tiles' int16 vectors are
 // (|a sum| <= 2 I, far inside int16), so both forms give the same bits.
 template <class R>
-static inline void san_scalar(const Model &m, Tile<R> &t, const short *weights, int NP, const R *k1, const R *k2,
-                              R *istate, R *out) {
+static inline void san_scalar(const Model &m, Tile<R> &t, const short *weights, int NP, Ptr<const R> k1,
+                              Ptr<const R> k2, Ptr<R> istate, Ptr<R> out) {
   const int N = m.nnode, S = m.nsensor, I = m.ninput;
   for (int n = 0; n < N; ++n) {
     int acc = 0;
@@ -42,12 +42,12 @@ static inline void san_scalar(const Model &m, Tile<R> &t, const short *weights, 
   }
   san_update(m, t, k1, k2, istate, out);
 }
-static inline void san(const Model &m, Tile<double> &t, const short *weights, int NP, const double *k1,
-                       const double *k2, double *istate, double *out) {
+static inline void san(const Model &m, Tile<double> &t, const short *weights, int NP, Ptr<const double> k1,
+                       Ptr<const double> k2, Ptr<double> istate, Ptr<double> out) {
   san_scalar(m, t, weights, NP, k1, k2, istate, out);
 }
-static inline void san(const Model &m, Tile<float> &t, const short *weights, int NP, const float *k1,
-                       const float *k2, float *istate, float *out) {
+static inline void san(const Model &m, Tile<float> &t, const short *weights, int NP, Ptr<const float> k1,
+                       Ptr<const float> k2, Ptr<float> istate, Ptr<float> out) {
   san_scalar(m, t, weights, NP, k1, k2, istate, out);
 }
 

@@ -9,7 +9,7 @@
 namespace sanlab {
 
 // A += coef g g^T on the row's dofs, each product formed as (coef g_i) g_j, i >= j
-template <class V> static inline void outer(V *A, int D, V coef, const int32_t *idx, const V *g, int n) {
+template <class V> static inline void outer(Ptr<V> A, int D, V coef, const int32_t *idx, Ptr<const V> g, int n) {
   for (int a = 0; a < n; ++a) {
     int i = idx[a];
     V cgi = coef * g[a];
@@ -24,7 +24,8 @@ template <class V> static inline void outer(V *A, int D, V coef, const int32_t *
 }
 
 // A += coef (g h^T + h g^T) for two rows on the same dofs
-template <class V> static inline void outer2(V *A, int D, V coef, const int32_t *idx, const V *g, const V *h, int n) {
+template <class V> static inline void outer2(Ptr<V> A, int D, V coef, const int32_t *idx, Ptr<const V> g, Ptr<const V> h,
+                                     int n) {
   for (int a = 0; a < n; ++a) {
     int i = idx[a];
     V cgi = coef * g[a];
@@ -41,7 +42,7 @@ template <class V> static inline void outer2(V *A, int D, V coef, const int32_t 
   }
 }
 
-template <class V> static inline void force(V *Q, V f, const int32_t *idx, const V *g, int n) {
+template <class V> static inline void force(Ptr<V> Q, V f, const int32_t *idx, Ptr<const V> g, int n) {
   for (int a = 0; a < n; ++a) Q[idx[a]] += f * g[a];
 }
 
@@ -79,8 +80,8 @@ template <class V> static inline void mass_matrix(const Model &m, Tile<V> &t) {
 
 // x = A^-1 b by L D L^T in the elimination order D-1, ..., 0 (structural zeros carried as exact
 // zeros)
-template <class V> static inline void solve(Tile<V> &t, const V *A, const V *b, V *x, int D) {
-  V *F = t.F, *Lf = t.Lf;
+template <class V> static inline void solve(Tile<V> &t, Ptr<const V> A, Ptr<const V> b, Ptr<V> x, int D) {
+  Ptr<V> F = t.F, Lf = t.Lf;
   // F holds the lower half: F[i][j], i >= j; Lf[k][i] = l_ik (i < k), Lf[k][k] = 1 / d_k
   for (int a = 0; a < D; ++a)
     for (int c = 0; c <= a; ++c) F[a * D + c] = A[a * D + c];
@@ -103,7 +104,7 @@ template <class V> static inline void solve(Tile<V> &t, const V *A, const V *b, 
 
 // The velocity of a state: u = M^-1 p in tree coordinates, qd in state coordinates, then each
 // link's and contact's velocity (a tile whose positions are computed)
-template <class V> static inline void velocities(const Model &m, const V *p, Tile<V> &t) {
+template <class V> static inline void velocities(const Model &m, Ptr<const V> p, Tile<V> &t) {
   const int D = m.ndof;
   for (int d = 0; d < D; ++d) t.x[d] = p[d];
   turn(m, t, t.x, -1, 1);
@@ -160,7 +161,7 @@ template <class V> static inline void solve_step(const Model &m, Tile<V> &t) {
 
 // Semi-implicit Euler in momentum form (docs/simulator.md, "The step"): p += S^T M du, the
 // velocity v* = u + du, q += h v*
-template <class V> static inline void integrate(const Model &m, Tile<V> &t, V *q, V *p) {
+template <class V> static inline void integrate(const Model &m, Tile<V> &t, Ptr<V> q, Ptr<V> p) {
   const int D = m.ndof;
   const V h = t.world().dt;
   turn(m, t, t.g, 1, 1);

@@ -18,13 +18,13 @@
 namespace sanlab {
 
 // Where the creature is: link frames, contact points and their depth below the ground
-template <class V> static inline void positions(const Model &m, const V *q, Tile<V> &t) {
+template <class V> static inline void positions(const Model &m, Ptr<const V> q, Tile<V> &t) {
   link_frames(m, q, t);
   contact_geometry(m, t);
 }
 
 // Where the creature is and how fast it moves: positions, then the velocity M^-1 p of the state
-template <class V> static inline void prepare(const Model &m, const V *q, const V *p, Tile<V> &t) {
+template <class V> static inline void prepare(const Model &m, Ptr<const V> q, Ptr<const V> p, Tile<V> &t) {
   positions(m, q, t);
   velocities(m, p, t);
 }
@@ -32,9 +32,9 @@ template <class V> static inline void prepare(const Model &m, const V *q, const 
 // What one step needs besides the tile: the state (updated in place), the controller and where
 // the observers keep their sums
 template <class V> struct StepState {
-  V *q, *p;          // [ndof] coordinates and momenta
-  V (*anchor)[2];    // [ncontact] where each contact's friction holds it
-  V *time, *dmax;    // s; the deepest penetration so far (m)
+  Ptr<V> q, p;          // [ndof] coordinates and momenta
+  RowPtr<V, 2> anchor;  // [ncontact] where each contact's friction holds it
+  Ptr<V> time, dmax;    // s; the deepest penetration so far (m)
 };
 struct Observers {
   const int32_t *oi;  // null: none (observe.h: the config)
@@ -46,8 +46,8 @@ struct Observers {
 // ctl.act(m, t, par, cst, time) sets the activations t.act from the sensor values t.bits; `seen`
 // is called once the sensors are read and `acted` once the controller has acted (recording).
 template <class V, class Ctl, class Seen, class Acted>
-static inline void step(const Model &m, Tile<V> &t, StepState<V> &s, const Ctl &ctl, const V *par, V *cst,
-                        const Observers &o, V *acc, Seen seen, Acted acted) {
+static SANLAB_INLINE void step(const Model &m, Tile<V> &t, StepState<V> &s, const Ctl &ctl, Ptr<const V> par, Ptr<V> cst,
+                        const Observers &o, Ptr<V> acc, Seen seen, Acted acted) {
   positions(m, s.q, t);               // kinematics, terrain and contacts (kinematics.h, contacts.h)
   velocities(m, s.p, t);              // qd = M^-1 p (solve.h)
   sense(m, t, *s.time);               // the sensors (sensors.h)
@@ -73,7 +73,7 @@ static inline void step(const Model &m, Tile<V> &t, StepState<V> &s, const Ctl &
 
 // Lifts every free tree just enough that none of its contact points is below the ground (the
 // vertical plane), in place on q; then the tile holds q's positions.
-template <class V> static inline void seat(const Model &m, Tile<V> &t, V *q) {
+template <class V> static inline void seat(const Model &m, Tile<V> &t, Ptr<V> q) {
   using Ls = Lanes<V>;
   positions(m, q, t);
   for (int tr = 0; tr < m.ntree; ++tr) {
