@@ -31,7 +31,10 @@ Printed, in order:
 - mixed batches: the bounder at ``--batch`` with every row carrying its own numbers (every float
   table of ``kernel.ROW_TABLES``, each number jittered by up to 2 %: ``run_san(..., rows=)``)
   against one shared table, same batch, steps and SANs;
-- the GPU: unmeasured (the kernel has no GPU twin yet);
+- the GPU (``sanlab.sim.gpu``, NVRTC's build of the same kernel): on a machine with one, the
+  bounder's best rate over a few batches in float64 and float32, each against the CPU's tiles of
+  the same arithmetic in the same run (``benchmarks/gpu.py``'s ``rates``; that script adds the
+  first call and the bit-for-bit check); without one, "unmeasured" and why;
 - with ``--replay``, a 6 s bounder replay at batch 1 through ``sim.rollout`` in fresh processes.
 
 The XLA engine the kernel replaced was this benchmark's reference until it was removed; its
@@ -334,7 +337,31 @@ def goals(r: dict) -> None:
         line("ahead of MuJoCo's C loop at every size", f"at least {g('growth_min_vs_mujoco'):.1f} x",
              g("growth_min_vs_mujoco") >= 1)
     line("rows with their own numbers (a mixed batch)", f"{g('mixed_ratio'):.2f} x a shared table's cost", True)
-    line(">= 1 G bounder creature-steps/s on one GPU", "no GPU twin of the kernel yet", None)
+    gr = max(g("gpu_rate"), g("gpu_rate_f32")) if fine(g("gpu_rate"), g("gpu_rate_f32")) else NAN
+    line(">= 1 G bounder creature-steps/s on one GPU", f"{gr / 1e9:.3f} G (float64 {g('gpu_rate') / 1e9:.3f}, "
+         f"float32 {g('gpu_rate_f32') / 1e9:.3f})" if fine(gr) else "no GPU on this machine", gr >= 1e9 if fine(gr) else None)
+
+
+def on_gpu(cpu_batch: int) -> dict:
+    """The GPU's bounder rate in float64 and float32 beside the CPU tiles' (benchmarks/gpu.py's
+    ``rates``, batches 16384 and 131072, 500 steps), or an "unmeasured" line without a GPU (or
+    without the ``gpu`` extra): {} then."""
+    import gpu as gpu_bench  # benchmarks/gpu.py
+
+    from sanlab.sim import gpu
+
+    try:
+        name = gpu.device()
+    except gpu.GpuUnavailable as e:
+        print(f"GPU: unmeasured: {e} (python benchmarks/gpu.py on a machine with one)")
+        return {}
+    print(f"GPU: {name}")
+    a = argparse.Namespace(cpu_batch=cpu_batch, steps=500, batches="16384,131072", threads="128")
+    out = {}
+    for dtype, tag in (("float64", ""), ("float32", "_f32")):
+        cpu_rate, best = gpu_bench.rates(dtype, a)
+        out[f"gpu_cpu_rate{tag}"], out[f"gpu_rate{tag}"] = cpu_rate, best
+    return out
 
 
 def main() -> None:
@@ -370,7 +397,7 @@ def main() -> None:
     if a.growth:
         r.update(growth([int(n) for n in a.growth.split(",")], a.growth_batch, a.growth_steps, a.repeats))
     r.update(mixed(spec, a.batch, a.batch_steps, a.repeats))
-    print("GPU: unmeasured (the kernel has no GPU twin yet)")
+    r.update(on_gpu(a.batch))
     replay_s = replay() if a.replay else NAN
     goals(r)
     print(f"({time.perf_counter() - t0:.0f} s)")
@@ -385,6 +412,8 @@ def main() -> None:
         vs_mujoco=g("rate") / g("rate_mujoco_numpy"), growth_ratio=g("growth_ratio"),
         growth_physics_ratio=g("growth_physics_ratio"), growth_mujoco_ratio=g("growth_mujoco_ratio"),
         growth_vs_mujoco_min=g("growth_min_vs_mujoco"), mixed_ratio=g("mixed_ratio"), replay_warm_s=replay_s,
+        gpu_steps_per_s=g("gpu_rate"), gpu_vs_cpu=g("gpu_rate") / g("gpu_cpu_rate"),
+        gpu_f32_steps_per_s=g("gpu_rate_f32"), gpu_f32_vs_cpu=g("gpu_rate_f32") / g("gpu_cpu_rate_f32"),
     )
     print(" ".join(f"{k}={v:.4g}" for k, v in summary.items()))
     if r.get("mujoco_numpy_invalid"):
