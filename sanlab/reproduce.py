@@ -324,7 +324,9 @@ def row_key(name: str, text: str, seed: int, controllers: int, trials: int, ens:
            "engine": ENGINE}
     if strategy != "random":
         key["strategy"] = strategy
-    if strategy in ("rhythm", "reflex") and top > 1:
+    from sanlab.search.rhythm import CLOCKS
+
+    if strategy in CLOCKS and top > 1:
         key["starts"] = "warm-up"  # phase 2 from the k - 1 best and the warm-up's best (sanlab.search.rhythm.starts)
     return key
 
@@ -889,6 +891,12 @@ def _table(rows: list[Row], strategy: str = "random") -> list[str]:
     return lines
 
 
+def _vouched(ceiling: dict | None) -> bool:
+    """A row's stored ceiling (``Ceiling.to_json``) that its audit found robust, its ensembles standing
+    (``Ceiling.robust``)."""
+    return bool(ceiling) and ceiling.get("verdict") == "robust" and not ceiling.get("fell")  # type: ignore[union-attr]
+
+
 def _ceiling_cells(rows: list[Row]) -> str:
     """The pattern ceiling's cells of rows of one creature: the median ceiling (cm/s; "not
     robust" marks one no audit vouched for) and the median of each row's robust speed over its
@@ -897,8 +905,7 @@ def _ceiling_cells(rows: list[Row]) -> str:
     if not have:
         return " - | - |"
     c = float(np.median([r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
-    vouched = "" if all((r.ceiling or {}).get("verdict") == "robust" and not (r.ceiling or {}).get("fell")
-                        for r in have) else " (not vouched for)"
+    vouched = "" if all(_vouched(r.ceiling) for r in have) else " (not vouched for)"
     frac = float(np.median([r.robust_speed / r.ceiling["speed_cm_s"] for r in have]))  # type: ignore[index]
     return f" {c:.1f}{vouched} | {frac:.2f} |"
 
@@ -1025,10 +1032,9 @@ def budgets(first: tuple[str, int, list[Row]], second: tuple[str, int, list[Row]
             cells += [f"{medians[-1]:.1f}", "-" if paper is None else f"{int((sp >= paper).sum())} of {len(rs)}"]
         known = [r.ceiling for r in (*mine, *theirs) if r.ceiling and r.ceiling.get("speed_cm_s")]
         if known:
-            best = max(known, key=lambda c: (c.get("verdict") == "robust" and not c.get("fell"), c["speed_cm_s"]))
-            vouched = best.get("verdict") == "robust" and not best.get("fell")
+            best = max(known, key=lambda c: (_vouched(c), c["speed_cm_s"]))
             top = float(best["speed_cm_s"])
-            ceil = f"{top:.1f}" + ("" if vouched else " (not vouched for)")
+            ceil = f"{top:.1f}" + ("" if _vouched(best) else " (not vouched for)")
             fracs = ["-" if m is None else f"{m / top:.2f}" for m in medians]
         else:
             ceil, fracs = "-", ["-", "-"]

@@ -82,12 +82,12 @@ def reproduce(
 
     ens = ensemble_or_exit(ensemble, dt_factors)
     if strategy not in STRATEGIES:
-        raise fail(f"--strategy: expected random, catcma, rhythm or reflex, got {safe(strategy)}")
+        raise fail(f"--strategy: expected one of {', '.join(STRATEGIES)}, got {safe(strategy)}")
     second = None
     if also is not None:
         how, _, many = also.partition(":")
         if how not in STRATEGIES or not many.isdigit() or int(many) < 1:
-            raise fail(f"--also: expected STRATEGY:N with a strategy of random, catcma, rhythm or reflex and N >= 1 "
+            raise fail(f"--also: expected STRATEGY:N with a strategy of {', '.join(STRATEGIES)} and N >= 1 "
                        f"(rhythm:3000), got {safe(also)}")
         second = (how, int(many))
     if seeds is not None and seed != 0:
