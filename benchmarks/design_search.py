@@ -36,24 +36,13 @@ sys.path.insert(0, str(ROOT))
 
 
 def spearman(x, y) -> float:
-    """Spearman's rank correlation of two equal-length sequences (ties get their mean rank); nan
-    for fewer than 3 values or a constant one."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3:
-        return float("nan")
+    """Spearman's rank correlation (``scipy.stats.spearmanr``, ties at their mean rank); nan for
+    fewer than 3 values or a constant one."""
+    from scipy.stats import spearmanr
 
-    def ranks(v):
-        order = np.argsort(v, kind="stable")
-        r = np.empty(len(v))
-        r[order] = np.arange(len(v), dtype=float)
-        for val in np.unique(v):  # ties: their mean rank
-            r[v == val] = r[v == val].mean()
-        return r
-
-    rx, ry = ranks(x), ranks(y)
-    if rx.std() == 0 or ry.std() == 0:
+    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return float("nan")
-    return float(np.corrcoef(rx, ry)[0, 1])
+    return float(spearmanr(x, y).statistic)
 
 
 def agreement(result, seed: int, seeds) -> tuple[int, int, list[tuple[float, float]]]:
