@@ -36,13 +36,13 @@ sys.path.insert(0, str(ROOT))
 
 
 def spearman(x, y) -> float:
-    """Spearman's rank correlation (``scipy.stats.spearmanr``, ties at their mean rank); nan for
-    fewer than 3 values or a constant one."""
-    from scipy.stats import spearmanr
+    """Spearman's rank correlation: Pearson's over the ranks (``scipy.stats.rankdata``, ties at
+    their mean rank); nan for fewer than 3 values or a constant one."""
+    from scipy.stats import rankdata
 
     if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return float("nan")
-    return float(spearmanr(x, y).statistic)
+    return float(np.corrcoef(rankdata(x), rankdata(y))[0, 1])
 
 
 def agreement(result, seed: int, seeds) -> tuple[int, int, list[tuple[float, float]]]:
